@@ -1,0 +1,5 @@
+import sys
+
+from rasc.cli import main
+
+sys.exit(main())

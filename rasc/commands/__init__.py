@@ -1,0 +1,1 @@
+"""Sub-commands of the ``rasc`` command line; see :mod:`rasc.cli`."""
