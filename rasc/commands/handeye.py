@@ -1,0 +1,113 @@
+"""``rasc handeye POSES.json [--method M] [--out FILE]``: gaze→camera calibration.
+
+Reads a ``rasc-handeye/1`` document (:mod:`rasc.handeye_io`), solves ``A X = X B`` for
+``X = T_cam_from_gaze`` with the chosen method (RASC, SPEC §3, by default) and writes the
+result as deterministic JSON to ``--out`` (atomically) or to stdout. The output path is
+checked before anything is read or solved; on any error no output file appears.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+from rasc.errors import DegenerateDataError, InputError, RascError
+from rasc.handeye_io import HandEyeInput, load_handeye_input
+from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.transforms import invert_transform
+
+RESULT_FORMAT = "rasc-handeye-result/1"
+
+#: The names of docs/CONTRACTS.md's METHODS, listed here so that building the parser
+#: imports no solver (and no cv2); a test checks that they match.
+METHOD_NAMES = ("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
+                "opencv-andreff", "opencv-daniilidis")
+
+#: The paper (section 3.2) found solutions with quality (eq. 10) above 1 unusable.
+QUALITY_UNUSABLE = 1.0
+
+QUALITY_NOTE = ("eq. 10: mean over ordered pairs i != j of ||X B_ij X^T - A_ij||_F; "
+                "0 is a perfect fit, the paper found solutions above 1 unusable")
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    parser = subparsers.add_parser(
+        "handeye",
+        help="gaze->camera (hand-eye) calibration from target poses and pan/tilt angles",
+        description=("Solve T_cam_from_gaze from a POSES.json document (format "
+                     "rasc-handeye/1: 'positions' with pan/tilt or T_gaze_from_ptu, and "
+                     "T_cam_from_world each; see README). The result's translation is in "
+                     "the input's length unit."))
+    parser.add_argument("poses", metavar="POSES.json", help="input document (rasc-handeye/1)")
+    parser.add_argument("--method", choices=METHOD_NAMES, default="rasc",
+                        help="solver (default: rasc, all pairs, Park-Martin closed form)")
+    parser.add_argument("--out", metavar="FILE",
+                        help="write the result JSON here (atomically) instead of stdout")
+    parser.set_defaults(func=run)
+    return parser
+
+
+def _solver(method: str):
+    """The callable(T_cam_from_world, T_gaze_from_ptu) -> HandEyeResult for ``method``."""
+    from rasc.handeye import METHODS  # solvers import lazily: no cv2 unless needed
+
+    return METHODS[method]
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def result_document(data: HandEyeInput, result, *, source: str, method: str) -> dict:
+    """The output JSON object (``rasc-handeye-result/1``)."""
+    T = np.asarray(result.T_cam_from_gaze, dtype=float)
+    quality = float(result.quality)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)) or not np.isfinite(quality):
+        raise RascError(f"{source}: method {method} returned a non-finite result; "
+                        "try --method rasc")
+    diagnostics = result.to_dict().get("diagnostics")
+    return {
+        "format": RESULT_FORMAT,
+        "input": source,
+        "method": method,
+        "n_positions": data.n_positions,
+        "T_cam_from_gaze": T,
+        "T_gaze_from_cam": invert_transform(T),
+        "quality": quality,
+        "quality_note": QUALITY_NOTE,
+        "diagnostics": diagnostics,
+        "angle_unit": data.angle_unit,
+        "length_unit": data.length_unit or "same as the input's T_cam_from_world translations",
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    source = args.poses
+    if args.out is not None:
+        check_writable(args.out)  # before reading or solving
+        if _same_file(args.out, source):
+            raise InputError(f"--out {args.out} is the input file; choose another path")
+    data = load_handeye_input(source)
+    solve = _solver(args.method)
+    try:
+        result = solve(data.T_cam_from_world, data.T_gaze_from_ptu)
+    except DegenerateDataError as exc:
+        raise DegenerateDataError(f"{source}: {exc}") from None
+    except RascError as exc:
+        raise RascError(f"{source}: {exc}") from None
+    doc = result_document(data, result, source=source, method=args.method)
+    if args.out is None:
+        sys.stdout.write(dumps_json(doc))
+    else:
+        write_json_atomic(args.out, doc)
+    if doc["quality"] > QUALITY_UNUSABLE:
+        print(f"rasc handeye: warning: quality {doc['quality']:.3g} > {QUALITY_UNUSABLE:g}; "
+              "the paper found such solutions unusable", file=sys.stderr)
+    return 0
+

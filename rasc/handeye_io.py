@@ -1,0 +1,313 @@
+"""Read and validate the ``rasc handeye`` input document (``POSES.json``).
+
+The document, ``rasc-handeye/1``::
+
+    {
+      "format": "rasc-handeye/1",          optional; if given, exactly this
+      "angle_unit": "deg",                 optional: "deg" (default) or "rad"
+      "length_unit": "m",                  optional, free text, echoed in the result
+      "description": "...",                optional, free text
+      "positions": [                       at least 3
+        {"pan": 0.0, "tilt": 0.0, "T_cam_from_world": [[4 numbers], x4]},
+        {"T_gaze_from_ptu": [[4 numbers], x4], "T_cam_from_world": [[...], x4]},
+        ...
+      ]
+    }
+
+Each position gives the target's pose ``T_cam_from_world`` (camera calibration's
+extrinsics, translation in any one length unit) and the unit's motion, either as
+``pan`` and ``tilt`` (converted through eq. 3, :func:`rasc.kinematics.T_gaze_from_ptu`)
+or as a 4×4 rigid ``T_gaze_from_ptu`` (for a robot arm: the gripper's pose
+``T_gripper_from_base``). A position may also carry a free-text ``label``. Nothing else
+is accepted: an unknown key is an error, so a misspelt ``angle_units`` cannot silently
+fall back to degrees.
+
+Checks, each an :class:`~rasc.errors.InputError` naming the field (the loader prefixes
+the file name): JSON syntax (line, column), duplicate keys, shapes (4×4 only; a 3×4
+``[R|t]`` is refused with a hint), non-numeric entries (``true``, ``"1"``, ``null``),
+NaN and infinity (Python's json accepts ``NaN``/``Infinity`` tokens and ``1e999``;
+they are refused here), rigidity (:func:`rasc.transforms.validate_rigid_transform`),
+at least 3 positions, and the angle unit (:func:`check_angle_unit`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rasc.errors import InputError
+from rasc.kinematics import T_gaze_from_ptu as T_gaze_from_ptu_eq3
+from rasc.transforms import validate_rigid_transform
+
+FORMAT = "rasc-handeye/1"
+ANGLE_UNITS = ("deg", "rad")
+TOP_KEYS = ("format", "angle_unit", "length_unit", "description", "positions")
+POSITION_KEYS = ("pan", "tilt", "T_gaze_from_ptu", "T_cam_from_world", "label")
+MIN_POSITIONS = 3
+
+#: Rule (a) for ``angle_unit "deg"``: if the largest |pan| or |tilt| is above 0 but
+#: below this many degrees, the angles are taken for radians. A pan-tilt set whose
+#: largest motion is under 1° cannot calibrate a camera (at the paper's smallest noise,
+#: 0.005 rad ≈ 0.29° per view, the motion would be barely above the noise), while
+#: radians below 1 (57°) cover every practical pan-tilt calibration set (the paper's
+#: ±8° is ±0.1396).
+RADIANS_MAX_DEG = 1.0
+
+#: Rule (b) for ``angle_unit "deg"`` (largest |angle| up to 2π): every nonzero angle,
+#: read as radians, is a whole number of degrees within this many degrees (1.0472 is
+#: 60.00014°). Degree values written with up to two decimals never trigger it (the
+#: closest, 2.81, is 161.00114° read as radians; a test checks them all), and a noisy
+#: reading triggers it by chance with probability ≈ 0.002 per distinct value. Radians
+#: typed with only four decimals (error up to 0.003°) can slip through; rule (a)
+#: still catches every radian set below 1.
+RADIANS_ROUND_TOL_DEG = 1e-3
+
+
+@dataclass(frozen=True)
+class HandEyeInput:
+    """A validated ``rasc-handeye/1`` document.
+
+    Attributes
+    ----------
+    T_cam_from_world : ndarray, shape (n, 4, 4)
+        Target pose at each position (translation in ``length_unit``).
+    T_gaze_from_ptu : ndarray, shape (n, 4, 4)
+        The unit's motion at each position (eq. 3 from pan/tilt, or as given).
+    angle_unit : str
+        ``"deg"`` or ``"rad"``, as the document said (default ``"deg"``).
+    length_unit : str or None
+        Free text from the document, or None.
+    labels : tuple of (str or None), length n
+    description : str or None
+    """
+
+    T_cam_from_world: np.ndarray
+    T_gaze_from_ptu: np.ndarray
+    angle_unit: str
+    length_unit: str | None
+    labels: tuple
+    description: str | None
+
+    @property
+    def n_positions(self) -> int:
+        return int(self.T_cam_from_world.shape[0])
+
+
+def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict:
+    seen: dict = {}
+    for key, value in pairs:
+        if key in seen:
+            keys = ", ".join(k for k, _ in pairs)
+            raise InputError(f"duplicate key {key!r} in one JSON object (keys: {keys})")
+        seen[key] = value
+    return seen
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """Parse a JSON file; NaN/Infinity tokens become float NaN/inf (refused later, by field).
+
+    Raises
+    ------
+    InputError
+        Missing path, a folder, unreadable, not UTF-8, malformed JSON (with line and
+        column), duplicate keys. Messages start with the path.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a POSES.json file")
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"{path}: malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+
+
+def _type_name(value: Any) -> str:
+    return {dict: "an object", list: "a list", str: "a string", bool: "a boolean",
+            type(None): "null"}.get(type(value), type(value).__name__)
+
+
+def _number(value: Any, name: str) -> float:
+    """A finite JSON number (not a boolean, string or null)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{name} = {json.dumps(value)} is not a number")
+    value = float(value)
+    if math.isnan(value):
+        raise InputError(f"{name} is NaN; give a finite number")
+    if math.isinf(value):
+        raise InputError(f"{name} is infinite; give a finite number")
+    return value
+
+
+def _matrix4(value: Any, name: str) -> np.ndarray:
+    """A 4×4 rigid transform given as 4 rows of 4 numbers → ndarray (4, 4)."""
+    if not isinstance(value, list) or not all(isinstance(row, list) for row in value):
+        raise InputError(f"{name}: expected a 4x4 matrix (a list of 4 rows of 4 numbers), "
+                         f"got {_type_name(value)}")
+    lengths = {len(row) for row in value}
+    if len(lengths) > 1:
+        for i, row in enumerate(value):
+            if len(row) != 4:
+                raise InputError(f"{name}: row {i} has {len(row)} entries, expected 4")
+    shape = f"{len(value)}x{lengths.pop() if lengths else 0}"
+    if shape != "4x4":
+        hint = "; add the last row [0, 0, 0, 1]" if shape == "3x4" else ""
+        raise InputError(f"{name}: expected a 4x4 matrix, got {shape}{hint}")
+    T = np.array([[_number(x, f"{name}[{i}][{j}]") for j, x in enumerate(row)]
+                  for i, row in enumerate(value)])
+    return validate_rigid_transform(T, name=name)
+
+
+def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
+    """Refuse angles that look like the other unit.
+
+    Parameters
+    ----------
+    angles : list of (field name, value)
+        Every pan and tilt value as written in the document.
+    angle_unit : {"deg", "rad"}
+
+    Rules
+    -----
+    ``"rad"``: any |angle| > 2π looks like degrees.
+    ``"deg"``: (a) the largest |angle| is above 0 and below :data:`RADIANS_MAX_DEG`;
+    or (b) the largest |angle| is at most 2π and every nonzero angle, read as radians,
+    is a whole number of degrees within :data:`RADIANS_ROUND_TOL_DEG`. Real degree data (integers
+    like 8, or encoder readings like 7.9875) trigger neither.
+    """
+    if not angles:
+        return
+    if angle_unit == "rad":
+        for name, value in angles:
+            if abs(value) > 2 * math.pi:
+                raise InputError(f"{name} = {value:g} with angle_unit 'rad' looks like degrees; "
+                                 "set angle_unit to 'deg'")
+        return
+    name_max, value_max = max(angles, key=lambda nv: abs(nv[1]))
+    largest = abs(value_max)
+    if 0.0 < largest < RADIANS_MAX_DEG:
+        raise InputError(
+            f"every pan/tilt angle is below {RADIANS_MAX_DEG:g} with angle_unit 'deg' "
+            f"(largest {name_max} = {value_max:g}); they look like radians (motions under "
+            f"{RADIANS_MAX_DEG:g} degree cannot calibrate); set angle_unit to 'rad'")
+    nonzero = [(n, v) for n, v in angles if v != 0.0]
+    if nonzero and largest <= 2 * math.pi:
+        as_deg = np.degrees([v for _, v in nonzero])
+        if np.all(np.abs(as_deg - np.round(as_deg)) <= RADIANS_ROUND_TOL_DEG):
+            raise InputError(
+                f"{name_max} = {value_max:g} with angle_unit 'deg' is {math.degrees(value_max):.4g}"
+                f" degrees if read as radians, and every nonzero angle is a whole number of"
+                f" degrees that way; they look like radians; set angle_unit to 'rad'")
+
+
+def _position(item: Any, k: int, angle_unit: str,
+              angles: list[tuple[str, float]]) -> tuple[np.ndarray, np.ndarray, str | None]:
+    where = f"positions[{k}]"
+    if not isinstance(item, dict):
+        raise InputError(f"{where}: expected an object with T_cam_from_world and pan/tilt or "
+                         f"T_gaze_from_ptu, got {_type_name(item)}")
+    unknown = [key for key in item if key not in POSITION_KEYS]
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r}; allowed: "
+                         + ", ".join(POSITION_KEYS))
+    if "T_cam_from_world" not in item:
+        raise InputError(f"{where}: missing T_cam_from_world (the target's pose from "
+                         "camera calibration)")
+    has_angles = "pan" in item or "tilt" in item
+    if has_angles and "T_gaze_from_ptu" in item:
+        raise InputError(f"{where}: has both pan/tilt and T_gaze_from_ptu; give one of them")
+    if not has_angles and "T_gaze_from_ptu" not in item:
+        raise InputError(f"{where}: missing the unit's motion; give pan and tilt, "
+                         "or T_gaze_from_ptu")
+    if has_angles:
+        for key, other in (("pan", "tilt"), ("tilt", "pan")):
+            if key not in item:
+                raise InputError(f"{where}: {other!r} given without {key!r}")
+        pan = _number(item["pan"], f"{where}.pan")
+        tilt = _number(item["tilt"], f"{where}.tilt")
+        angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
+        if angle_unit == "deg":
+            pan, tilt = math.radians(pan), math.radians(tilt)
+        T_gp = T_gaze_from_ptu_eq3(pan, tilt)  # eq. 3
+    else:
+        T_gp = _matrix4(item["T_gaze_from_ptu"], f"{where}.T_gaze_from_ptu")
+    T_cw = _matrix4(item["T_cam_from_world"], f"{where}.T_cam_from_world")
+    label = item.get("label")
+    if label is not None and not isinstance(label, str):
+        raise InputError(f"{where}.label: expected a string, got {_type_name(label)}")
+    return T_cw, T_gp, label
+
+
+def _optional_text(doc: dict, key: str) -> str | None:
+    value = doc.get(key)
+    if value is not None and not isinstance(value, str):
+        raise InputError(f"{key}: expected a string, got {_type_name(value)}")
+    return value
+
+
+def parse_handeye_document(doc: Any) -> HandEyeInput:
+    """Validate a parsed ``rasc-handeye/1`` document (see the module docstring).
+
+    Raises
+    ------
+    InputError
+        With a message naming the field, e.g. ``positions[3].T_cam_from_world: ...``.
+    """
+    if not isinstance(doc, dict):
+        raise InputError(f"top level must be a JSON object with a 'positions' list, "
+                         f"got {_type_name(doc)}")
+    unknown = [key for key in doc if key not in TOP_KEYS]
+    if unknown:
+        raise InputError(f"unknown top-level key {unknown[0]!r}; allowed: " + ", ".join(TOP_KEYS))
+    if "format" in doc and doc["format"] != FORMAT:
+        raise InputError(f"format = {json.dumps(doc['format'])}: expected {FORMAT!r}")
+    angle_unit = doc.get("angle_unit", "deg")
+    if angle_unit not in ANGLE_UNITS:
+        raise InputError(f"angle_unit = {json.dumps(angle_unit)}: expected 'deg' or 'rad'")
+    length_unit = _optional_text(doc, "length_unit")
+    description = _optional_text(doc, "description")
+    if "positions" not in doc:
+        raise InputError("missing 'positions' (a list of at least 3 positions)")
+    positions = doc["positions"]
+    if not isinstance(positions, list):
+        raise InputError(f"positions: expected a list, got {_type_name(positions)}")
+    if len(positions) < MIN_POSITIONS:
+        raise InputError(f"positions: need at least {MIN_POSITIONS} positions (two motions "
+                         f"about different axes), got {len(positions)}")
+    angles: list[tuple[str, float]] = []
+    parsed = [_position(item, k, angle_unit, angles) for k, item in enumerate(positions)]
+    check_angle_unit(angles, angle_unit)
+    return HandEyeInput(
+        T_cam_from_world=np.stack([p[0] for p in parsed]),
+        T_gaze_from_ptu=np.stack([p[1] for p in parsed]),
+        angle_unit=angle_unit,
+        length_unit=length_unit,
+        labels=tuple(p[2] for p in parsed),
+        description=description,
+    )
+
+
+def load_handeye_input(path: str | os.PathLike) -> HandEyeInput:
+    """Read and validate ``path``; every error message starts with the path."""
+    doc = read_json(path)
+    try:
+        return parse_handeye_document(doc)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
