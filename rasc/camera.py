@@ -1,0 +1,609 @@
+"""Camera pipeline: chessboard detection → intrinsics → extrinsics (SPEC §7).
+
+The only library module besides :mod:`rasc.opencv_handeye` that imports cv2.
+
+The board ("world" frame w, docs/CONTRACTS.md): inner corners (nx, ny) with nx + ny odd,
+square size s; corner (i, j), i fastest, sits at (i·s, j·s, 0); +z points into the board.
+The square bounded by corners (0,0), (1,0), (0,1), (1,1) is black. OpenCV may number the
+corners from either end of the board; :func:`detect_corners` re-orders them to this rule
+so that every view of one physical board shares one board frame (needed by hand-eye,
+stereo and loop closure; single-camera calibration does not care, see
+:func:`calibrate_intrinsics`).
+
+Pixels follow OpenCV's convention (pixel centres at integers, row 0 at the top).
+Extrinsics are returned as ``T_cam_from_world`` (4, 4), the paper's ``T_cw``.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from rasc.errors import DegenerateDataError, InputError
+from rasc.transforms import make_transform
+
+#: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
+#: /work/shared/data/README.md exactly (0.408695 / 0.458636 px on OpenCV's stereo samples);
+#: 0.01 instead of 0.001 moves them by ~8e-4 px.
+SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.001)
+
+#: Views whose board normals all lie within this angle of each other cannot fix the focal
+#: length (Zhang: fronto-parallel planes leave f and depth coupled). The normals are
+#: estimated with a nominal focal length (the larger image side), so this guards against
+#: the clearly degenerate case only; well-spread sets differ by 30–70°.
+MIN_ORIENTATION_SPREAD_DEG = 5.0
+
+#: At least this many views for intrinsics (Zhang's method: two homography constraints per
+#: view, five intrinsic parameters plus distortion).
+MIN_INTRINSICS_VIEWS = 3
+
+DIST_MODELS = {
+    # name: calibrateCamera flags. Every model returns five coefficients (k1 k2 p1 p2 k3).
+    "opencv5": 0,
+    "k1k2": cv2.CALIB_FIX_K3 | cv2.CALIB_ZERO_TANGENT_DIST,
+    "none": (cv2.CALIB_FIX_K1 | cv2.CALIB_FIX_K2 | cv2.CALIB_FIX_K3
+             | cv2.CALIB_ZERO_TANGENT_DIST),
+}
+
+ORDER_RULES = ("colour", "image", None)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _is_integral(v) -> bool:
+    return _is_number(v) and np.isfinite(v) and float(v) == int(v)
+
+
+@dataclass(frozen=True)
+class Board:
+    """A chessboard target: ``inner_corners`` (nx, ny), ``square_size`` (any length unit).
+
+    nx + ny must be odd: only then does a 180° turn of the board swap the colours of its
+    squares, so that the image fixes which end is corner (0, 0).
+    """
+
+    inner_corners: tuple[int, int]
+    square_size: float
+
+    def __post_init__(self):
+        ic = self.inner_corners
+        ok = (isinstance(ic, (tuple, list, np.ndarray)) and len(ic) == 2
+              and all(_is_integral(v) for v in ic))
+        if not ok:
+            raise InputError(f"board: inner_corners must be two integers, got {ic!r}")
+        nx, ny = (int(v) for v in ic)
+        if nx < 2 or ny < 2:
+            raise InputError(
+                f"board: inner_corners must be two integers >= 2, got {self.inner_corners!r}")
+        if (nx + ny) % 2 == 0:
+            raise InputError(
+                f"board: inner_corners {nx}x{ny} has nx + ny even: a 180° turn maps such a board "
+                "onto itself colour for colour, so its corner order (the board frame) cannot be "
+                "read from an image; use one odd and one even count, e.g. 9x6")
+        s = self.square_size
+        if not _is_number(s) or not np.isfinite(s) or s <= 0:
+            raise InputError(f"board: square_size must be a positive number, got {s!r}")
+        object.__setattr__(self, "inner_corners", (nx, ny))
+        object.__setattr__(self, "square_size", float(s))
+
+    @property
+    def nx(self) -> int:
+        return self.inner_corners[0]
+
+    @property
+    def ny(self) -> int:
+        return self.inner_corners[1]
+
+    @property
+    def n_corners(self) -> int:
+        return self.nx * self.ny
+
+    def object_points(self) -> np.ndarray:
+        """Corners in the board frame, (N, 3): corner (i, j) at (i·s, j·s, 0), i fastest."""
+        j, i = np.mgrid[0:self.ny, 0:self.nx]
+        P = np.zeros((self.n_corners, 3))
+        P[:, 0] = i.ravel() * self.square_size
+        P[:, 1] = j.ravel() * self.square_size
+        return P
+
+    def to_dict(self) -> dict:
+        return {"inner_corners": [self.nx, self.ny], "square_size": self.square_size}
+
+
+# --------------------------------------------------------------------------- images
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file as 8-bit grey (H, W) uint8; :class:`InputError` if impossible."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file does not exist")
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None or image.size == 0:
+        raise InputError(f"{path}: cannot read image (not a format OpenCV reads, or corrupt)")
+    return image
+
+
+def _jpeg_size(f) -> tuple[int, int] | None:
+    f.seek(2)
+    while True:
+        b = f.read(1)
+        while b == b"\xff":  # fill bytes
+            b = f.read(1)
+        if not b:
+            return None
+        marker = b[0]
+        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # no length field
+            continue
+        seglen = f.read(2)
+        if len(seglen) < 2:
+            return None
+        (length,) = struct.unpack(">H", seglen)
+        if marker in (0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE,
+                      0xCF):
+            data = f.read(5)
+            if len(data) < 5:
+                return None
+            h, w = struct.unpack(">HH", data[1:5])
+            return w, h
+        f.seek(length - 2, 1)
+
+
+def image_size(path: str | os.PathLike) -> tuple[int, int]:
+    """(width, height) of an image file from its header (PNG, JPEG); other formats decode.
+
+    Raises :class:`InputError` when the file is missing or no size can be read.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file does not exist")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(24)
+            if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+                w, h = struct.unpack(">II", head[16:24])
+                size = (w, h)
+            elif head[:2] == b"\xff\xd8":
+                size = _jpeg_size(f)
+            else:
+                size = None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if size is None and head[:2] != b"\xff\xd8" and head[:8] != b"\x89PNG\r\n\x1a\n":
+        h, w = read_image(path).shape
+        size = (w, h)
+    if size is None or size[0] <= 0 or size[1] <= 0:
+        raise InputError(f"{path}: cannot read image size (truncated or corrupt header)")
+    return int(size[0]), int(size[1])
+
+
+def to_grey(image: np.ndarray) -> np.ndarray:
+    """(H, W), (H, W, 1), (H, W, 3) BGR or (H, W, 4) BGRA; uint8 or uint16 → (H, W) uint8."""
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    if image.dtype == np.uint16:
+        image = (image >> 8).astype(np.uint8)
+    if image.dtype != np.uint8:
+        raise InputError(f"image: expected uint8 or uint16 pixels, got {image.dtype}")
+    if image.ndim == 2:
+        return np.ascontiguousarray(image)
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2GRAY)
+    raise InputError(f"image: expected (H, W), (H, W, 3) or (H, W, 4), got shape {image.shape}")
+
+
+# ------------------------------------------------------------------ corner detection
+
+def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
+                   order_by: str | None = "colour", *, fast_check: bool = False,
+                   subpix_window: tuple[int, int] = (11, 11)) -> np.ndarray | None:
+    """Find the board's inner corners in ``image``; ``None`` when the board is not found.
+
+    Parameters
+    ----------
+    image : array, shape (H, W) or (H, W, 3) BGR
+    board : Board
+    method : "classic" (findChessboardCorners with ADAPTIVE_THRESH | NORMALIZE_IMAGE, then
+        cornerSubPix over ``subpix_window`` half-sizes with :data:`SUBPIX_CRITERIA`) or
+        "sb" (findChessboardCornersSB with CALIB_CB_ACCURACY; ~0.05 px, but ~0.5–0.9 s per
+        1280×960 image).
+    order_by : "colour" (default) — canonical order of docs/CONTRACTS.md, read from the
+        squares' colours; "image" — of the two 180°-related orders, the one whose corner
+        (0, 0) is nearer the image's top-left (for boards whose colours cannot be read);
+        None — OpenCV's order. A mirrored grid is always put right (see
+        :func:`order_corners`).
+    fast_check : add CALIB_CB_FAST_CHECK (quick rejection of images without a board).
+
+    Returns
+    -------
+    corners : ndarray, shape (N, 2), float64, N = nx·ny, or None (not found, or the colour
+        rule could not decide).
+    """
+    if method not in ("classic", "sb"):
+        raise InputError(f"detect_corners: unknown method {method!r} (use 'classic' or 'sb')")
+    if order_by not in ORDER_RULES:
+        raise InputError(f"detect_corners: unknown order_by {order_by!r} (use 'colour', "
+                         "'image' or None)")
+    grey = to_grey(image)
+    pattern = board.inner_corners
+    if method == "classic":
+        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+        if fast_check:
+            flags |= cv2.CALIB_CB_FAST_CHECK
+        found, corners = cv2.findChessboardCorners(grey, pattern, flags=flags)
+        if not found or corners is None:
+            return None
+        corners = cv2.cornerSubPix(grey, corners.reshape(-1, 1, 2).astype(np.float32),
+                                   tuple(subpix_window), (-1, -1), SUBPIX_CRITERIA)
+    else:
+        flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_ACCURACY
+        found, corners = cv2.findChessboardCornersSB(grey, pattern, flags=flags)
+        if not found or corners is None:
+            return None
+    corners = np.asarray(corners, dtype=np.float64).reshape(-1, 2)  # 4.x: (N,1,2); 5.x: (N,2)
+    if corners.shape[0] != board.n_corners or not np.all(np.isfinite(corners)):
+        return None
+    return order_corners(corners, grey, board, order_by)
+
+
+def _signed_area(corners: np.ndarray, board: Board) -> float:
+    """Shoelace area of the outer corner quadrilateral (0,0), (nx-1,0), (nx-1,ny-1), (0,ny-1).
+
+    Positive (image y down) when the board's +x, +y look like image +x, +y up to a rotation,
+    i.e. when its printed face is seen; negative for a mirrored numbering.
+    """
+    nx, ny = board.inner_corners
+    q = corners[[0, nx - 1, nx * ny - 1, nx * (ny - 1)]]
+    x, y = q[:, 0], q[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def square_means(grey: np.ndarray, corners: np.ndarray, board: Board) -> np.ndarray:
+    """Mean intensity near the centre of each square between inner corners, (ny-1, nx-1).
+
+    Each square (i, j), bounded by corners (i,j), (i+1,j), (i,j+1), (i+1,j+1), is sampled at
+    3×3 bilinear points spanning its central half, away from the edges.
+    """
+    nx, ny = board.inner_corners
+    g = corners.reshape(ny, nx, 2)
+    c00, c10, c01, c11 = g[:-1, :-1], g[:-1, 1:], g[1:, :-1], g[1:, 1:]
+    samples = []
+    for a in (0.25, 0.5, 0.75):
+        for b in (0.25, 0.5, 0.75):
+            samples.append((1 - a) * (1 - b) * c00 + a * (1 - b) * c10
+                           + (1 - a) * b * c01 + a * b * c11)
+    pts = np.stack(samples, axis=-2).astype(np.float32)  # (ny-1, nx-1, 9, 2)
+    flat = pts.reshape(1, -1, 2)
+    vals = cv2.remap(grey.astype(np.float32), flat[..., 0], flat[..., 1], cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REPLICATE)
+    return vals.reshape(ny - 1, nx - 1, 9).mean(axis=-1)
+
+
+def colour_agreement(grey: np.ndarray, corners: np.ndarray, board: Board) -> float:
+    """Fraction of neighbouring square pairs in which the even-parity square is darker.
+
+    1 when the square at corner (0, 0) is black, 0 when it is white; near 0.5 when the
+    colours cannot be read. Comparing neighbours (not a global threshold) copes with
+    lighting gradients.
+    """
+    m = square_means(grey, corners, board)
+    ny1, nx1 = m.shape
+    parity_even = (np.add.outer(np.arange(ny1), np.arange(nx1)) % 2) == 0
+    sign = np.where(parity_even, 1.0, -1.0)  # +1 on squares that must be black
+    votes = []
+    if nx1 > 1:
+        d = (m[:, 1:] - m[:, :-1]) * sign[:, :-1]  # >0: even square darker
+        votes.append(d.ravel())
+    if ny1 > 1:
+        d = (m[1:, :] - m[:-1, :]) * sign[:-1, :]
+        votes.append(d.ravel())
+    v = np.concatenate(votes)
+    return float(np.mean(v > 0))
+
+
+def order_corners(corners: np.ndarray, image: np.ndarray | None, board: Board,
+                  order_by: str | None = "colour") -> np.ndarray | None:
+    """Put detected corners (N, 2) into the board's canonical order (docs/CONTRACTS.md).
+
+    1. Mirror: if the numbering runs the wrong way round (negative signed area, the board
+       frame would be left-handed or seen from behind), reverse every row.
+    2. 180°: with ``order_by="colour"`` keep the order if the square at corner (0, 0) is
+       black, else reverse the list (with nx + ny odd the 180° alternative has the opposite
+       colour there); ``"image"``: keep the order whose corner (0, 0) is nearer the image's
+       top-left; None: leave it.
+
+    Returns None when the colour rule cannot decide (fewer than 80 % of neighbouring
+    squares agree on the colours — a blurred, saturated or low-contrast view).
+    """
+    corners = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
+    if corners.shape[0] != board.n_corners:
+        raise InputError(f"order_corners: expected {board.n_corners} corners for a "
+                         f"{board.nx}x{board.ny} board, got {corners.shape[0]}")
+    nx, ny = board.inner_corners
+    if _signed_area(corners, board) < 0:
+        corners = corners.reshape(ny, nx, 2)[:, ::-1].reshape(-1, 2)
+    if order_by is None:
+        return corners
+    if order_by == "image":
+        first, last = corners[0], corners[-1]
+        return corners if first.sum() <= last.sum() else corners[::-1].copy()
+    if image is None:
+        raise InputError("order_corners: order_by='colour' needs the image")
+    agree = colour_agreement(to_grey(image), corners, board)
+    # 80 %: a clean view agrees on every pair (measured 1.0 on all real views here);
+    # below 80 % either order is a guess, and a wrong guess silently breaks hand-eye.
+    if agree >= 0.8:
+        return corners
+    if agree <= 0.2:
+        return corners[::-1].copy()
+    return None
+
+
+def detect_views(images: dict, board: Board, method: str = "classic",
+                 order_by: str | None = "colour") -> tuple[dict[str, np.ndarray], list[str]]:
+    """Detect the board in many views; ``images`` maps name → image array or file path.
+
+    Returns ``(corners, not_found)``: corners by name (in input order) for the views where
+    the board was found, and the names where it was not. Never raises for a missing board.
+    """
+    found: dict[str, np.ndarray] = {}
+    missing: list[str] = []
+    for name, img in images.items():
+        if isinstance(img, (str, os.PathLike)):
+            img = read_image(img)
+        corners = detect_corners(img, board, method=method, order_by=order_by)
+        if corners is None:
+            missing.append(name)
+        else:
+            found[name] = corners
+    return found, missing
+
+
+# ------------------------------------------------------------------------ intrinsics
+
+def T_from_rvec_tvec(rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
+    """OpenCV (rvec, tvec) → ``T_cam_from_world`` (4, 4)."""
+    R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3))
+    return make_transform(R, np.asarray(tvec, dtype=np.float64).reshape(3))
+
+
+def rvec_tvec_from_T(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``T_cam_from_world`` (4, 4) → OpenCV (rvec (3,), tvec (3,))."""
+    T = np.asarray(T, dtype=np.float64)
+    rvec, _ = cv2.Rodrigues(T[:3, :3])
+    return rvec.reshape(3), T[:3, 3].copy()
+
+
+def project_board(board: Board, T_cam_from_world: np.ndarray, K: np.ndarray,
+                  dist: np.ndarray) -> np.ndarray:
+    """Pixel positions (N, 2) of the board's corners seen from ``T_cam_from_world``."""
+    rvec, tvec = rvec_tvec_from_T(T_cam_from_world)
+    uv, _ = cv2.projectPoints(board.object_points(), rvec, tvec, np.asarray(K, float),
+                              np.asarray(dist, float))
+    return uv.reshape(-1, 2)
+
+
+def reprojection_rms(corners: np.ndarray, board: Board, T_cam_from_world: np.ndarray,
+                     K: np.ndarray, dist: np.ndarray) -> float:
+    """sqrt(Σ‖uv − û‖² / N): OpenCV's calibrateCamera RMS definition, for one view."""
+    d = project_board(board, T_cam_from_world, K, dist) - corners
+    return float(np.sqrt(np.sum(d * d) / len(corners)))
+
+
+@dataclass
+class IntrinsicsResult:
+    """Output of :func:`calibrate_intrinsics`.
+
+    K (3, 3); dist (5,) k1 k2 p1 p2 k3; rms: OpenCV's overall RMS (px) over the views
+    used; per_view_rms: name → RMS (px) of each view used; T_cam_from_world: name → (4, 4);
+    outliers: names flagged by the robust rule (threshold ``outlier_threshold`` px);
+    excluded: names left out of this calibration; initial: the calibration with every view
+    when outliers were excluded and re-calibrated, else None.
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    rms: float
+    per_view_rms: dict[str, float]
+    T_cam_from_world: dict[str, np.ndarray]
+    outliers: list[str]
+    outlier_threshold: float
+    image_size: tuple[int, int]
+    dist_model: str
+    excluded: list[str] = field(default_factory=list)
+    initial: IntrinsicsResult | None = None
+
+    def to_dict(self) -> dict:
+        d = {"K": self.K.tolist(), "dist": self.dist.tolist(), "rms": self.rms,
+             "per_view_rms": dict(self.per_view_rms), "outliers": list(self.outliers),
+             "outlier_threshold": self.outlier_threshold, "image_size": list(self.image_size),
+             "dist_model": self.dist_model, "excluded": list(self.excluded),
+             "T_cam_from_world": {k: v.tolist() for k, v in self.T_cam_from_world.items()}}
+        if self.initial is not None:
+            d["initial"] = self.initial.to_dict()
+        return d
+
+
+def outlier_threshold(per_view_rms: np.ndarray) -> float:
+    """Robust per-view RMS threshold: max(3·median, median + 5·1.4826·MAD).
+
+    Both parts are needed on real data: on OpenCV's stereo samples the MAD part alone
+    would flag a merely mediocre view (left13, 0.46 px, median 0.19) and 3·median alone
+    comes within 0.03 px of another (right05); the gross outlier (pair 02, 1.2 px) clears
+    both by a wide margin.
+    """
+    r = np.asarray(per_view_rms, dtype=float)
+    med = float(np.median(r))
+    mad = float(np.median(np.abs(r - med)))
+    return max(3.0 * med, med + 5.0 * 1.4826 * mad)
+
+
+def _check_corners(name, corners, board: Board) -> np.ndarray:
+    c = np.asarray(corners, dtype=np.float64)
+    if c.ndim == 3 and c.shape[1] == 1:
+        c = c.reshape(-1, 2)
+    if c.shape != (board.n_corners, 2):
+        raise InputError(f"view {name!r}: expected corners of shape ({board.n_corners}, 2) for a "
+                         f"{board.nx}x{board.ny} board, got {c.shape}")
+    if not np.all(np.isfinite(c)):
+        raise InputError(f"view {name!r}: corners contain NaN or infinity")
+    return c
+
+
+def orientation_spread_deg(corners: list[np.ndarray], board: Board,
+                           image_size: tuple[int, int]) -> float:
+    """Largest angle between two views' board normals, from homographies, degrees.
+
+    Uses a nominal camera (focal length = larger image side, centre principal point): an
+    intrinsics-free check that the views are not all parallel (see
+    :data:`MIN_ORIENTATION_SPREAD_DEG`).
+    """
+    w, h = image_size
+    f = float(max(w, h))
+    K_nominal = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1.0]])
+    xy = board.object_points()[:, :2]
+    normals = []
+    for c in corners:
+        H, _ = cv2.findHomography(xy, c, 0)
+        if H is None:
+            continue
+        B = np.linalg.solve(K_nominal, H)
+        r1 = B[:, 0] / np.linalg.norm(B[:, 0])
+        r2 = B[:, 1] / np.linalg.norm(B[:, 1])
+        n = np.cross(r1, r2)
+        normals.append(n / np.linalg.norm(n))
+    if len(normals) < 2:
+        return 0.0
+    N = np.array(normals)
+    return float(np.degrees(np.arccos(np.clip(N @ N.T, -1.0, 1.0))).max())
+
+
+def _calibrate_once(names, corners, board, image_size, dist_model):
+    obj = board.object_points().astype(np.float32)
+    img = [c.astype(np.float32).reshape(-1, 1, 2) for c in corners]
+    flags = DIST_MODELS[dist_model]
+    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(
+        [obj] * len(img), img, tuple(int(v) for v in image_size), None, None, flags=flags)
+    K = np.asarray(K, dtype=np.float64)
+    dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(dist)) and np.isfinite(rms)):
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: OpenCV returned NaN for {len(names)} views; add views of "
+            "the board tilted 20–45° about different axes")
+    T = {n: T_from_rvec_tvec(r, t) for n, r, t in zip(names, rvecs, tvecs, strict=True)}
+    per_view = {n: reprojection_rms(c, board, T[n], K, dist)
+                for n, c in zip(names, corners, strict=True)}
+    return float(rms), K, dist, T, per_view
+
+
+def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
+                         image_size: tuple[int, int], dist_model: str = "opencv5",
+                         outlier_rms: float | None = None,
+                         exclude_outliers: bool = False) -> IntrinsicsResult:
+    """Zhang calibration with cv2.calibrateCamera; per-view RMS and outlier views.
+
+    Parameters
+    ----------
+    views : dict name → corners (N, 2) in canonical order (any consistent or per-view
+        180° relabelling gives the same K, dist and RMS: each view has its own pose).
+    board : Board
+    image_size : (width, height) in pixels
+    dist_model : "opencv5" (k1 k2 p1 p2 k3), "k1k2" (p1 = p2 = k3 = 0) or "none" (all 0)
+    outlier_rms : per-view RMS (px) above which a view is an outlier; None → the robust
+        rule :func:`outlier_threshold`.
+    exclude_outliers : re-calibrate without the outliers; the result then holds the
+        re-calibration, with the all-views calibration in ``initial``.
+
+    Raises
+    ------
+    DegenerateDataError : fewer than :data:`MIN_INTRINSICS_VIEWS` views, or all views at
+        nearly the same orientation (:data:`MIN_ORIENTATION_SPREAD_DEG`).
+    """
+    if dist_model not in DIST_MODELS:
+        raise InputError(f"calibrate_intrinsics: unknown dist_model {dist_model!r} "
+                         f"(use one of {', '.join(DIST_MODELS)})")
+    try:
+        w, h = (int(v) for v in image_size)
+    except (TypeError, ValueError):
+        raise InputError(f"calibrate_intrinsics: image_size must be (width, height), "
+                         f"got {image_size!r}") from None
+    if w <= 0 or h <= 0:
+        raise InputError(f"calibrate_intrinsics: image_size must be positive, got {image_size!r}")
+    names = [str(n) for n in views]
+    corners = [_check_corners(n, c, board) for n, c in views.items()]
+    if len(names) < MIN_INTRINSICS_VIEWS:
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: {len(names)} view(s) with the board found; need at least "
+            f"{MIN_INTRINSICS_VIEWS} views with the board tilted 20–45° about different axes")
+    spread = orientation_spread_deg(corners, board, (w, h))
+    if spread < MIN_ORIENTATION_SPREAD_DEG:
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: all {len(names)} views show the board at nearly the same "
+            f"orientation (normals within {spread:.1f}° < {MIN_ORIENTATION_SPREAD_DEG:g}°), so the "
+            "focal length is undetermined; add views with the board tilted 20–45° about "
+            "different axes")
+    rms, K, dist, T, per_view = _calibrate_once(names, corners, board, (w, h), dist_model)
+    threshold = float(outlier_rms) if outlier_rms is not None else \
+        outlier_threshold(np.array(list(per_view.values())))
+    outliers = [n for n in names if per_view[n] > threshold]
+    result = IntrinsicsResult(K=K, dist=dist, rms=rms, per_view_rms=per_view,
+                              T_cam_from_world=T, outliers=outliers,
+                              outlier_threshold=threshold, image_size=(w, h),
+                              dist_model=dist_model)
+    if not exclude_outliers or not outliers:
+        return result
+    keep = {n: c for n, c in zip(names, corners, strict=True) if n not in outliers}
+    if len(keep) < MIN_INTRINSICS_VIEWS:
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: only {len(keep)} view(s) left after excluding outliers "
+            f"{outliers}; need at least {MIN_INTRINSICS_VIEWS} good views")
+    rms2, K2, dist2, T2, per_view2 = _calibrate_once(list(keep), list(keep.values()), board,
+                                                     (w, h), dist_model)
+    return IntrinsicsResult(K=K2, dist=dist2, rms=rms2, per_view_rms=per_view2,
+                            T_cam_from_world=T2, outliers=outliers,
+                            outlier_threshold=threshold, image_size=(w, h),
+                            dist_model=dist_model, excluded=list(outliers), initial=result)
+
+
+# ------------------------------------------------------------------------ extrinsics
+
+def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
+                        dist: np.ndarray) -> tuple[np.ndarray, float]:
+    """Board pose with intrinsics fixed (SPEC §7): IPPE, then Levenberg–Marquardt refinement.
+
+    Parameters
+    ----------
+    corners : (N, 2) canonical order; board : Board; K : (3, 3); dist : (k,) OpenCV order
+
+    Returns
+    -------
+    T_cam_from_world : (4, 4); rms : reprojection RMS in px (same definition as OpenCV's).
+    """
+    c = _check_corners("extrinsics", corners, board)
+    K = np.asarray(K, dtype=np.float64)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+        raise InputError(f"estimate_extrinsics: K must be a finite 3x3 matrix, got {K.shape}")
+    obj = board.object_points()
+    ok, rvec, tvec = cv2.solvePnP(obj, c, K, dist, flags=cv2.SOLVEPNP_IPPE)
+    if not ok or not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
+        raise DegenerateDataError(
+            "estimate_extrinsics: no pose fits these corners (collinear or coincident?); "
+            "use a view where the whole board is seen")
+    rvec, tvec = cv2.solvePnPRefineLM(
+        obj, c, K, dist, rvec, tvec,
+        criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12))
+    T = T_from_rvec_tvec(rvec, tvec)
+    if T[2, 3] <= 0:
+        raise DegenerateDataError("estimate_extrinsics: the fitted board lies behind the camera; "
+                                  "check the corners and intrinsics")
+    return T, reprojection_rms(c, board, T, K, dist)
