@@ -1,0 +1,413 @@
+"""The dataset format (docs/CONTRACTS.md): a folder with ``manifest.json`` and its images.
+
+::
+
+    {"format": "rasc-dataset/1",
+     "board": {"inner_corners": [9, 6], "square_size": 0.05},        (metres)
+     "angle_unit": "deg",                                             ("deg" | "rad")
+     "images": [
+       {"file": "intrinsics/left_000.png", "eye": "left", "role": "intrinsics"},
+       {"file": "poses/left_00.png", "eye": "left", "role": "pose",
+        "pan": 0.0, "tilt": 0.0, "view": "00"}, ...],
+     "ground_truth": "ground_truth.json"}                             (optional)
+
+``role`` "intrinsics": a view of the board for calibrating the eye's intrinsics (the
+pan-tilt angles do not matter); "pose": a view at a commanded pan-tilt position (pan,
+tilt required), for hand-eye; ``view`` groups the left and right images taken at the same
+time of the same board placement (loop closure). Every problem is reported as one
+:class:`~rasc.errors.InputError` line naming the manifest, the image index and file, and
+the field. Images are read lazily; :meth:`Dataset.validate` reads their headers.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+
+from rasc.camera import (
+    MIN_INTRINSICS_VIEWS,
+    Board,
+    detect_corners,
+    read_image,
+)
+from rasc.camera import image_size as read_image_size
+from rasc.errors import InputError
+from rasc.io import write_json_atomic
+
+FORMAT = "rasc-dataset/1"
+MANIFEST = "manifest.json"
+EYES = ("left", "right")
+ROLES = ("intrinsics", "pose")
+ANGLE_UNITS = ("deg", "rad")
+#: hand-eye needs at least three positions (two independent relative rotations, SPEC §3)
+MIN_POSE_VIEWS = 3
+#: if the board is found in fewer than this fraction of an eye's images, the board
+#: geometry in the manifest is the likely culprit rather than the images
+MIN_FOUND_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class ImageEntry:
+    """One image of the manifest. ``pan``, ``tilt`` in radians (None for intrinsics views)."""
+
+    index: int
+    file: str
+    path: Path
+    eye: str
+    role: str
+    pan: float | None = None
+    tilt: float | None = None
+    view: str | None = None
+
+
+@dataclass
+class Detections:
+    """Corners found in a group of images: ``corners`` file → (N, 2) canonical order,
+    ``not_found`` files without the board, ``entries`` file → :class:`ImageEntry`."""
+
+    corners: dict[str, np.ndarray]
+    not_found: list[str]
+    entries: dict[str, ImageEntry]
+
+
+@dataclass
+class Dataset:
+    root: Path
+    manifest_path: Path
+    board: Board
+    angle_unit: str
+    images: tuple[ImageEntry, ...]
+    ground_truth: Path | None = None
+
+    def select(self, eye: str | None = None, role: str | None = None) -> list[ImageEntry]:
+        """Images of one eye and/or role, in manifest order."""
+        if eye is not None and eye not in EYES:
+            raise InputError(f"{self.manifest_path}: unknown eye {eye!r} (use left or right)")
+        if role is not None and role not in ROLES:
+            raise InputError(f"{self.manifest_path}: unknown role {role!r} "
+                             "(use intrinsics or pose)")
+        return [e for e in self.images
+                if (eye is None or e.eye == eye) and (role is None or e.role == role)]
+
+    def validate(self, decode: bool = False) -> dict[str, tuple[int, int]]:
+        """Read every image's header (``decode=True``: the whole image) and check that
+        the images of each eye share one size. Returns eye → (width, height)."""
+        sizes: dict[str, tuple[int, int]] = {}
+        first: dict[str, str] = {}
+        for e in self.images:
+            size = self._size(e, decode)
+            if e.eye not in sizes:
+                sizes[e.eye], first[e.eye] = size, e.file
+            elif size != sizes[e.eye]:
+                a, b = sizes[e.eye], size
+                raise InputError(
+                    f"{self.manifest_path}: images[{e.index}] ({e.file}) is {b[0]}x{b[1]} but "
+                    f"{first[e.eye]} is {a[0]}x{a[1]}: all {e.eye} images must have one size")
+        return sizes
+
+    def image_size(self, eye: str) -> tuple[int, int]:
+        """(width, height) of an eye's images (checked equal across them)."""
+        sizes = self.validate()
+        if eye not in sizes:
+            raise InputError(f"{self.manifest_path}: no images of the {eye} eye")
+        return sizes[eye]
+
+    def read(self, entry: ImageEntry) -> np.ndarray:
+        """The image as 8-bit grey (H, W); errors name the manifest index and file."""
+        try:
+            return read_image(entry.path)
+        except InputError as exc:
+            raise InputError(f"{self.manifest_path}: images[{entry.index}] ({entry.file}): "
+                             f"{_problem(exc, entry.path)}") from None
+
+    def _size(self, entry: ImageEntry, decode: bool) -> tuple[int, int]:
+        if decode:
+            h, w = self.read(entry).shape
+            return w, h
+        try:
+            return read_image_size(entry.path)
+        except InputError as exc:
+            raise InputError(f"{self.manifest_path}: images[{entry.index}] ({entry.file}): "
+                             f"{_problem(exc, entry.path)}") from None
+
+    def detect(self, eye: str, role: str, method: str = "classic",
+               order_by: str | None = "colour", min_found: int | None = None) -> Detections:
+        """Detect the board in every image of ``eye`` and ``role``.
+
+        Raises :class:`InputError` when the board is missing from most images (the
+        manifest's ``inner_corners`` is the likely error) or when fewer than ``min_found``
+        images show it (default: :data:`~rasc.camera.MIN_INTRINSICS_VIEWS` for intrinsics,
+        :data:`MIN_POSE_VIEWS` for poses).
+        """
+        entries = self.select(eye, role)
+        if min_found is None:
+            min_found = MIN_INTRINSICS_VIEWS if role == "intrinsics" else MIN_POSE_VIEWS
+        corners: dict[str, np.ndarray] = {}
+        not_found: list[str] = []
+        for e in entries:
+            c = detect_corners(self.read(e), self.board, method=method, order_by=order_by)
+            if c is None:
+                not_found.append(e.file)
+            else:
+                corners[e.file] = c
+        where = f"{self.manifest_path}: {eye} {role} images"
+        nx, ny = self.board.inner_corners
+        if entries and len(corners) < MIN_FOUND_FRACTION * len(entries):
+            raise InputError(
+                f"{where}: board {nx}x{ny} not found in {len(not_found)} of {len(entries)} "
+                f"(first: {not_found[0]}): check board.inner_corners (inner corners, not "
+                f"squares: a board of {nx + 1}x{ny + 1} squares has {nx}x{ny})")
+        if len(corners) < min_found:
+            need = ("views with the board tilted 20-45 degrees about different axes"
+                    if role == "intrinsics" else
+                    "pan-tilt positions with rotations about two different axes")
+            raise InputError(
+                f"{where}: board found in {len(corners)} of {len(entries)} images; need at "
+                f"least {min_found} {need}")
+        return Detections(corners=corners, not_found=not_found,
+                          entries={e.file: e for e in entries})
+
+    def load_ground_truth(self) -> dict:
+        """The optional ground-truth JSON (written by the simulation), as a dict."""
+        if self.ground_truth is None:
+            raise InputError(f"{self.manifest_path}: no ground_truth file named in the manifest")
+        return _read_json(self.ground_truth)
+
+    def to_manifest(self) -> dict:
+        """The manifest dict this dataset was read from (angles in its own unit)."""
+        return _manifest_dict(self.board, [_entry_dict(e, self.angle_unit) for e in self.images],
+                              self.angle_unit,
+                              None if self.ground_truth is None
+                              else self.ground_truth.relative_to(self.root).as_posix())
+
+
+# ------------------------------------------------------------------------- reading
+
+def _problem(exc: Exception, path: Path) -> str:
+    """The message of ``exc`` without the leading ``<path>: ``."""
+    msg = str(exc)
+    prefix = f"{path}: "
+    return msg[len(prefix):] if msg.startswith(prefix) else msg
+
+
+def _read_json(path: Path) -> dict:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: file does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: malformed JSON: {exc.msg} at line {exc.lineno} "
+                         f"column {exc.colno}") from None
+    if not isinstance(obj, dict):
+        raise InputError(f"{path}: expected a JSON object at the top level, "
+                         f"got {type(obj).__name__}")
+    return obj
+
+
+def _number(value, where: str, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value):
+        raise InputError(f"{where}: field {field!r} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _relative_file(value, where: str, field: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"{where}: field {field!r} must be a non-empty file name, got {value!r}")
+    p = PurePosixPath(value.replace("\\", "/"))
+    if p.is_absolute() or ".." in p.parts:
+        raise InputError(f"{where}: field {field!r} must be a path inside the dataset folder, "
+                         f"got {value!r}")
+    return p.as_posix()
+
+
+def _parse_board(obj, where: str) -> Board:
+    if "board" not in obj:
+        raise InputError(f"{where}: missing field 'board' "
+                         '(e.g. {"inner_corners": [9, 6], "square_size": 0.05})')
+    b = obj["board"]
+    if not isinstance(b, dict):
+        raise InputError(f"{where}: field 'board' must be an object, got {type(b).__name__}")
+    for key in ("inner_corners", "square_size"):
+        if key not in b:
+            raise InputError(f"{where}: board: missing field {key!r}")
+    ic = b["inner_corners"]
+    if not isinstance(ic, list) or len(ic) != 2 or \
+            not all(isinstance(v, int) and not isinstance(v, bool) for v in ic):
+        raise InputError(f"{where}: board: 'inner_corners' must be two integers [nx, ny], "
+                         f"got {ic!r}")
+    try:
+        return Board(tuple(ic), b["square_size"])
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+
+
+def _parse_images(obj, where: str, root: Path, angle_unit: str | None,
+                  check_files: bool) -> tuple[ImageEntry, ...]:
+    if "images" not in obj:
+        raise InputError(f"{where}: missing field 'images'")
+    images = obj["images"]
+    if not isinstance(images, list) or not images:
+        raise InputError(f"{where}: field 'images' must be a non-empty list")
+    scale = math.pi / 180.0 if angle_unit == "deg" else 1.0
+    entries: list[ImageEntry] = []
+    seen_files: dict[str, int] = {}
+    seen_views: dict[tuple[str, str], int] = {}
+    for k, im in enumerate(images):
+        here = f"{where}: images[{k}]"
+        if not isinstance(im, dict):
+            raise InputError(f"{here}: must be an object, got {type(im).__name__}")
+        for key in ("file", "eye", "role"):
+            if key not in im:
+                raise InputError(f"{here}: missing field {key!r}")
+        file = _relative_file(im["file"], here, "file")
+        here = f"{where}: images[{k}] ({file})"
+        if file in seen_files:
+            raise InputError(f"{here}: same file as images[{seen_files[file]}]")
+        seen_files[file] = k
+        eye, role = im["eye"], im["role"]
+        if eye not in EYES:
+            raise InputError(f"{here}: field 'eye' must be 'left' or 'right', got {eye!r}")
+        if role not in ROLES:
+            raise InputError(f"{here}: field 'role' must be 'intrinsics' or 'pose', got {role!r}")
+        pan = tilt = None
+        view = im.get("view")
+        if view is not None:
+            if isinstance(view, bool) or not isinstance(view, (str, int)) or str(view) == "":
+                raise InputError(f"{here}: field 'view' must be a non-empty string, got {view!r}")
+            view = str(view)
+        if role == "pose":
+            for key in ("pan", "tilt", "view"):
+                if key not in im:
+                    raise InputError(f"{here}: missing field {key!r} (required for role 'pose')")
+            if angle_unit is None:
+                raise InputError(f"{where}: missing field 'angle_unit' ('deg' or 'rad'), "
+                                 "required when there are pose images")
+            pan = _number(im["pan"], here, "pan") * scale
+            tilt = _number(im["tilt"], here, "tilt") * scale
+            for name, a in (("pan", pan), ("tilt", tilt)):
+                if abs(a) > 2 * math.pi:
+                    raise InputError(f"{here}: field {name!r} = {im[name]!r} {angle_unit} is "
+                                     "more than a full turn: is angle_unit right?")
+            key2 = (eye, view)
+            if key2 in seen_views:
+                raise InputError(f"{here}: a second {eye} pose image for view {view!r} "
+                                 f"(first: images[{seen_views[key2]}])")
+            seen_views[key2] = k
+        path = root / file
+        if check_files and not path.is_file():
+            raise InputError(f"{here}: file does not exist ({path})")
+        entries.append(ImageEntry(index=k, file=file, path=path, eye=eye, role=role,
+                                  pan=pan, tilt=tilt, view=view))
+    return tuple(entries)
+
+
+def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
+                   check_files: bool = True) -> Dataset:
+    """Validate a manifest dict; ``root`` is the dataset folder (image paths are relative)."""
+    root = Path(root)
+    if not isinstance(obj, dict):
+        raise InputError(f"{where}: expected a JSON object, got {type(obj).__name__}")
+    if "format" not in obj:
+        raise InputError(f"{where}: missing field 'format' (expected {FORMAT!r})")
+    if obj["format"] != FORMAT:
+        raise InputError(f"{where}: field 'format' is {obj['format']!r}, this reader "
+                         f"understands {FORMAT!r}")
+    board = _parse_board(obj, where)
+    angle_unit = obj.get("angle_unit")
+    if angle_unit is not None and angle_unit not in ANGLE_UNITS:
+        raise InputError(f"{where}: field 'angle_unit' must be 'deg' or 'rad', "
+                         f"got {angle_unit!r}")
+    images = _parse_images(obj, where, root, angle_unit, check_files)
+    gt = obj.get("ground_truth")
+    gt_path = None
+    if gt is not None:
+        gt_path = root / _relative_file(gt, where, "ground_truth")
+        if check_files and not gt_path.is_file():
+            raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
+    return Dataset(root=root, manifest_path=Path(where), board=board,
+                   angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path)
+
+
+def load_dataset(path: str | os.PathLike) -> Dataset:
+    """Read and validate a dataset folder (or its ``manifest.json``); images stay unread."""
+    path = Path(path)
+    if path.is_dir():
+        manifest = path / MANIFEST
+    elif path.name.endswith(".json") or path.is_file():
+        manifest = path
+    else:
+        raise InputError(f"{path}: no such dataset folder")
+    if not manifest.is_file():
+        raise InputError(f"{manifest}: no manifest (a rasc dataset is a folder with "
+                         f"{MANIFEST} and its images)")
+    return parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
+
+
+# ------------------------------------------------------------------------- writing
+
+def _entry_dict(e: ImageEntry, angle_unit: str) -> dict:
+    d = {"file": e.file, "eye": e.eye, "role": e.role}
+    if e.view is not None:
+        d["view"] = e.view
+    if e.role == "pose":
+        scale = 180.0 / math.pi if angle_unit == "deg" else 1.0
+        d["pan"], d["tilt"] = e.pan * scale, e.tilt * scale
+    return d
+
+
+def _manifest_dict(board: Board, images: list[dict], angle_unit: str,
+                   ground_truth: str | None) -> dict:
+    obj = {"format": FORMAT, "board": board.to_dict(), "angle_unit": angle_unit,
+           "images": images}
+    if ground_truth is not None:
+        obj["ground_truth"] = ground_truth
+    return obj
+
+
+def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[dict], *,
+                   angle_unit: str = "deg", ground_truth: str | None = None,
+                   check_files: bool = True) -> Path:
+    """Validate and write ``manifest.json`` atomically; return its path.
+
+    Parameters
+    ----------
+    path : the dataset folder (or the manifest file inside it)
+    board : :class:`~rasc.camera.Board` or {"inner_corners": [nx, ny], "square_size": s}
+    images : list of image dicts exactly as in the manifest (file relative to the folder;
+        pan, tilt in ``angle_unit``)
+    ground_truth : file name of the ground-truth JSON, relative to the folder
+    check_files : require the images (and ground truth) to exist already
+    """
+    path = Path(path)
+    manifest = path if path.suffix == ".json" else path / MANIFEST
+    if isinstance(board, Board):
+        board = board.to_dict()
+    obj = {"format": FORMAT, "board": board, "angle_unit": angle_unit,
+           "images": [dict(im) for im in images]}
+    if ground_truth is not None:
+        obj["ground_truth"] = ground_truth
+    # json round trip: numpy scalars become numbers, and what is written is what is checked
+    obj = json.loads(json.dumps(obj, default=_jsonable))
+    parse_manifest(obj, manifest.parent, where=str(manifest), check_files=check_files)
+    write_json_atomic(manifest, obj)
+    return manifest
+
+
+def _jsonable(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, os.PathLike):
+        return os.fspath(o)
+    raise InputError(f"write_manifest: value of type {type(o).__name__} is not JSON data")
