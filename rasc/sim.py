@@ -496,7 +496,8 @@ class StereoHeadSim:
         self.data.mocap_quat[mocap] = q
         self._dirty = True
 
-    def _forward(self) -> None:
+    def forward(self) -> None:
+        """Bring ``data`` (bodies, cameras, sites) up to date with the last set angles/target."""
         if self._dirty:
             import_mujoco().mj_forward(self.model, self.data)
             self._dirty = False
@@ -505,14 +506,14 @@ class StereoHeadSim:
     def T_base_from_world(self) -> np.ndarray:
         """The target's pose in base coordinates, read back from the model's site (4, 4)."""
         self._require_board()
-        self._forward()
+        self.forward()
         i = self._ids["board_origin"]
         return invert_transform(self.T_scene_from_base) @ _pose(self.data.site_xpos[i],
                                                                 self.data.site_xmat[i])
 
     def T_cam_from_scene(self, eye: str) -> np.ndarray:
         """OpenCV pose of ``eye``'s camera at the current angles, from MuJoCo (4, 4)."""
-        self._forward()
+        self.forward()
         cam = self._ids[f"{self._eye(eye)}_camera"]
         return T_cam_from_scene_mujoco(self.data.cam_xpos[cam], self.data.cam_xmat[cam])
 
@@ -555,7 +556,7 @@ class StereoHeadSim:
                 self._renderer = mujoco.Renderer(self.model, height=h, width=w)
             except Exception as exc:  # GL context creation fails without a working backend
                 raise _gl_error(exc) from None
-        self._forward()
+        self.forward()
         self._renderer.update_scene(self.data, camera=name)
         return self._renderer.render().copy()
 
