@@ -1,0 +1,233 @@
+"""The calibrated stereo head: pan/tilt angles and image points → base coordinates.
+
+One eye (SPEC §1, eq. 1–2)::
+
+    T_cam_from_base(pan, tilt) = T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @ T_ptu_from_base
+    P(pan, tilt) = K [I|0] T_cam_from_base(pan, tilt)
+
+The head triangulates (SPEC §6): undistort both eyes' pixels (:mod:`rasc.lens`), then
+solve eq. 19 (:mod:`rasc.triangulation`) with each point's own angles. It is stored as a
+JSON-ready dict (:meth:`HeadCalibration.to_dict`), format ``rasc-head/1``, lengths in the
+unit the calibration used (metres in this project)::
+
+    {"format": "rasc-head/1",
+     "left":  {"K": 3x3, "dist": [k1, k2, p1, p2, ...], "T_cam_from_gaze": 4x4,
+               "T_ptu_from_base": 4x4, "image_size": [width, height]},
+     "right": {...}}
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rasc import lens, triangulation
+from rasc.errors import InputError
+from rasc.kinematics import T_gaze_from_ptu
+from rasc.transforms import invert_transform, validate_rigid_transform
+
+FORMAT = "rasc-head/1"
+EYE_FIELDS = ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base", "image_size")
+
+
+def _image_size(size, name: str) -> tuple[int, int]:
+    ok = (isinstance(size, list | tuple | np.ndarray) and len(size) == 2
+          and all(isinstance(s, int | np.integer) and not isinstance(s, bool) and s > 0
+                  for s in size))
+    if not ok:
+        raise InputError(f"{name}: expected [width, height], two positive integers, "
+                         f"got {size!r}")
+    return int(size[0]), int(size[1])
+
+
+def _angles(a, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(a, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: not numeric") from None
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name}: contains NaN or infinity")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class EyeCalibration:
+    """One eye's calibration.
+
+    Attributes
+    ----------
+    K : ndarray, shape (3, 3)
+        Intrinsics (pixels).
+    dist : ndarray, shape (k,), k in {0, 4, 5, 8}
+        OpenCV distortion coefficients ``k1 k2 p1 p2 [k3 [k4 k5 k6]]``.
+    T_cam_from_gaze : ndarray, shape (4, 4)
+        Hand-eye transform (the paper's ``T_cg``).
+    T_ptu_from_base : ndarray, shape (4, 4)
+        Mount of this eye's unit on the base (``T_pb``).
+    image_size : (int, int)
+        (width, height) in pixels.
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    T_cam_from_gaze: np.ndarray
+    T_ptu_from_base: np.ndarray
+    image_size: tuple[int, int]
+
+    def __post_init__(self):
+        self._check("eye")
+
+    def _check(self, where: str) -> None:
+        set_ = object.__setattr__
+        set_(self, "K", lens.validate_K(self.K, name=f"{where}.K"))
+        d = lens._coefficients(self.dist, name=f"{where}.dist")
+        n = 0 if self.dist is None else np.asarray(self.dist).size
+        set_(self, "dist", d[:n].copy())
+        for field in ("T_cam_from_gaze", "T_ptu_from_base"):
+            set_(self, field, validate_rigid_transform(getattr(self, field),
+                                                       name=f"{where}.{field}"))
+        set_(self, "image_size", _image_size(self.image_size, f"{where}.image_size"))
+
+    def T_cam_from_base(self, pan, tilt) -> np.ndarray:
+        """Eq. 1–2 at angles (radians, broadcast together) → (..., 4, 4)."""
+        pan, tilt = _angles(pan, "pan"), _angles(tilt, "tilt")
+        return self.T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @ self.T_ptu_from_base
+
+    def projection_matrix(self, pan, tilt) -> np.ndarray:
+        """``K [I|0] T_cam_from_base(pan, tilt)`` → (..., 3, 4), ideal (undistorted) pixels."""
+        return self.K @ self.T_cam_from_base(pan, tilt)[..., :3, :]
+
+    def project(self, p_base: np.ndarray, pan, tilt) -> np.ndarray:
+        """Pixels (with distortion) of points ``p_base`` (N, 3) at angles → uv (N, 2).
+
+        ``pan``, ``tilt``: scalars (one pose for all points) or shape (N,) (one per point).
+        Raises :class:`InputError` for a point at or behind the camera.
+        """
+        p_base = lens._points(p_base, "p_base", 3)
+        T = self.T_cam_from_base(pan, tilt)
+        if T.shape not in ((4, 4), (p_base.shape[0], 4, 4)):
+            raise InputError(f"pan, tilt: expected scalars or shape ({p_base.shape[0]},), "
+                             f"got {T.shape[:-2]}")
+        p_cam = np.einsum("...ij,...j->...i", T[..., :3, :3], p_base) + T[..., :3, 3]
+        return lens.project_points(p_cam, self.K, self.dist)
+
+    def undistort(self, uv: np.ndarray) -> np.ndarray:
+        """Distorted pixels (N, 2) → ideal pixels (N, 2) (:func:`rasc.lens.undistort_pixels`)."""
+        return lens.undistort_pixels(uv, self.K, self.dist)
+
+    def to_dict(self) -> dict:
+        return {"K": self.K.tolist(), "dist": self.dist.tolist(),
+                "T_cam_from_gaze": self.T_cam_from_gaze.tolist(),
+                "T_ptu_from_base": self.T_ptu_from_base.tolist(),
+                "image_size": list(self.image_size)}
+
+    @classmethod
+    def from_dict(cls, d, where: str = "eye") -> EyeCalibration:
+        """Inverse of :meth:`to_dict`; errors name the field as ``<where>.<field>``."""
+        if not isinstance(d, dict):
+            raise InputError(f"{where}: expected an object with fields {list(EYE_FIELDS)}")
+        missing = [f for f in EYE_FIELDS if f not in d]
+        if missing:
+            raise InputError(f"{where}.{missing[0]}: missing")
+        unknown = sorted(set(d) - set(EYE_FIELDS))
+        if unknown:
+            raise InputError(f"{where}.{unknown[0]}: unknown field (expected {list(EYE_FIELDS)})")
+        for f in ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base"):
+            if not isinstance(d[f], list):
+                raise InputError(f"{where}.{f}: expected a list of numbers, "
+                                 f"got {type(d[f]).__name__}")
+        eye = object.__new__(cls)
+        for f in EYE_FIELDS:
+            object.__setattr__(eye, f, d[f])
+        eye._check(where)
+        return eye
+
+
+@dataclass(frozen=True, eq=False)
+class HeadCalibration:
+    """Both eyes; maps pan/tilt angles and image points to base coordinates (SPEC §6)."""
+
+    left: EyeCalibration
+    right: EyeCalibration
+
+    def __post_init__(self):
+        for name in ("left", "right"):
+            if not isinstance(getattr(self, name), EyeCalibration):
+                raise InputError(f"{name}: expected an EyeCalibration")
+
+    def T_ptuL_from_ptuR(self) -> np.ndarray:
+        """The right unit's frame in the left one (4, 4), as the two mounts imply."""
+        return self.left.T_ptu_from_base @ invert_transform(self.right.T_ptu_from_base)
+
+    def project(self, p_base: np.ndarray, pan_left, tilt_left, pan_right, tilt_right):
+        """Both eyes' distorted pixels of ``p_base`` (N, 3) → (uv_left, uv_right), (N, 2) each."""
+        return (self.left.project(p_base, pan_left, tilt_left),
+                self.right.project(p_base, pan_right, tilt_right))
+
+    def triangulate(self, uv_left, uv_right, pan_left, tilt_left, pan_right, tilt_right,
+                    method: str = "ls", **kwargs) -> np.ndarray:
+        """Base coordinates of matched image points (eq. 15–19 after undistortion).
+
+        Parameters
+        ----------
+        uv_left, uv_right : array-like, shape (N, 2)
+            Measured (distorted) pixels of the same N points in each eye.
+        pan_left, tilt_left, pan_right, tilt_right : float or array-like, shape (N,)
+            Each eye's angles in radians: one pose for all points, or one per point.
+        method : {"ls", "tls"}
+        **kwargs
+            ``min_parallax_deg``, ``on_degenerate``: see
+            :func:`rasc.triangulation.triangulate`.
+
+        Returns
+        -------
+        p_base : ndarray, shape (N, 3)
+        """
+        uv = {}
+        P = {}
+        for name, eye, pts, pan, tilt in (("left", self.left, uv_left, pan_left, tilt_left),
+                                          ("right", self.right, uv_right, pan_right,
+                                           tilt_right)):
+            try:
+                uv[name] = eye.undistort(pts)
+            except InputError as exc:
+                raise InputError(f"{name}: {exc}") from None
+            P[name] = eye.projection_matrix(pan, tilt)
+            n = uv[name].shape[0]
+            if P[name].shape not in ((3, 4), (n, 3, 4)):
+                raise InputError(f"pan_{name}, tilt_{name}: expected scalars or shape ({n},), "
+                                 f"got {P[name].shape[:-2]}")
+        return triangulation.triangulate(P["left"], P["right"], uv["left"], uv["right"],
+                                         method, **kwargs)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (lists and numbers only), format ``rasc-head/1``."""
+        return {"format": FORMAT, "left": self.left.to_dict(), "right": self.right.to_dict()}
+
+    @classmethod
+    def from_dict(cls, d, source: str | None = None) -> HeadCalibration:
+        """Inverse of :meth:`to_dict`, validating every field.
+
+        ``source`` (e.g. a file name) prefixes error messages:
+        ``head.json: left.T_cam_from_gaze: rotation part is not orthonormal (...)``.
+        """
+        try:
+            if not isinstance(d, dict):
+                raise InputError(f"expected an object with format {FORMAT!r}, "
+                                 f"got {type(d).__name__}")
+            if d.get("format") != FORMAT:
+                raise InputError(f"format: expected {FORMAT!r}, got {d.get('format')!r}")
+            unknown = sorted(set(d) - {"format", "left", "right"})
+            if unknown:
+                raise InputError(f"{unknown[0]}: unknown field (expected format, left, right)")
+            eyes = {}
+            for name in ("left", "right"):
+                if name not in d:
+                    raise InputError(f"{name}: missing")
+                eyes[name] = EyeCalibration.from_dict(d[name], where=name)
+        except InputError as exc:
+            if source is None:
+                raise
+            raise InputError(f"{source}: {exc}") from None
+        return cls(eyes["left"], eyes["right"])
