@@ -81,9 +81,7 @@ class EyeCalibration:
     def _check(self, where: str) -> None:
         set_ = object.__setattr__
         set_(self, "K", lens.validate_K(self.K, name=f"{where}.K"))
-        d = lens._coefficients(self.dist, name=f"{where}.dist")
-        n = 0 if self.dist is None else np.asarray(self.dist).size
-        set_(self, "dist", d[:n].copy())
+        set_(self, "dist", lens.validate_dist(self.dist, name=f"{where}.dist"))
         for field in ("T_cam_from_gaze", "T_ptu_from_base"):
             set_(self, field, validate_rigid_transform(getattr(self, field),
                                                        name=f"{where}.{field}"))
@@ -104,7 +102,7 @@ class EyeCalibration:
         ``pan``, ``tilt``: scalars (one pose for all points) or shape (N,) (one per point).
         Raises :class:`InputError` for a point at or behind the camera.
         """
-        p_base = lens._points(p_base, "p_base", 3)
+        p_base = lens.as_points(p_base, "p_base", 3)
         T = self.T_cam_from_base(pan, tilt)
         if T.shape not in ((4, 4), (p_base.shape[0], 4, 4)):
             raise InputError(f"pan, tilt: expected scalars or shape ({p_base.shape[0]},), "

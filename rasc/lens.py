@@ -59,6 +59,17 @@ def _coefficients(dist, name: str = "dist") -> np.ndarray:
     return out
 
 
+def validate_dist(dist, name: str = "dist") -> np.ndarray:
+    """Check distortion coefficients; return them as given, (k,) with k in {0, 4, 5, 8}."""
+    n = _coefficients(dist, name)
+    return n[: 0 if dist is None else np.asarray(dist).size].copy()
+
+
+def as_points(a, name: str, dim: int) -> np.ndarray:
+    """Check a finite (N, dim) array of points; errors name ``name`` and the row."""
+    return _points(a, name, dim)
+
+
 def validate_K(K, name: str = "K") -> np.ndarray:
     """Check a camera matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]`` and return it (3, 3)."""
     try:

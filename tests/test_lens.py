@@ -217,3 +217,12 @@ def test_distortion_remap_flags_rays_outside_the_model():
     map_x, map_y = lens.distortion_remap(K_wide, DISTS["k5"], SIZE)
     assert map_x[0, 0] == -1.0 and map_y[0, 0] == -1.0
     assert map_x[480, 640] == pytest.approx(640.0, abs=1e-3)  # the centre maps to itself
+
+
+def test_validate_dist_accepts_opencv_shapes():
+    # cv2.calibrateCamera returns dist as (1, 5); the model reads it as five coefficients.
+    d = lens.validate_dist(np.array([DISTS["k5"]]))
+    np.testing.assert_array_equal(d, DISTS["k5"])
+    assert lens.validate_dist(None).shape == (0,)
+    with pytest.raises(InputError, match="left.dist: expected 0, 4, 5 or 8"):
+        lens.validate_dist([1.0, 2.0], name="left.dist")
