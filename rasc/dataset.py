@@ -266,11 +266,13 @@ def _parse_images(obj, where: str, root: Path, angle_unit: str | None,
         here = f"{where}: images[{k}]"
         if not isinstance(im, dict):
             raise InputError(f"{here}: must be an object, got {type(im).__name__}")
-        for key in ("file", "eye", "role"):
-            if key not in im:
-                raise InputError(f"{here}: missing field {key!r}")
+        if "file" not in im:
+            raise InputError(f"{here}: missing field 'file'")
         file = _relative_file(im["file"], here, "file")
         here = f"{where}: images[{k}] ({file})"
+        for key in ("eye", "role"):
+            if key not in im:
+                raise InputError(f"{here}: missing field {key!r}")
         if file in seen_files:
             raise InputError(f"{here}: same file as images[{seen_files[file]}]")
         seen_files[file] = k
@@ -393,7 +395,7 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     if isinstance(board, Board):
         board = board.to_dict()
     obj = {"format": FORMAT, "board": board, "angle_unit": angle_unit,
-           "images": [dict(im) for im in images]}
+           "images": [dict(im) if isinstance(im, dict) else im for im in images]}
     if ground_truth is not None:
         obj["ground_truth"] = ground_truth
     # json round trip: numpy scalars become numbers, and what is written is what is checked
