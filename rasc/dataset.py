@@ -384,7 +384,8 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     Parameters
     ----------
     path : the dataset folder (or the manifest file inside it)
-    board : :class:`~rasc.camera.Board` or {"inner_corners": [nx, ny], "square_size": s}
+    board : a Board (anything with ``to_dict()``) or
+        {"inner_corners": [nx, ny], "square_size": s}
     images : list of image dicts exactly as in the manifest (file relative to the folder;
         pan, tilt in ``angle_unit``)
     ground_truth : file name of the ground-truth JSON, relative to the folder
@@ -392,7 +393,7 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     """
     path = Path(path)
     manifest = path if path.suffix == ".json" else path / MANIFEST
-    if isinstance(board, Board):
+    if hasattr(board, "to_dict"):  # rasc.camera.Board, or rasc.sim.Board (same dict)
         board = board.to_dict()
     obj = {"format": FORMAT, "board": board, "angle_unit": angle_unit,
            "images": [dict(im) if isinstance(im, dict) else im for im in images]}

@@ -213,6 +213,8 @@ def test_not_found_is_reported_not_raised():
     assert list(corners) == ["good"]
     assert missing == ["blank", "noise", "half"]
     assert detect_corners(good, Board((7, 6), 0.03)) is None  # wrong board size
+    assert detect_corners(images["blank"], BOARD, fast_check=True) is None
+    assert detect_corners(good, BOARD, fast_check=True) is not None
     assert detect_corners(images["blank"], BOARD, method="sb") is None
 
 
