@@ -133,8 +133,11 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
 
 
 def _jpeg_size(f) -> tuple[int, int] | None:
+    """Scan JPEG segments for a start-of-frame marker; (width, height) or None."""
     f.seek(2)
     while True:
+        if f.read(1) != b"\xff":  # every segment starts with 0xFF
+            return None
         b = f.read(1)
         while b == b"\xff":  # fill bytes
             b = f.read(1)
@@ -147,6 +150,8 @@ def _jpeg_size(f) -> tuple[int, int] | None:
         if len(seglen) < 2:
             return None
         (length,) = struct.unpack(">H", seglen)
+        if length < 2:
+            return None
         if marker in (0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE,
                       0xCF):
             data = f.read(5)

@@ -1,6 +1,7 @@
 """Camera pipeline on synthetic truth: rendered boards, projected corners, known poses."""
 
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -25,6 +26,7 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.transforms import invert_transform, make_transform, rotation_error_deg
 
 BOARD = Board((9, 6), 0.03)
+STEREO_LEFT01 = Path(__file__).parent / "data" / "opencv-stereo-samples" / "left01.jpg"
 K_TRUE = np.array([[800.0, 0.0, 330.0], [0.0, 805.0, 245.0], [0.0, 0.0, 1.0]])
 DIST_TRUE = np.array([-0.2, 0.1, 0.001, -0.0005, 0.0])
 
@@ -248,9 +250,14 @@ def test_read_image_and_header_size(tmp_path):
         image_size(tmp_path / "b.png")
     with pytest.raises(InputError, match="does not exist"):
         read_image(tmp_path / "none.png")
-    (tmp_path / "c.jpg").write_bytes(b"\xff\xd8\xff\xe0\x00")  # truncated JPEG header
-    with pytest.raises(InputError, match="c.jpg"):
-        image_size(tmp_path / "c.jpg")
+    for bad in (b"\xff\xd8\xff\xe0\x00",  # truncated segment length
+                b"\xff\xd8\xff\xe0\x00\x00rest",  # impossible length 0 (must not loop)
+                b"\xff\xd8garbage"):  # no segment marker
+        (tmp_path / "c.jpg").write_bytes(bad)
+        with pytest.raises(InputError, match="c.jpg: cannot read image size"):
+            image_size(tmp_path / "c.jpg")
+    # the header is read, not the pixels: real JPEG files of both datasets
+    assert image_size(STEREO_LEFT01) == (640, 480)
 
 
 # ----------------------------------------------------------------------- intrinsics
