@@ -190,7 +190,8 @@ _SCENE_TEMPLATE = """\
   <worldbody>
     <geom name="floor" type="plane" size="0 0 0.05" material="floor" contype="0"
       conaffinity="0"/>
-    <camera name="overview" pos="-0.55 0.75 1.75" mode="targetbody" target="base_link"/>
+    <!-- for the rig picture: behind the head's right, looking at (0.35, 0, 1.2) -->
+    <camera name="overview" pos="-0.45 -0.75 1.6" xyaxes="0.6839 -0.7295 0 0.25 0.2344 0.9395"/>
     <body name="board_link" mocap="true" pos="{px} {py} {pz}" xyaxes="0 -1 0 0 0 -1">
       <site name="board_origin" size="0.005" group="5" rgba="1 0 0 0"/>
       <geom name="board_pattern" type="box" pos="{cx} {cy} {pt}" size="{hx} {hy} {pt}"

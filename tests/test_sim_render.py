@@ -98,6 +98,18 @@ def test_dense_one_metre_board():
         assert len(err) == 870 and _rms(err) < CORNER_RMS_PX, _rms(err)
 
 
+@pytest.mark.parametrize(("square", "distance"), [(0.02, 0.4), (0.05, 3.5)])
+def test_near_and_far_boards_survive_clipping(square, distance):
+    # Clipping planes are visual/map znear, zfar × statistic extent (SIM_NOTES): a board
+    # 0.4 m and 3.5 m away is rendered whole and its corners land where projected.
+    board = Board((9, 6), square)
+    with StereoHeadSim(board=board) as s:
+        m = s.model
+        assert m.vis.map.znear * m.stat.extent < 0.1 and m.vis.map.zfar * m.stat.extent > 5
+        s.set_target(T_base_from_world_facing(board, distance, (0.048, 0.15)))  # left eye
+        assert _rms(_corner_errors(s, "left")) < CORNER_RMS_PX
+
+
 def _grey_at(image, uv):
     u, v = np.rint(uv).astype(int)
     return float(np.median(image[v - 1:v + 2, u - 1:u + 2]))
