@@ -294,8 +294,10 @@ class StereoHeadSim:
         target (mocap body ``board_link``, site ``board_origin``, custom numerics
         ``rasc_board_*``) is optional.
     board : Board, optional
-        Instead of ``model_path``: generate the scene for this board (:func:`scene_xml`)
-        around ``head_path`` (default ``sim/models/stereo_head.xml``).
+        Instead of ``model_path``: generate the scene for this board (:func:`scene_xml`,
+        kept in ``self.scene_xml``) around the head model ``head_path``.
+    head_path : path, optional
+        Head model for ``board`` (default ``sim/models/stereo_head.xml``).
     image_size : (width, height), optional
         Render size; default the cameras' ``resolution`` (1280×960). K scales with it.
 
@@ -313,8 +315,8 @@ class StereoHeadSim:
                 raise InputError("StereoHeadSim: give model_path or board, not both")
             if head_path is not None and not Path(head_path).is_file():
                 raise InputError(f"{head_path}: head model file not found")
-            self.scene_xml = scene_xml(board, head_path)
             self.model_file = Path(HEAD_XML if head_path is None else head_path).resolve()
+            self.scene_xml = scene_xml(board, self.model_file)
             self.model = self._load(lambda: mujoco.MjModel.from_xml_string(self.scene_xml),
                                     self.model_file)
         else:

@@ -324,7 +324,7 @@ def test_facing_pose_puts_the_board_upright_ahead():
 
 # -- a modified model ----------------------------------------------------------------------
 
-def test_modified_model_changes_the_ground_truth(tmp_path):
+def test_modified_model_changes_the_ground_truth(tmp_path, monkeypatch):
     text = HEAD_XML.read_text()
     old_pos, new_pos = 'pos="0.048 0.036 0.021"', 'pos="0.058 0.026 0.041"'
     old_f, new_f = 'focalpixel="1152 1148.5"', 'focalpixel="1200 1190"'
@@ -342,6 +342,9 @@ def test_modified_model_changes_the_ground_truth(tmp_path):
         np.testing.assert_allclose(mod.T_cam_from_gaze("right"), ref.T_cam_from_gaze("right"),
                                    atol=TOL)
         assert mod.ground_truth()["model_file"] == str(head.resolve())
+    monkeypatch.chdir(tmp_path)  # a relative head path is taken from the working folder
+    with StereoHeadSim(board=DEFAULT_BOARD, head_path=head.name) as rel:
+        np.testing.assert_allclose(rel.K("left")[[0, 1], [0, 1]], [1200, 1190], atol=1e-3)
 
 
 # -- ground truth as data ------------------------------------------------------------------
