@@ -294,3 +294,11 @@ def test_unset_backend_is_probed_and_renders():
     assert proc.returncode == 0, proc.stdout + proc.stderr
     backend, mean = proc.stdout.split()
     assert backend in ("egl", "osmesa") and float(mean) > 10
+
+
+def test_importing_rasc_sim_loads_neither_mujoco_nor_cv2():
+    # mujoco must be imported only after the backend is chosen; cv2 never by rasc.sim.
+    proc = _python("import sys, rasc.sim; print('mujoco' in sys.modules, 'cv2' in sys.modules)",
+                   MUJOCO_GL=None)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["False", "False"]
