@@ -23,12 +23,12 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rasc.board import DEFAULT_BOARD, Board
 from rasc.errors import InputError, RascError
 from rasc.frames import EYES
 from rasc.transforms import invert_transform, make_transform, validate_rigid_transform
@@ -115,44 +115,6 @@ def import_mujoco():
 # Chessboard and scene
 
 
-@dataclass(frozen=True)
-class Board:
-    """Chessboard target (docs/CONTRACTS.md "The chessboard").
-
-    Corner (i, j), i fastest, is at ``(i·s, j·s, 0)`` in the board frame w; +z points into
-    the board; the square bounded by corners (0,0), (1,0), (0,1), (1,1) is black; the
-    (nx+1)×(ny+1) squares sit inside a white quiet zone one square wide.
-    """
-
-    inner_corners: tuple[int, int] = (9, 6)
-    square_size: float = 0.05
-
-    def __post_init__(self) -> None:
-        try:
-            nx, ny = (int(n) for n in self.inner_corners)
-            s = float(self.square_size)
-        except (TypeError, ValueError):
-            raise InputError(f"board: inner_corners must be two integers and square_size a "
-                             f"number, got {self.inner_corners!r}, {self.square_size!r}") from None
-        if nx < 2 or ny < 2 or (nx + ny) % 2 != 1:
-            raise InputError(f"board: inner_corners {(nx, ny)} must be at least 2 each with an "
-                             f"odd sum (e.g. 9x6), or the corner order is ambiguous")
-        if not (np.isfinite(s) and s > 0):
-            raise InputError(f"board: square_size must be positive, got {s}")
-        object.__setattr__(self, "inner_corners", (nx, ny))
-        object.__setattr__(self, "square_size", s)
-
-    def object_points(self) -> np.ndarray:
-        """Corners in the board frame w, shape (nx·ny, 3), i fastest."""
-        nx, ny = self.inner_corners
-        j, i = np.mgrid[0:ny, 0:nx]
-        return np.stack([i.ravel(), j.ravel(), np.zeros(nx * ny)], axis=1) * self.square_size
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"inner_corners": list(self.inner_corners), "square_size": self.square_size}
-
-
-DEFAULT_BOARD = Board()
 
 _SCENE_TEMPLATE = """\
 <!-- Stereo head and chessboard target{generated}.
