@@ -371,7 +371,7 @@ def test_bad_input_is_refused(sim, tmp_path):
         sim.set_target(np.diag([2.0, 1.0, 1.0, 1.0]))
     with pytest.raises(InputError, match="model file not found"):
         StereoHeadSim(tmp_path / "missing.xml")
-    with pytest.raises(InputError, match="nx \+ ny even"):
+    with pytest.raises(InputError, match=r"nx \+ ny even"):
         Board((8, 6), 0.05)
     with pytest.raises(InputError, match="square_size must be a positive number"):
         Board((9, 6), 0.0)
