@@ -284,7 +284,7 @@ def _pairs(n: int, pairs: str, home: int | None) -> tuple[np.ndarray, ...]:
 def _fmt_axis(v: np.ndarray) -> str:
     v = v / np.linalg.norm(v)
     v = -v if v[np.argmax(np.abs(v))] < 0 else v
-    return "[" + ", ".join(f"{x:.3f}" for x in v) + "]"
+    return "[" + ", ".join(f"{x:.3f}" for x in np.round(v, 3) + 0.0) + "]"  # no "-0.000"
 
 
 def _where(S: int, s: int) -> str:
