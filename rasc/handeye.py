@@ -91,7 +91,7 @@ class HandEyeDiagnostics:
         is not small (see ``MIN_AXIS_SPREAD``); ``inf`` when M has rank 2.
     cond_CtC : cond(CᵀC) of eq. 7's normal equations.
     min_rotation_deg, max_rotation_deg : smallest and largest rotation angle of the
-        unit's motions B_ij over all i ≠ j, degrees.
+        unit's motions B_ij among the method's pairs (all i ≠ j for RASC), degrees.
     """
 
     n_positions: int
@@ -458,7 +458,7 @@ def _diagnostics(out: dict, n: int, pair: tuple) -> HandEyeDiagnostics:
     sv = out["sv"][0]
     with np.errstate(divide="ignore"):
         cond_MtM = float((sv[0] / sv[2]) ** 2) if sv[2] > 0 else math.inf
-    theta = np.degrees(out["theta"][0])
+    theta = np.degrees(out["theta"][0][pair[2] | pair[3]])     # the method's motions
     return HandEyeDiagnostics(
         n_positions=n, n_pairs=int(pair[2].sum() + pair[3].sum()),
         n_pairs_used=int(out["W"][0].sum()),
