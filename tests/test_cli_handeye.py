@@ -36,9 +36,13 @@ EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
 GENERATOR = REPO / "examples" / "make_handeye_example.py"
 
 # Tolerances for the example (σ_r = 0.03°, σ_t = 0.5 mm on each extrinsic, 0.01°
-# encoder noise, nine ±8° positions). TODO(measured): set from a Monte Carlo over seeds.
-EXAMPLE_ROT_TOL_DEG = 0.1
-EXAMPLE_TRANS_TOL_M = 0.005
+# encoder noise, nine ±8° positions). Measured with solve_rasc over the generator's
+# seeds 0..999: rotation error mean 0.12°, 99.9th percentile 0.31°, max 0.32°;
+# translation mean 2.4 mm, 99.9th percentile 5.6 mm, max 5.7 mm (seed 0, the committed
+# file: 0.17°, 1.3 mm). The bounds sit just above the worst of 1000 draws, so they hold
+# for any honest solve of this noise and fail for a wrong unit, frame or inversion.
+EXAMPLE_ROT_TOL_DEG = 0.35
+EXAMPLE_TRANS_TOL_M = 0.006
 
 
 def _load_generator():
@@ -135,24 +139,39 @@ def test_bad_input_subprocess_one_line_exit_2_no_file(tmp_path):
 
 
 def test_method_names_match_the_solvers():
-    from rasc.handeye import METHODS
+    from rasc.methods import METHODS
 
     assert set(handeye_command.METHOD_NAMES) == set(METHODS)
 
 
+#: Measured on the example (OpenCV 4.14): OpenCV's ANDREFF stops with "Rotation
+#: normalization issue" on these ±8° motions (SIM_NOTES: it returns NaN at ±5° and
+#: ±10°); it may either fail cleanly or succeed. Every other method must succeed; they
+#: came within 0.17–0.19° and 1.2–1.9 mm of the truth, inside the RASC tolerances.
+MAY_FAIL = {"opencv-andreff"}
+
+
 @pytest.mark.parametrize("method", handeye_command.METHOD_NAMES)
-def test_each_method_runs_on_the_example(method, tmp_path, capsys):
+def test_each_method_recovers_the_example_or_fails_cleanly(method, tmp_path, capsys):
     if method.startswith("opencv-"):
         pytest.importorskip("cv2")
     out = tmp_path / "result.json"
     rc, stdout, stderr = run_cli([EXAMPLE, "--method", method, "--out", out], capsys)
-    assert rc == 0, stderr
     assert stdout == ""
+    if rc != 0 and method in MAY_FAIL:
+        assert rc == 2
+        lines = stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"rasc handeye: error: {EXAMPLE}: ")
+        assert method.removeprefix("opencv-").upper() in lines[0]
+        assert not out.exists()
+        return
+    assert rc == 0, stderr
     result = json.loads(out.read_text(encoding="utf-8"))
     assert result["method"] == method
-    T = np.asarray(result["T_cam_from_gaze"])
-    assert T.shape == (4, 4) and np.all(np.isfinite(T))
-    assert math.isfinite(result["quality"])
+    rot, trans = errors_of(result, gen.true_T_cam_from_gaze())
+    assert rot < EXAMPLE_ROT_TOL_DEG
+    assert trans < EXAMPLE_TRANS_TOL_M
+    assert 0.0 <= result["quality"] < 1.0
 
 
 def test_output_is_deterministic(tmp_path, capsys):
@@ -160,6 +179,23 @@ def test_output_is_deterministic(tmp_path, capsys):
     rc2, out2, _ = run_cli([EXAMPLE], capsys)
     assert rc1 == rc2 == 0
     assert out1 == out2
+
+
+def test_unusable_quality_warns_but_writes(tmp_path, capsys):
+    """Camera poses unrelated to the motions: eq. 10 above 1 -> one warning line, exit 0."""
+    rng = np.random.default_rng(11)
+    positions = [{"pan": pan, "tilt": tilt,
+                  "T_cam_from_world": make_transform(matrix_from_rotvec(rng.normal(0, 1.0, 3)),
+                                                     rng.normal(0, 1.0, 3)).tolist()}
+                 for pan, tilt in PAPER_POSES_DEG]
+    path = write_doc(tmp_path / "random.json", {"positions": positions})
+    out = tmp_path / "result.json"
+    rc, stdout, stderr = run_cli([path, "--out", out], capsys)
+    assert rc == 0 and stdout == ""
+    quality = json.loads(out.read_text(encoding="utf-8"))["quality"]
+    assert quality > 1.0
+    assert stderr.splitlines() == [f"rasc handeye: warning: quality {quality:.3g} > 1; "
+                                   "the paper found such solutions unusable"]
 
 
 def test_unknown_method_is_argparse_error(capsys):

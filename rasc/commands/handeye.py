@@ -52,7 +52,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def _solver(method: str):
     """The callable(T_cam_from_world, T_gaze_from_ptu) -> HandEyeResult for ``method``."""
-    from rasc.handeye import METHODS  # solvers import lazily: no cv2 unless needed
+    from rasc.methods import METHODS  # imported when needed; cv2 only by opencv-* calls
 
     return METHODS[method]
 
