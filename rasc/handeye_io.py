@@ -144,10 +144,16 @@ def _type_name(value: Any) -> str:
             type(None): "null"}.get(type(value), type(value).__name__)
 
 
+def _shown(value: Any, limit: int = 40) -> str:
+    """A JSON value as the user wrote it, cut to ``limit`` characters for messages."""
+    text = json.dumps(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _number(value: Any, name: str) -> float:
     """A finite JSON number (not a boolean, string or null)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{name} = {json.dumps(value)} is not a number")
+        raise InputError(f"{name} = {_shown(value)} is not a number")
     value = float(value)
     if math.isnan(value):
         raise InputError(f"{name} is NaN; give a finite number")
@@ -277,10 +283,10 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
     if unknown:
         raise InputError(f"unknown top-level key {unknown[0]!r}; allowed: " + ", ".join(TOP_KEYS))
     if "format" in doc and doc["format"] != FORMAT:
-        raise InputError(f"format = {json.dumps(doc['format'])}: expected {FORMAT!r}")
+        raise InputError(f"format = {_shown(doc['format'])}: expected {FORMAT!r}")
     angle_unit = doc.get("angle_unit", "deg")
     if angle_unit not in ANGLE_UNITS:
-        raise InputError(f"angle_unit = {json.dumps(angle_unit)}: expected 'deg' or 'rad'")
+        raise InputError(f"angle_unit = {_shown(angle_unit)}: expected 'deg' or 'rad'")
     length_unit = _optional_text(doc, "length_unit")
     description = _optional_text(doc, "description")
     if "positions" not in doc:

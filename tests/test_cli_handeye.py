@@ -22,6 +22,7 @@ import pytest
 
 from rasc.cli import main
 from rasc.commands import handeye as handeye_command
+from rasc.errors import DegenerateDataError
 from rasc.handeye_io import check_angle_unit
 from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
 from rasc.transforms import (
@@ -385,6 +386,8 @@ BAD_DOCS = {
                       ["positions[4].tilt = true is not a number"]),
     "string angle": (_set(("positions", 4, "pan"), "8"),
                      ['positions[4].pan = "8" is not a number']),
+    "long list as angle": (_set(("positions", 4, "pan"), list(range(1000))),
+                           ["positions[4].pan = [0, 1, 2, ", "... is not a number"]),
     "non-rigid scale": (_scale_rotation(3, 1.01),
                         ["positions[3].T_cam_from_world: rotation part is not orthonormal"]),
     "reflection": (_scale_rotation(1, -1.0),
@@ -498,11 +501,22 @@ def test_radians_as_degrees_rule_b(tmp_path, capsys):
                      tmp_path, capsys, prefix=f"{path}: ")
 
 
+def _solver_message(path: Path) -> str:
+    """What the solver itself says about the document's data (DegenerateDataError)."""
+    from rasc.handeye import solve_rasc
+    from rasc.handeye_io import load_handeye_input
+
+    data = load_handeye_input(path)
+    with pytest.raises(DegenerateDataError) as info:
+        solve_rasc(data.T_cam_from_world, data.T_gaze_from_ptu)
+    return str(info.value)
+
+
 def test_pan_only_is_degenerate(tmp_path, capsys):
     """The solver's DegenerateDataError, prefixed with the file name; no number."""
-    doc = _positions(_pan_only)(example_doc())
-    path = write_doc(tmp_path / "poses.json", doc)
+    path = write_doc(tmp_path / "poses.json", _positions(_pan_only)(example_doc()))
     line = assert_bad_input([path], [], tmp_path, capsys, prefix=f"{path}: ")
+    assert line == f"rasc handeye: error: {path}: {_solver_message(path)}"
     assert "tilt" in line  # says what data would fix it
 
 
@@ -510,7 +524,16 @@ def test_all_identical_positions_are_degenerate(tmp_path, capsys):
     doc = example_doc()
     doc["positions"] = [copy.deepcopy(doc["positions"][0]) for _ in range(5)]
     path = write_doc(tmp_path / "poses.json", doc)
-    assert_bad_input([path], [], tmp_path, capsys, prefix=f"{path}: ")
+    line = assert_bad_input([path], [], tmp_path, capsys, prefix=f"{path}: ")
+    assert line == f"rasc handeye: error: {path}: {_solver_message(path)}"
+
+
+@pytest.mark.parametrize("method", handeye_command.METHOD_NAMES)
+def test_degenerate_data_never_yields_a_number_with_any_method(method, tmp_path, capsys):
+    if method.startswith("opencv-"):
+        pytest.importorskip("cv2")
+    path = write_doc(tmp_path / "poses.json", _positions(_pan_only)(example_doc()))
+    assert_bad_input([path, "--method", method], [], tmp_path, capsys, prefix=f"{path}: ")
 
 
 # --------------------------------------------------------------------------- output path
