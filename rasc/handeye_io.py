@@ -195,8 +195,9 @@ def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
     ``"rad"``: any |angle| > 2π looks like degrees.
     ``"deg"``: (a) the largest |angle| is above 0 and below :data:`RADIANS_MAX_DEG`;
     or (b) the largest |angle| is at most 2π and every nonzero angle, read as radians,
-    is a whole number of degrees within :data:`RADIANS_ROUND_TOL_DEG`. Real degree data (integers
-    like 8, or encoder readings like 7.9875) trigger neither.
+    is a whole number of degrees within :data:`RADIANS_ROUND_TOL_DEG`. Real degree data
+    (integers like 8, or encoder readings like 7.9875) trigger neither. Not caught:
+    degrees given as radians when all are within ±2π (e.g. ±3 meaning ±3°).
     """
     if not angles:
         return
@@ -210,7 +211,7 @@ def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
     largest = abs(value_max)
     if 0.0 < largest < RADIANS_MAX_DEG:
         raise InputError(
-            f"every pan/tilt angle is below {RADIANS_MAX_DEG:g} with angle_unit 'deg' "
+            f"every |pan| and |tilt| is below {RADIANS_MAX_DEG:g} with angle_unit 'deg' "
             f"(largest {name_max} = {value_max:g}); they look like radians (motions under "
             f"{RADIANS_MAX_DEG:g} degree cannot calibrate); set angle_unit to 'rad'")
     nonzero = [(n, v) for n, v in angles if v != 0.0]

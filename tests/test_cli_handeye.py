@@ -489,6 +489,21 @@ def test_unreadable_input_file(tmp_path, capsys):
         path.chmod(0o644)
 
 
+def test_unreadable_input_file_as_root(tmp_path, capsys, monkeypatch):
+    """Root reads anything: make reading this one file fail as it would without permission."""
+    path = write_doc(tmp_path / "poses.json", example_doc())
+    real_read_bytes = Path.read_bytes
+
+    def read_bytes(self):
+        if self == path:
+            raise PermissionError(13, "Permission denied", str(self))
+        return real_read_bytes(self)
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    assert_bad_input([path], ["cannot read: Permission denied"], tmp_path, capsys,
+                     prefix=f"{path}: ")
+
+
 def test_radians_as_degrees_rule_b(tmp_path, capsys):
     """Radian values above 1 that are whole degrees in disguise (±60° as ±1.0472)."""
     doc = example_doc()
@@ -595,6 +610,21 @@ def test_out_is_checked_before_solving(tmp_path, capsys, monkeypatch):
     out = tmp_path / "missing" / "result.json"
     rc, _, stderr = run_cli([EXAMPLE, "--out", out], capsys)
     assert rc == 2 and "does not exist" in stderr
+
+
+def test_non_finite_solver_result_is_refused(tmp_path, capsys, monkeypatch):
+    """A solver that returns NaN (as OpenCV's can) gives an error, never a number."""
+    class NaNResult:
+        T_cam_from_gaze = np.full((4, 4), np.nan)
+        quality = float("nan")
+
+        def to_dict(self):
+            return {"diagnostics": {}}
+
+    monkeypatch.setattr(handeye_command, "_solver", lambda method: lambda T_cw, T_gp: NaNResult())
+    line = assert_bad_input([EXAMPLE, "--method", "opencv-tsai"], [], tmp_path, capsys,
+                            prefix=f"{EXAMPLE}: ")
+    assert "method opencv-tsai returned a non-finite result" in line
 
 
 def test_out_is_the_input(tmp_path, capsys):

@@ -4,6 +4,13 @@ Reads a ``rasc-handeye/1`` document (:mod:`rasc.handeye_io`), solves ``A X = X B
 ``X = T_cam_from_gaze`` with the chosen method (RASC, SPEC §3, by default) and writes the
 result as deterministic JSON to ``--out`` (atomically) or to stdout. The output path is
 checked before anything is read or solved; on any error no output file appears.
+
+Output (``rasc-handeye-result/1``): ``T_cam_from_gaze`` (4×4) and its inverse
+``T_gaze_from_cam`` (OpenCV's ``cam2gripper``), translations in the input's length unit;
+``quality`` (eq. 10) with a note; the solver's ``diagnostics``; ``method``,
+``n_positions``, ``input`` (the path as given), ``angle_unit``, ``length_unit``. A quality
+above 1 (unusable, paper section 3.2) adds one warning line on stderr; the exit status
+stays 0.
 """
 
 from __future__ import annotations
