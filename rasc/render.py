@@ -1,0 +1,216 @@
+"""Render a calibration dataset from the simulated head (``rasc render``).
+
+Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
+:mod:`rasc.dataset`): a folder of PNG images and ``manifest.json``, plus
+``ground_truth.json`` read from the model. Two kinds of views per eye:
+
+* ``intrinsics/<eye>_NNN.png`` — the board moved in front of the fixed camera (head at
+  home), as a person waves a board: random distance, tilt 20–45° about a random in-plane
+  axis, in-plane turn, position anywhere in the image with the whole board and a margin
+  visible (SPEC §7);
+* ``poses/<eye>_NN.png`` — the board fixed in front of the head, both eyes at each
+  pan-tilt position (the paper's nine by default); the left and right images of one
+  position share a ``view`` id, so they also serve as simultaneous views for loop closure.
+
+Every random draw comes from ``numpy.random.default_rng(seed)``; the same seed and
+options give byte-identical files.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rasc.board import Board
+from rasc.errors import InputError
+from rasc.frames import EYES
+from rasc.io import write_json_atomic
+from rasc.kinematics import PAPER_POSES_DEG
+from rasc.transforms import invert_transform, make_transform, matrix_from_rotvec
+
+#: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
+INTRINSICS_DISTANCE_M = (0.6, 1.2)
+INTRINSICS_TILT_DEG = (20.0, 45.0)
+INTRINSICS_TURN_DEG = 30.0
+#: the whole board with its quiet zone stays this many pixels inside the image
+MARGIN_PX = 12.0
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """What ``rasc render`` draws. Angles in degrees, lengths in metres."""
+
+    poses_deg: tuple[tuple[float, float], ...] = PAPER_POSES_DEG
+    n_intrinsics: int = 20
+    target_distance: float = 1.0
+    seed: int = 0
+    noise_sigma: float = 0.0        # grey levels
+    blur_sigma: float = 0.0         # pixels
+    dist: tuple[float, ...] = ()    # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
+
+    def __post_init__(self):
+        if self.n_intrinsics < 3:
+            raise InputError(f"--intrinsics-views: need at least 3, got {self.n_intrinsics}")
+        if len(self.poses_deg) < 3:
+            raise InputError(f"--poses: need at least 3 pan-tilt positions, got "
+                             f"{len(self.poses_deg)}")
+        if not self.target_distance > 0:
+            raise InputError(f"--distance must be positive, got {self.target_distance}")
+
+
+def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
+    """``"0,0;8,8;-8,0"`` → ((0, 0), (8, 8), (-8, 0)) degrees; ``"paper"`` → the nine."""
+    if text.strip() == "paper":
+        return PAPER_POSES_DEG
+    poses = []
+    for k, item in enumerate(text.split(";")):
+        parts = item.split(",")
+        try:
+            pan, tilt = (float(p) for p in parts)
+        except ValueError:
+            raise InputError(f"--poses: item {k} {item!r} is not 'pan,tilt' in degrees") from None
+        poses.append((pan, tilt))
+    return tuple(poses)
+
+
+def _outline(board: Board) -> np.ndarray:
+    """The board's printed area plus one square of quiet zone, (4, 3) in the board frame."""
+    nx, ny = board.inner_corners
+    s = board.square_size
+    return np.array([[-2 * s, -2 * s, 0], [(nx + 1) * s, -2 * s, 0],
+                     [(nx + 1) * s, (ny + 1) * s, 0], [-2 * s, (ny + 1) * s, 0]])
+
+
+def _visible(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray,
+             size: tuple[int, int]) -> bool:
+    p = _outline(board) @ T_cam_from_world[:3, :3].T + T_cam_from_world[:3, 3]
+    if np.any(p[:, 2] <= 0.05):
+        return False
+    uv = (p[:, :2] / p[:, 2:]) * [K[0, 0], K[1, 1]] + [K[0, 2], K[1, 2]]
+    w, h = size
+    return bool(np.all((uv >= MARGIN_PX) & (uv <= [w - 1 - MARGIN_PX, h - 1 - MARGIN_PX])))
+
+
+def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray,
+                           size: tuple[int, int], n: int) -> list[np.ndarray]:
+    """``n`` well-spread board poses ``T_cam_from_world`` fully inside the image.
+
+    The board faces the camera (board axes = camera axes), tilted by 20–45° about a random
+    axis in its plane and turned in-plane by up to ±30°; its centre lies on the ray of a
+    random pixel at a random distance. Rejection sampling keeps whole, margined boards.
+    """
+    nx, ny = board.inner_corners
+    centre_w = np.array([(nx - 1) / 2, (ny - 1) / 2, 0.0]) * board.square_size
+    K_inv = np.linalg.inv(K)
+    w, h = size
+    poses = []
+    for _ in range(200 * n):
+        if len(poses) == n:
+            break
+        d = rng.uniform(*INTRINSICS_DISTANCE_M)
+        psi = rng.uniform(0, 2 * np.pi)
+        tilt = np.radians(rng.uniform(*INTRINSICS_TILT_DEG))
+        turn = np.radians(rng.uniform(-INTRINSICS_TURN_DEG, INTRINSICS_TURN_DEG))
+        pixel = np.array([rng.uniform(0.2 * w, 0.8 * w), rng.uniform(0.2 * h, 0.8 * h), 1.0])
+        ray = K_inv @ pixel
+        R = matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) @ \
+            matrix_from_rotvec([0.0, 0.0, turn])
+        T = make_transform(R, d * ray / np.linalg.norm(ray) - R @ centre_w)
+        if _visible(T, board, K, size):
+            poses.append(T)
+    if len(poses) < n:
+        raise InputError(f"cannot place {n} whole boards of {nx}x{ny} corners, "
+                         f"{board.square_size} m squares, in the {w}x{h} image: the board is "
+                         f"too large for the camera; use a smaller board")
+    return poses
+
+
+class _Progress:
+    """Progress on stderr: an updating line on a terminal, else a line every 20 images."""
+
+    def __init__(self, total: int, quiet: bool):
+        self.total, self.done, self.quiet = total, 0, quiet
+        self.tty = sys.stderr.isatty()
+
+    def __call__(self, what: str) -> None:
+        self.done += 1
+        last = self.done == self.total
+        if self.quiet or not (self.tty or last or self.done % 20 == 0):
+            return
+        end = "\n" if last or not self.tty else "\r"
+        print(f"render: {self.done}/{self.total} {what:<28}", end=end, file=sys.stderr,
+              flush=True)
+
+
+def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
+                   model_path: str | Path | None = None, quiet: bool = False) -> Path:
+    """Render the dataset into folder ``out`` (created; must be empty or absent).
+
+    Returns the manifest path. Images are written as 8-bit grey PNG.
+    """
+    from rasc.camera import to_grey, write_image
+    from rasc.dataset import write_manifest
+    from rasc.sim import StereoHeadSim, T_base_from_world_facing, degrade
+
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"{out}: output folder exists and is not empty")
+    rng = np.random.default_rng(options.seed)
+    with StereoHeadSim(model_path) as sim:
+        if sim.board is None:
+            raise InputError(f"{sim.model_file}: the model has no calibration target")
+        board = sim.board
+        size = sim.image_size
+        gt = sim.ground_truth()
+        dist = np.zeros(5)
+        if options.dist:
+            dist[:len(options.dist)] = options.dist
+        for eye in EYES:
+            gt[eye]["dist"] = dist.tolist()
+        views: dict[str, dict] = {}
+        images: list[dict] = []
+        total = 2 * (options.n_intrinsics + len(options.poses_deg))
+        progress = _Progress(total, quiet)
+        (out / "intrinsics").mkdir(parents=True, exist_ok=True)
+        (out / "poses").mkdir(exist_ok=True)
+
+        def shoot(eye: str, name: str, entry: dict) -> None:
+            image = to_grey(sim.render(eye)[..., ::-1])
+            image = degrade(image, rng, K=sim.K(eye), dist=dist if options.dist else None,
+                            blur_sigma=options.blur_sigma, noise_sigma=options.noise_sigma)
+            write_image(out / name, image)
+            images.append({"file": name, "eye": eye, **entry})
+            views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
+                           "T_base_from_world": sim.T_base_from_world.tolist(),
+                           **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
+            progress(name)
+
+        for eye in EYES:
+            sim.set_angles("left", 0.0, 0.0)
+            sim.set_angles("right", 0.0, 0.0)
+            T_base_from_cam = invert_transform(sim.T_cam_from_base(eye))
+            for k, T_cw in enumerate(intrinsics_board_poses(rng, board, sim.K(eye), size,
+                                                            options.n_intrinsics)):
+                sim.set_target(T_base_from_cam @ T_cw)
+                shoot(eye, f"intrinsics/{eye}_{k:03d}.png", {"role": "intrinsics"})
+        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        for k, (pan, tilt) in enumerate(options.poses_deg):
+            for eye in EYES:
+                sim.set_angles(eye, np.radians(pan), np.radians(tilt))
+            for eye in EYES:
+                shoot(eye, f"poses/{eye}_{k:02d}.png",
+                      {"role": "pose", "pan": float(pan), "tilt": float(tilt),
+                       "view": f"{k:02d}"})
+        gt["views"] = views
+        gt["render_options"] = {"seed": options.seed, "n_intrinsics": options.n_intrinsics,
+                                "poses_deg": [list(p) for p in options.poses_deg],
+                                "target_distance": options.target_distance,
+                                "noise_sigma": options.noise_sigma,
+                                "blur_sigma": options.blur_sigma, "dist": dist.tolist()}
+        gt["model_file"] = Path(gt["model_file"]).name
+    write_json_atomic(out / "ground_truth.json", gt)
+    return write_manifest(out, board, images, angle_unit="deg",
+                          ground_truth="ground_truth.json")
