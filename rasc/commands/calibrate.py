@@ -1,0 +1,98 @@
+"""``rasc calibrate DATASET [--out FILE]``: calibrate the whole head from a dataset.
+
+detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → one JSON
+calibration (``rasc-calibration/1``, :mod:`rasc.pipeline`); with ground truth in the
+dataset, also the errors against it. Written atomically; on any error, no file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from rasc.errors import InputError
+from rasc.io import check_writable, dumps_json, write_json_atomic
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "calibrate", help="calibrate the whole head from a dataset (images + manifest)",
+        description="Detect the board, calibrate intrinsics, per-pose extrinsics, hand-eye "
+                    "per eye (RASC) and base-to-ptu; write one JSON calibration.")
+    p.add_argument("dataset", metavar="DATASET", help="dataset folder (with manifest.json)")
+    p.add_argument("--out", metavar="FILE", help="output JSON (default: stdout)")
+    p.add_argument("--method", default="rasc",
+                   choices=("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
+                            "opencv-andreff", "opencv-daniilidis"),
+                   help="hand-eye method (default rasc)")
+    p.add_argument("--detector", default="saddle", choices=("classic", "saddle", "sb"),
+                   help="corner detector (default saddle: classic + saddle-point refinement)")
+    p.add_argument("--dist-model", default="k1k2", choices=("opencv5", "k1k2", "none"),
+                   help="lens distortion model (default k1k2)")
+    p.add_argument("--keep-outliers", action="store_true",
+                   help="keep intrinsics views flagged as outliers")
+    p.add_argument("--mounts", metavar="FILE",
+                   help="measured mounts: JSON with T_ptuL_from_ptuR (4x4), the right unit's "
+                        "frame in the left one; used instead of loop closure")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=run)
+    return p
+
+
+def _read_mounts(path: str) -> np.ndarray:
+    import json
+
+    from rasc.transforms import validate_rigid_transform
+    try:
+        with open(path, encoding="utf-8") as f:
+            obj = json.load(f)
+    except FileNotFoundError:
+        raise InputError(f"{path}: mounts file does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: "
+                         f"{exc.msg}") from None
+    if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
+        raise InputError(f"{path}: expected an object with field T_ptuL_from_ptuR (4x4)")
+    return validate_rigid_transform(obj["T_ptuL_from_ptuR"], name=f"{path}: T_ptuL_from_ptuR")
+
+
+def run(args: argparse.Namespace) -> int:
+    from rasc.dataset import load_dataset
+    from rasc.pipeline import CalibrationOptions, calibrate_dataset
+
+    if args.out:
+        check_writable(args.out)
+    mounts = _read_mounts(args.mounts) if args.mounts else None
+    dataset = load_dataset(Path(args.dataset))
+    options = CalibrationOptions(method=args.method, detector=args.detector,
+                                 dist_model=args.dist_model,
+                                 exclude_outliers=not args.keep_outliers,
+                                 T_ptuL_from_ptuR_measured=mounts)
+
+    def log(msg: str) -> None:
+        if not args.quiet:
+            print(f"calibrate: {msg}", file=sys.stderr, flush=True)
+
+    cal = calibrate_dataset(dataset, options, log=log)
+    doc = cal.to_dict()
+    doc["dataset"] = str(args.dataset)
+    if args.out:
+        write_json_atomic(args.out, doc)
+    else:
+        sys.stdout.write(dumps_json(doc))
+    if not args.quiet:
+        for eye in ("left", "right"):
+            r = cal.eyes[eye]
+            line = (f"{eye}: intrinsics RMS {r.intrinsics.rms:.3f} px, quality "
+                    f"{r.handeye.quality:.2e}")
+            if cal.errors:
+                e = cal.errors[eye]["T_cam_from_gaze"]
+                line += (f", T_cam_from_gaze error {e['rotation_deg']:.4f} deg "
+                         f"{1000 * e['translation']:.3f} mm")
+            log(line)
+    return 0

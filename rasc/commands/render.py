@@ -1,0 +1,85 @@
+"""``rasc render [--model PATH] [--out DIR] [...]``: render a calibration dataset.
+
+Writes the dataset format of :mod:`rasc.dataset` (``manifest.json``, PNG images) plus
+``ground_truth.json`` read from the model: intrinsics views of the board waved in front
+of each fixed camera and the pan-tilt positions (the paper's nine by default) for both
+eyes. See :mod:`rasc.render`. The folder is built under a temporary name and renamed
+when complete, so an interrupted run leaves no partial dataset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from rasc.errors import InputError
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        msg = f"expected comma-separated numbers, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "render", help="render a calibration dataset from the simulated head",
+        description="Render intrinsics views and pan-tilt pose views of the chessboard for "
+                    "both eyes of the simulated head, with ground truth.")
+    p.add_argument("--model", metavar="PATH", help="MJCF scene (default sim/models/scene.xml)")
+    p.add_argument("--out", metavar="DIR", default="dataset",
+                   help="output folder, must not exist or be empty (default ./dataset)")
+    p.add_argument("--poses", default="paper", metavar="LIST",
+                   help="pan,tilt pairs in degrees separated by ';' (default: 'paper', the "
+                        "nine positions (±8, ±8), (±8, 0), (0, ±8), (0, 0))")
+    p.add_argument("--intrinsics-views", type=int, default=20, metavar="N",
+                   help="intrinsics views per eye (default 20)")
+    p.add_argument("--distance", type=float, default=1.0, metavar="M",
+                   help="board distance in front of the head for pose views (default 1.0 m)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
+                   help="Gaussian pixel noise, grey levels (default 0)")
+    p.add_argument("--blur", type=float, default=0.0, metavar="SIGMA",
+                   help="Gaussian blur, pixels (default 0)")
+    p.add_argument("--distortion", type=_floats, default=(), metavar="K1,K2,P1,P2,K3",
+                   help="lens distortion applied by warping the renders (OpenCV model)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from rasc.render import RenderOptions, parse_poses, render_dataset
+
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"{out}: output folder exists and is not empty")
+    if not out.parent.is_dir():
+        raise InputError(f"{out}: parent folder {out.parent} does not exist")
+    if len(args.distortion) > 5:
+        raise InputError(f"--distortion: at most 5 coefficients (k1,k2,p1,p2,k3), got "
+                         f"{len(args.distortion)}")
+    options = RenderOptions(poses_deg=parse_poses(args.poses),
+                            n_intrinsics=args.intrinsics_views, target_distance=args.distance,
+                            seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
+                            dist=args.distortion)
+    t0 = time.perf_counter()
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet)
+        if out.exists():
+            out.rmdir()
+        tmp.rename(out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if not args.quiet:
+        print(f"render: wrote {out}/manifest.json ({time.perf_counter() - t0:.1f} s)",
+              file=sys.stderr)
+    return 0
