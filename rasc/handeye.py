@@ -233,20 +233,20 @@ def _pair_logs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     accurate at angle 0 (no division by sin) and at π (no division by cos).
     """
     q = _quaternions(R)                                          # (..., n, 4) [x y z w]
-    lead, n = q.shape[:-2], q.shape[-2]
+    n = q.shape[-2]
     x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    # Left-multiplication matrices L(q_a) r = q_a ⊗ r, laid out as rows (c, a), columns
-    # d: one product with the conjugates gives (q_a ⊗ q_b*)_c for every a, b.
-    L = np.stack([w, -z, y, x, z, w, -x, y, -y, x, w, z, -x, -y, -z, w], axis=-2)
-    L = np.swapaxes(L.reshape(lead + (4, 4, n)), -1, -2).reshape(lead + (4 * n, 4))
-    conj = q * np.array([-1.0, -1.0, -1.0, 1.0])
-    prod = (L @ np.swapaxes(conj, -1, -2)).reshape(lead + (4, n * n))
-    p = np.take(prod, i * n + j, axis=-1)                        # (..., 4, K): q_i ⊗ q_j*
-    v, w = p[..., :3, :], p[..., 3, :]
-    s = np.sqrt(v[..., 0, :] ** 2 + v[..., 1, :] ** 2 + v[..., 2, :] ** 2)
+    conj = np.swapaxes(q * np.array([-1.0, -1.0, -1.0, 1.0]), -1, -2)   # (..., 4, n)
+    flat = i * n + j
+    # Row c of the left-multiplication matrix, L(q_a) r = q_a ⊗ r, for every a: one
+    # (n × 4)(4 × n) product gives component c of q_a ⊗ q_b* for all a, b.
+    rows = ((w, -z, y, x), (z, w, -x, y), (-y, x, w, z), (-x, -y, -z, w))
+    vx, vy, vz, w = (np.take((np.stack(r, axis=-1) @ conj).reshape(q.shape[:-2] + (n * n,)),
+                             flat, axis=-1) for r in rows)       # (..., K) each
+    s = np.sqrt(vx * vx + vy * vy + vz * vz)
     # q and −q are one rotation: w ≥ 0 (angle ≤ π), i.e. the sign of w goes to the result.
     scale = np.divide(2.0 * np.arctan2(s, np.abs(w)), s, out=np.full_like(s, 2.0), where=s > 0)
-    return v * np.copysign(scale, w)[..., None, :]
+    np.copysign(scale, w, out=scale)
+    return np.stack([vx * scale, vy * scale, vz * scale], axis=-2)
 
 
 def pair_rotvecs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
@@ -397,19 +397,27 @@ def _normal_equations(W, R, t, Q, u, RX):
 def quality_eq10(R: np.ndarray, Q: np.ndarray, RX: np.ndarray) -> np.ndarray:
     """Eq. 10: mean over i ≠ j of ‖R_X Q_i Q_jᵀ R_Xᵀ − R_i R_jᵀ‖_F.
 
-    R (S, n, 3, 3) camera rotations ``R_cw``; Q (S or 1, n, 3, 3) unit rotations
-    ``R_gp``; RX (S, 3, 3) → (S,). Block (i, j) of ``P Nᵀ`` with ``P_i = [Y_i, R_i]``,
-    ``N_j = [Y_j, −R_j]`` and ``Y_i = R_X Q_i`` is ``X B_ij Xᵀ − A_ij``, formed in one
-    product (no cancellation after squaring, no n²×9 temporaries).
+    R (S, n, 3, 3) camera rotations ``R_cw`` (literal matrices allowed); Q (S or 1, n,
+    3, 3) unit rotations ``R_gp``; RX (S, 3, 3) a rotation → (S,).
+
+    With ``Y_i = R_X Q_i``, any rotation C and ``F_i = Y_i − R_i C``, the pair residual
+    is ``E_ij = Y_i Y_jᵀ − R_i R_jᵀ = P_i N_jᵀ`` with ``P_i = [R_i C, F_i]`` and
+    ``N_j = [F_j, Y_j]`` (3×6), so ``‖E_ij‖² = ⟨P_iᵀP_i, N_jᵀN_j⟩``: one n×36 by 36×n
+    product for all pairs. C is the rotation nearest to ``Σ R_iᵀ Y_i`` (for consistent
+    data every ``R_iᵀ Y_i`` is the same rotation), which keeps F of the size of the
+    residuals, so every term is of the size of ‖E‖² and nothing cancels.
     """
     S, n = R.shape[:2]
     Y = np.broadcast_to(RX[:, None] @ Q, R.shape)
-    P = np.concatenate([Y, R], axis=-1).reshape(S, 3 * n, 6)
-    N = np.concatenate([Y, -R], axis=-1).reshape(S, 3 * n, 6)
-    E = P @ _swap(N)
-    np.square(E, out=E)
-    x = E.reshape(S, n, 3, 3 * n).sum(axis=2).reshape(S, n, n, 3)
-    fro = np.sqrt(x[..., 0] + x[..., 1] + x[..., 2])
+    U, _, Vt = np.linalg.svd((_swap(R) @ Y).sum(axis=1))
+    C = U @ Vt                                     # orthogonal (a reflection would do too)
+    RC = R @ C[:, None]
+    F = Y - RC
+    P = np.concatenate([RC, F], axis=-1)                          # (S, n, 3, 6)
+    N = np.concatenate([F, Y], axis=-1)
+    Pg = (_swap(P) @ P).reshape(S, n, 36)
+    Ng = (_swap(N) @ N).reshape(S, n, 36)
+    fro = np.sqrt(np.maximum(Pg @ _swap(Ng), 0.0))                # (S, n, n)
     return (fro.sum(axis=(1, 2)) - np.trace(fro, axis1=1, axis2=2)) / (n * (n - 1))
 
 
