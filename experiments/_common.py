@@ -141,3 +141,104 @@ def stage(label: str):
             print(f"== {label}: {self.seconds:.1f} s", file=sys.stderr, flush=True)
             return False
     return _Stage()
+
+
+# ----------------------------------------------------------------------- shared context
+
+#: the paper's eq. 13–14 noise levels (SPEC §8): (σ_r rad, σ_t mm)
+PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
+
+
+class Context:
+    """What every experiment shares: arguments, and the default dataset rendered and
+    calibrated once (``out/data/``) through the real pipeline.
+
+    ``ctx.dataset_dir()`` renders the default dataset (seeded by ``--seed``) on first
+    use; ``ctx.calibration()`` runs ``rasc.pipeline.calibrate_dataset`` on it once and
+    writes ``out/data/calibration.json``; ``ctx.truth()`` is its ``ground_truth.json``.
+    Experiments write into ``ctx.dir(name)`` and return a :class:`Section` for the report.
+    """
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.seed: int = args.seed
+        self.quick: bool = args.quick
+        self.out: Path = Path(args.out)
+        self.workers: int = args.workers
+        self._calibration = None
+        self._truth = None
+
+    @classmethod
+    def from_argv(cls, doc: str, argv: Sequence[str] | None = None) -> Context:
+        return cls(parse_args(doc, argv))
+
+    def dir(self, name: str) -> Path:
+        path = self.out / name
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+
+    def dataset_dir(self) -> Path:
+        from rasc.render import RenderOptions, render_dataset
+
+        path = self.out / "data" / "dataset"
+        if not (path / "manifest.json").is_file():
+            import shutil
+            shutil.rmtree(path, ignore_errors=True)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with stage("render the default dataset (intrinsics views + nine poses, both eyes)"):
+                render_dataset(path, RenderOptions(seed=self.seed))
+        return path
+
+    def calibration(self):
+        """The pipeline's calibration of the default dataset (rasc.pipeline.Calibration)."""
+        if self._calibration is None:
+            from rasc.dataset import load_dataset
+            from rasc.pipeline import calibrate_dataset
+
+            ds = load_dataset(self.dataset_dir())
+            with stage("calibrate the default dataset (detection, intrinsics, extrinsics, "
+                       "RASC, loop closure)"):
+                self._calibration = calibrate_dataset(ds)
+            doc = self._calibration.to_dict()
+            doc.pop("timings_s", None)  # wall times are not results: keep files identical
+            write_json(self.out / "data" / "calibration.json", doc)
+        return self._calibration
+
+    def truth(self) -> dict:
+        if self._truth is None:
+            import json
+            with open(self.dataset_dir() / "ground_truth.json") as f:
+                self._truth = json.load(f)
+        return self._truth
+
+
+class Section:
+    """One experiment's part of REPORT.md: markdown text plus the files it made."""
+
+    def __init__(self, key: str, title: str, markdown: str, files: Sequence[Path] = (),
+                 summary: dict | None = None) -> None:
+        self.key, self.title, self.markdown = key, title, markdown
+        self.files = list(files)
+        self.summary = summary or {}
+
+
+def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    """A markdown table; floats as given (format them before)."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def save_figure(fig, path_stem: Path) -> list[Path]:
+    """Save a matplotlib figure as PNG and SVG, deterministically (no dates/ids)."""
+    import matplotlib
+
+    paths = []
+    for ext, meta in ((".png", {"Software": None}), (".svg", {"Date": None})):
+        path = path_stem.with_suffix(ext)
+        buf = io.BytesIO()
+        with matplotlib.rc_context({"svg.hashsalt": "rasc"}):
+            fig.savefig(buf, format=ext[1:], dpi=120, metadata=meta, bbox_inches="tight")
+        from rasc.io import write_bytes_atomic
+        write_bytes_atomic(path, buf.getvalue())
+        paths.append(path)
+    return paths
