@@ -504,3 +504,17 @@ def test_inverse_relation_of_the_two_orientations():
     np.testing.assert_allclose(b[:3, :3], a[:3, :3].T, atol=1e-12)
     d = np.linalg.norm(invert_transform(b)[:3, 3] - a[:3, 3])
     assert 1e-9 < d < 0.1  # translations differ slightly under noise (measured 1.0e-2)
+
+
+def test_far_from_orthogonal_input_without_rigidity_check():
+    """check_rigid=False and a rotation block scaled by 2 (Newton–Schulz diverges): the
+    rotation step falls back to the SVD projection, so a scaled view is read as its
+    rotation — the scale then only disturbs eq. 7 and eq. 10. Exact data otherwise:
+    the rotation is still recovered (1e-9)."""
+    rng = np.random.default_rng(24)
+    X, Y = rig(rng)
+    T_cw = X @ PAPER @ Y
+    T_cw[3, :3, :3] *= 2.0
+    res = solve_rasc(T_cw, PAPER, check_rigid=False)
+    np.testing.assert_allclose(res.T_cam_from_gaze[:3, :3], X[:3, :3], atol=1e-9)
+    assert res.quality > 0.1
