@@ -125,6 +125,9 @@ class HandEyeResult:
     method: str
     diagnostics: HandEyeDiagnostics
 
+    def __post_init__(self):
+        _freeze(self, "T_cam_from_gaze")
+
     def to_dict(self) -> dict[str, Any]:
         return {"method": self.method,
                 "T_cam_from_gaze": np.asarray(self.T_cam_from_gaze).tolist(),
@@ -138,6 +141,17 @@ class HandEyeBatchResult:
 
     T_cam_from_gaze: np.ndarray
     quality: np.ndarray
+
+    def __post_init__(self):
+        _freeze(self, "T_cam_from_gaze")
+        _freeze(self, "quality")
+
+
+def _freeze(obj: Any, field: str) -> None:
+    """Store a read-only float copy of an array field of a frozen dataclass."""
+    a = np.array(getattr(obj, field), dtype=float)
+    a.flags.writeable = False
+    object.__setattr__(obj, field, a)
 
 
 # --------------------------------------------------------------------------- input

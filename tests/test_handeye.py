@@ -518,3 +518,15 @@ def test_far_from_orthogonal_input_without_rigidity_check():
     res = solve_rasc(T_cw, PAPER, check_rigid=False)
     np.testing.assert_allclose(res.T_cam_from_gaze[:3, :3], X[:3, :3], atol=1e-9)
     assert res.quality > 0.1
+
+
+def test_results_are_immutable():
+    T_cw, T_gp = _data(PAPER_POSES_DEG)
+    res = solve_rasc(T_cw, T_gp)
+    with pytest.raises(ValueError):
+        res.T_cam_from_gaze[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        res.quality = 0.0
+    out = solve_rasc_batch(T_cw[None], T_gp)
+    with pytest.raises(ValueError):
+        out.quality[0] = 0.0
