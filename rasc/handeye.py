@@ -180,12 +180,13 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
         k = tuple(int(x) for x in np.argwhere(bad)[0])
         return k, f"{name}[{_index_str(k)}]"
 
-    finite = np.isfinite(T).all(axis=(-1, -2))
-    if not finite.all():
-        raise InputError(f"{first(~finite)[1]}: contains NaN or infinity")
-    last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0]).max(axis=-1)
-    if last.max(initial=0.0) > RIGID_ATOL:
-        k, where = first(last > RIGID_ATOL)
+    # Each check is one reduction; the offending index is looked for only on failure.
+    if not np.isfinite(T).all():
+        raise InputError(f"{first(~np.isfinite(T).all(axis=(-1, -2)))[1]}: contains NaN "
+                         "or infinity")
+    last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0])
+    if last.size and last.max() > RIGID_ATOL:
+        k, where = first(last.max(axis=-1) > RIGID_ATOL)
         raise InputError(f"{where}: last row is {T[k][3].tolist()}, expected [0, 0, 0, 1]")
     R = T[..., :3, :3]
     det = np.linalg.det(R)
@@ -194,10 +195,10 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
         raise InputError(f"{where}: rotation block has determinant {det[k]:.6g}; a pose "
                          "needs a rotation (det +1)")
     if check_rigid:
-        err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
-        err = np.maximum(err, np.abs(det - 1.0))
-        if err.max(initial=0.0) > RIGID_ATOL:
-            k, where = first(err > RIGID_ATOL)
+        err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3))
+        if err.size and max(err.max(), np.abs(det - 1.0).max()) > RIGID_ATOL:
+            bad = (err.max(axis=(-1, -2)) > RIGID_ATOL) | (np.abs(det - 1.0) > RIGID_ATOL)
+            k, where = first(bad)
             try:
                 validate_rigid_transform(T[k], name=where)
             except InputError as exc:
@@ -254,20 +255,25 @@ def _pair_logs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     accurate at angle 0 (no division by sin) and at π (no division by cos).
     """
     q = _quaternions(R)                                          # (..., n, 4) [x y z w]
-    n = q.shape[-2]
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    lead, n = q.shape[:-2], q.shape[-2]
+    x, y, z, w = np.moveaxis(q, -1, 0)
+    nx, ny, nz = -x, -y, -z
+    # Left-multiplication matrices L(q_a) r = q_a ⊗ r, as [a, c, d]; row c times the
+    # conjugates [d, b] gives component c of q_a ⊗ q_b* for all a, b, one row at a time
+    # (one n×n temporary, not 4n×n: large temporaries cost page faults).
+    L = np.stack([w, nz, y, x, z, w, nx, y, ny, x, w, z, nx, ny, nz, w],
+                 axis=-1).reshape(lead + (n, 4, 4))
     conj = np.swapaxes(q * np.array([-1.0, -1.0, -1.0, 1.0]), -1, -2)   # (..., 4, n)
     flat = i * n + j
-    # Row c of the left-multiplication matrix, L(q_a) r = q_a ⊗ r, for every a: one
-    # (n × 4)(4 × n) product gives component c of q_a ⊗ q_b* for all a, b.
-    rows = ((w, -z, y, x), (z, w, -x, y), (-y, x, w, z), (-x, -y, -z, w))
-    vx, vy, vz, w = (np.take((np.stack(r, axis=-1) @ conj).reshape(q.shape[:-2] + (n * n,)),
-                             flat, axis=-1) for r in rows)       # (..., K) each
-    s = np.sqrt(vx * vx + vy * vy + vz * vz)
+    p = np.empty(lead + (4, len(flat)))
+    for c in range(4):
+        p[..., c, :] = np.take((L[..., c, :] @ conj).reshape(lead + (n * n,)), flat, axis=-1)
+    v, w = p[..., :3, :], p[..., 3, :]
+    s = np.sqrt(np.einsum("...ck,...ck->...k", v, v))
     # q and −q are one rotation: w ≥ 0 (angle ≤ π), i.e. the sign of w goes to the result.
     scale = np.divide(2.0 * np.arctan2(s, np.abs(w)), s, out=np.full_like(s, 2.0), where=s > 0)
-    np.copysign(scale, w, out=scale)
-    return np.stack([vx * scale, vy * scale, vz * scale], axis=-2)
+    v *= np.copysign(scale, w)[..., None, :]
+    return v
 
 
 def pair_rotvecs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
