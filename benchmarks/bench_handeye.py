@@ -132,7 +132,6 @@ def main(argv=None) -> int:
           "(OpenCV re-inverts the gripper poses; R R^T t != t at 1e-6)")
 
     S = args.batch
-    T_true = T_cw9  # noise added per sample below
     _, T_gp, X, Y, rng = paper_nine(1)
     T_true = X @ T_gp @ Y
     samples = perturb_T_cam_from_world(np.broadcast_to(T_true, (S, 9, 4, 4)), 0.01, 0.002, rng,
