@@ -71,10 +71,10 @@ class _Problem:
         D = skew(_left_jacobian(x[:3]).T) @ RX                    # D_m = [J_l e_m]× R_X
         dER = (np.einsum("kij,mjl->kmil", self.RA, D)
                - np.einsum("mij,kjl->kmil", D, self.RB))          # (K, m, 3, 3)
-        det = -np.einsum("mij,kj->kmi", D, self.tB)               # (K, m, 3)
+        d_et = -np.einsum("mij,kj->kmi", D, self.tB)              # (K, m, 3)
         J = self.J0.copy()
         J[:, :9, :3] = dER.reshape(-1, 3, 9).transpose(0, 2, 1)
-        J[:, 9:, :3] = det.transpose(0, 2, 1)
+        J[:, 9:, :3] = d_et.transpose(0, 2, 1)
         return J.reshape(-1, 6)
 
 
