@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -52,9 +53,21 @@ def _to_jsonable(obj: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
+#: an array holding only numbers (no nested array or object), as json.dumps(indent=2)
+#: writes it: one number a line. The newline after "[" cannot occur inside a JSON string
+#: (strings escape newlines), so text inside strings is never touched.
+_FLAT_NUMBER_ARRAY = re.compile(
+    r"\[\n\s*(-?[0-9][-+0-9.eE]*(?:,\n\s*-?[0-9][-+0-9.eE]*)*)\n\s*\]")
+
+
 def dumps_json(obj: Any) -> str:
-    """Deterministic JSON (sorted keys, fixed indentation): same data, same bytes."""
-    return json.dumps(obj, indent=2, sort_keys=True, default=_to_jsonable, allow_nan=False) + "\n"
+    """Deterministic JSON (sorted keys, fixed indentation): same data, same bytes.
+
+    Arrays of plain numbers stay on one line, so a 4×4 matrix reads as four rows.
+    """
+    text = json.dumps(obj, indent=2, sort_keys=True, default=_to_jsonable, allow_nan=False)
+    text = _FLAT_NUMBER_ARRAY.sub(lambda m: "[" + re.sub(r",\s+", ", ", m.group(1)) + "]", text)
+    return text + "\n"
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:

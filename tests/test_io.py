@@ -1,0 +1,57 @@
+"""Atomic, deterministic output (rasc.io)."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rasc.errors import InputError
+from rasc.io import check_writable, dumps_json, write_json_atomic
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers(-10**12, 10**12)
+    | st.floats(allow_nan=False, allow_infinity=False) | st.text(max_size=8),
+    lambda children: st.lists(children, max_size=4)
+    | st.dictionaries(st.text(max_size=5), children, max_size=4),
+    max_leaves=20)
+
+
+@settings(max_examples=300, deadline=None)
+@given(json_values)
+def test_dumps_json_round_trips(value):
+    # the compact number-array layout must never change what the JSON says
+    assert json.loads(dumps_json(value)) == json.loads(json.dumps(value))
+
+
+def test_matrix_rows_on_one_line_and_strings_untouched():
+    text = dumps_json({"T": np.eye(2), "s": "[1,\n 2]", "v": [1.5, -2e-9]})
+    assert '"T": [\n    [1.0, 0.0],\n    [0.0, 1.0]\n  ]' in text
+    assert '"v": [1.5, -2e-09]' in text
+    assert json.loads(text)["s"] == "[1,\n 2]"
+    assert dumps_json({"b": 1, "a": 2}) == dumps_json({"a": 2, "b": 1})  # sorted keys
+
+
+def test_nan_is_refused():
+    with pytest.raises(ValueError):
+        dumps_json({"x": float("nan")})
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.json"
+    with pytest.raises(ValueError):
+        write_json_atomic(target, {"x": float("nan")})
+    assert os.listdir(tmp_path) == []
+    write_json_atomic(target, {"x": 1})
+    assert json.loads(target.read_text()) == {"x": 1}
+
+
+def test_unwritable_paths(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        check_writable(tmp_path / "missing" / "x.json")
+    with pytest.raises(InputError, match="is a folder"):
+        check_writable(tmp_path)
+    with pytest.raises(InputError, match="does not exist"):
+        write_json_atomic(tmp_path / "missing" / "x.json", {})
