@@ -1,0 +1,589 @@
+"""E6a (beyond the paper): gaze->camera error against image-space corner noise, RASC and Li.
+
+Figure ``e6a/e6a_pixel_noise.png`` (+ .svg); raw results ``e6a/raw.csv`` and
+``e6a/pose_noise_raw.csv``; summaries ``e6a/summary.csv``, ``e6a/pose_noise.csv``,
+``e6a/summary.json``. Run::
+
+    python experiments/e6_pixel_noise.py [--seed S] [--quick] [--out DIR] [--workers N]
+
+Protocol. The paper perturbs the extrinsics ``T_cam_from_world`` directly (eq. 13-14);
+here the noise enters where it arises, in the image. The default dataset's nine pose
+renders per eye (``ctx.dataset_dir()``, poses/<eye>_NN.png, pan/tilt from the manifest)
+are detected ONCE with the pipeline's detector (``rasc.camera.detect_corners``, method
+"saddle"); for each corner-noise level sigma (px) and seed, independent Gaussian noise
+N(0, sigma^2) is added to both coordinates of every corner, every pose's extrinsics are
+re-estimated with the pipeline's intrinsics fixed (``ctx.calibration().eyes[eye]
+.intrinsics``; ``rasc.camera.estimate_extrinsics``), and RASC and Li solve
+``T_cam_from_gaze``, compared with the truth ``ctx.truth()[eye]["T_cam_from_gaze"]``
+(rotation: geodesic angle in degrees; translation: Euclidean distance in mm). Every
+(sigma, seed) task draws from its own generator, ``spawn_rngs(seed, n_seeds, 6, 1,
+round(1000 sigma))``, so results do not depend on ``--workers`` or on which levels run.
+The extrinsics' own errors against the rendered truth are also recorded and expressed as
+the paper's eq. 13-14 parameters (per-axis RMS rotation in rad, translation in mm), which
+puts every pixel level beside the paper's noise levels.
+
+The helpers below (pose corners, noisy extrinsics, one method run with failure
+classification) are shared with ``e6_shootout.py``.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+from _common import (
+    PAPER_LEVELS,
+    Context,
+    Section,
+    md_table,
+    read_csv,
+    run_tasks,
+    save_figure,
+    spawn_rngs,
+    stage,
+    write_csv,
+    write_json,
+)
+
+from rasc.camera import detect_corners, estimate_extrinsics
+from rasc.dataset import load_dataset
+from rasc.errors import InputError, RascError
+from rasc.frames import EYES
+from rasc.handeye import solve_rasc_batch
+from rasc.kinematics import T_gaze_from_ptu
+from rasc.methods import METHODS
+from rasc.noise import perturb_T_cam_from_world
+from rasc.transforms import rotation_error_deg, rotvec_from_matrix
+
+NAME = "e6a"
+#: corner-noise levels (px) and seeds per level: full protocol and --quick
+SIGMAS_PX = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0)
+N_SEEDS = 10
+QUICK_SIGMAS_PX = (0.0, 0.1, 0.5, 2.0)
+QUICK_N_SEEDS = 3
+SOLVERS = ("rasc", "li")
+#: spawn_rngs keys: image-noise tasks (E6, part 1), and the matched eq. 13-14 model;
+#: the level in milli-pixels follows
+RNG_KEY = (6, 1)
+MODEL_RNG_KEY = (6, 3)
+#: The eq. 13-14 model at the matched level (see ``run``): samples per level and eye.
+#: Batched RASC makes 200 nearly free; the standard error of its mean is then ~5 %,
+#: small beside the ~20 % of the 10 image-noise seeds it is compared with.
+MODEL_SAMPLES = 200
+QUICK_MODEL_SAMPLES = 20
+MODEL = "rasc-eq13"
+ALL_METHODS = (*SOLVERS, MODEL)
+
+#: A result is a gross failure above either threshold (the shoot-out's rule, applied here
+#: too): 10 deg and 100 mm are ~20x the worst honest error seen at 2 px of corner noise
+#: (about 1 deg / 35 mm, measured), so no honest solution is counted as failed, while a
+#: solver that has lost the rotation (errors of tens of degrees) or the translation
+#: (decimetres) is.
+GROSS_ROTATION_DEG = 10.0
+GROSS_TRANSLATION_MM = 100.0
+
+
+# ------------------------------------------------------------------ shared with E6b
+
+@dataclass(frozen=True)
+class EyeData:
+    """One eye's detected pose corners and everything needed to solve and score them.
+
+    Attributes
+    ----------
+    eye : "left" | "right"
+    files : tuple of str, length n (manifest file names, or synthetic labels)
+    corners : ndarray, shape (n, N, 2), canonical order, pixels
+    T_gaze_from_ptu : ndarray, shape (n, 4, 4), eq. 3 at the commanded angles
+    K : ndarray, shape (3, 3); dist : ndarray, shape (5,) (the pipeline's intrinsics)
+    T_cam_from_gaze_true : ndarray, shape (4, 4)
+    T_cam_from_world_true : ndarray, shape (n, 4, 4) (rendered truth per view)
+    """
+
+    eye: str
+    files: tuple[str, ...]
+    corners: np.ndarray
+    T_gaze_from_ptu: np.ndarray
+    K: np.ndarray
+    dist: np.ndarray
+    T_cam_from_gaze_true: np.ndarray
+    T_cam_from_world_true: np.ndarray
+
+
+def pose_eye_data(ctx: Context) -> dict[str, EyeData]:
+    """Detect (method "saddle") the default dataset's pose images of both eyes, once.
+
+    Raises
+    ------
+    rasc.errors.InputError
+        A pose image without a detectable board (names the file).
+    """
+    ds = load_dataset(ctx.dataset_dir())
+    cal, truth = ctx.calibration(), ctx.truth()
+    out = {}
+    for eye in EYES:
+        entries = ds.select(eye, "pose")
+        corners = []
+        for e in entries:
+            c = detect_corners(ds.read(e), ds.board, method="saddle")
+            if c is None:
+                raise InputError(f"{ds.manifest_path}: images[{e.index}] ({e.file}): board "
+                                 "not found; E6 needs every pose view")
+            corners.append(c)
+        pan = np.array([e.pan for e in entries])
+        tilt = np.array([e.tilt for e in entries])
+        intr = cal.eyes[eye].intrinsics
+        out[eye] = EyeData(
+            eye=eye, files=tuple(e.file for e in entries), corners=np.array(corners),
+            T_gaze_from_ptu=T_gaze_from_ptu(pan, tilt), K=np.array(intr.K),
+            dist=np.array(intr.dist),
+            T_cam_from_gaze_true=np.array(truth[eye]["T_cam_from_gaze"], dtype=float),
+            T_cam_from_world_true=np.array([truth["views"][e.file]["T_cam_from_world"]
+                                            for e in entries], dtype=float))
+    return out
+
+
+def noisy_extrinsics(data: EyeData, board, sigma_px: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """Add N(0, sigma_px^2) to every corner coordinate, re-estimate each view's extrinsics.
+
+    Draws one (N, 2) block per view, in view order (also for sigma = 0, so the stream
+    does not depend on the level). Returns ``T_cam_from_world`` (n, 4, 4).
+    """
+    T = []
+    for c in data.corners:
+        noise = rng.standard_normal(c.shape)
+        T.append(estimate_extrinsics(c + sigma_px * noise, board, data.K, data.dist)[0])
+    return np.array(T)
+
+
+def pose_noise(T_est: np.ndarray, T_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Extrinsics error per camera axis: RMS rotation (rad) and translation, over the views.
+
+    Parameters
+    ----------
+    T_est, T_true : (n, 4, 4) ``T_cam_from_world``
+
+    Returns
+    -------
+    (rot_rms (3,), t_rms (3,)): RMS over views of the rotation-error vector
+    ``log(R_est R_true^T)`` and of ``t_est - t_true``, per camera axis (x right, y down,
+    z optical axis), in rad and in the input's length unit. The eq. 13-14 equivalent is
+    ``sqrt(mean(rot_rms^2))``: the paper draws ``R' = R (I + [w]x)``, i.e.
+    ``w = log(R_true^T R_est)`` in the board frame, and the per-axis RMS over all three
+    axes is the same in either frame (it depends on ``|w|`` only).
+    """
+    w = rotvec_from_matrix(T_est[:, :3, :3] @ np.swapaxes(T_true[:, :3, :3], -1, -2))
+    dt = T_est[:, :3, 3] - T_true[:, :3, 3]
+    return np.sqrt(np.mean(w**2, axis=0)), np.sqrt(np.mean(dt**2, axis=0))
+
+
+#: What a method may raise that counts as its failure (not a crash of the experiment):
+#: the library's errors (SolverFailure, DegenerateDataError, InputError) and numerical
+#: breakdowns. Programming errors (TypeError, AttributeError, ...) still propagate.
+FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
+
+
+def run_method(solver, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
+               T_cam_from_gaze_true: np.ndarray) -> dict:
+    """Run one hand-eye solver and score it against the truth, never raising on failure.
+
+    Parameters
+    ----------
+    solver : callable(T_cam_from_world (n,4,4), T_gaze_from_ptu (n,4,4)) -> HandEyeResult
+    T_cam_from_gaze_true : (4, 4), metres
+
+    Returns
+    -------
+    dict with ``status`` ("ok", "exception", "nan" or "gross"), ``detail`` (exception
+    class and message, or the gross error), ``rotation_deg``, ``translation_mm``,
+    ``quality`` (NaN when there is no result).
+    """
+    nan = float("nan")
+    try:
+        res = solver(T_cam_from_world, T_gaze_from_ptu)
+    except FAILURES as exc:
+        msg = " ".join(str(exc).split())
+        return {"status": "exception", "detail": f"{type(exc).__name__}: {msg[:160]}",
+                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
+    T = np.asarray(res.T_cam_from_gaze, dtype=float)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        return {"status": "nan", "detail": "non-finite T_cam_from_gaze",
+                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
+    rot = float(rotation_error_deg(T[:3, :3], T_cam_from_gaze_true[:3, :3]))
+    trans = 1000.0 * float(np.linalg.norm(T[:3, 3] - T_cam_from_gaze_true[:3, 3]))
+    quality = float(res.quality)
+    if not (np.isfinite(rot) and np.isfinite(trans)):
+        return {"status": "nan", "detail": "non-finite error", "rotation_deg": nan,
+                "translation_mm": nan, "quality": quality}
+    gross = rot > GROSS_ROTATION_DEG or trans > GROSS_TRANSLATION_MM
+    return {"status": "gross" if gross else "ok",
+            "detail": f"{rot:.3g} deg, {trans:.3g} mm" if gross else "",
+            "rotation_deg": rot, "translation_mm": trans, "quality": quality}
+
+
+def mean_std(values) -> tuple[float, float]:
+    """Mean and sample standard deviation (ddof 1; 0 for one value; NaN for none)."""
+    v = np.asarray([float(x) for x in values], dtype=float)
+    if v.size == 0:
+        return float("nan"), float("nan")
+    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0
+
+
+# ------------------------------------------------------------------------ E6a itself
+
+RAW_HEADER = ("sigma_px", "seed", "eye", "method", "status", "rotation_deg",
+              "translation_mm", "quality", "detail")
+AXES = ("x", "y", "z")
+POSE_HEADER = ("sigma_px", "seed", "eye", *(f"rot_rms_{a}_rad" for a in AXES),
+               *(f"t_rms_{a}_mm" for a in AXES))
+
+
+def _task(task) -> tuple[list, list]:
+    """One (sigma, seed): both eyes' noisy extrinsics, RASC and Li. Top level for workers."""
+    sigma, seed_index, rng, eyes, board = task
+    rows, pose_rows = [], []
+    for data in eyes:
+        T_cw = noisy_extrinsics(data, board, sigma, rng)
+        rot_rms, t_rms = pose_noise(T_cw, data.T_cam_from_world_true)
+        pose_rows.append((sigma, seed_index, data.eye, *map(float, rot_rms),
+                          *map(float, 1000.0 * t_rms)))
+        for name in SOLVERS:
+            r = run_method(METHODS[name], T_cw, data.T_gaze_from_ptu, data.T_cam_from_gaze_true)
+            rows.append((sigma, seed_index, data.eye, name, r["status"], r["rotation_deg"],
+                         r["translation_mm"], r["quality"], r["detail"]))
+    return rows, pose_rows
+
+
+def matched_model(eyes: dict[str, EyeData], pose_rows: list[dict], n_samples: int,
+                  seed: int) -> list[tuple]:
+    """RASC under the paper's eq. 13-14 noise at the level the image noise produced.
+
+    For each sigma > 0 of ``pose_rows`` (``pose_noise.csv``), the true extrinsics are
+    perturbed by eq. 13-14 (exponential variant, so the matrices stay rigid) with
+    ``sigma_r``, ``sigma_t`` set to the measured per-axis RMS, ``n_samples`` times per
+    eye, and solved by batched RASC. Rows as ``raw.csv`` (method ``rasc-eq13``, ``seed``
+    = sample index). One generator per level: ``spawn_rngs(seed, 1, 6, 3, milli-px)``.
+    """
+    rows = []
+    for p in pose_rows:
+        sigma = float(p["sigma_px"])
+        if sigma == 0:
+            continue
+        sigma_r, sigma_t = float(p["eq13_sigma_r_rad"]), float(p["eq13_sigma_t_mm"]) / 1000
+        rng = spawn_rngs(seed, 1, *MODEL_RNG_KEY, int(round(1000 * sigma)))[0]
+        for eye in EYES:
+            d = eyes[eye]
+            T = np.broadcast_to(d.T_cam_from_world_true, (n_samples,
+                                                          *d.T_cam_from_world_true.shape))
+            T_noisy = perturb_T_cam_from_world(T, sigma_r, sigma_t, rng, variant="exponential")
+            res = solve_rasc_batch(T_noisy, d.T_gaze_from_ptu)
+            X_true = d.T_cam_from_gaze_true
+            rot = rotation_error_deg(res.T_cam_from_gaze[:, :3, :3], X_true[:3, :3])
+            trans = 1000.0 * np.linalg.norm(res.T_cam_from_gaze[:, :3, 3] - X_true[:3, 3],
+                                            axis=1)
+            rows += [(sigma, k, eye, MODEL, "ok", float(rot[k]), float(trans[k]),
+                      float(res.quality[k]), "") for k in range(n_samples)]
+    return rows
+
+
+def summarise(raw: list[dict]) -> list[tuple]:
+    """Per (sigma, method, eye): n, failures, mean/std of rotation (deg) and translation (mm)
+    over the non-failed samples, mean quality (eq. 10)."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in raw:
+        groups.setdefault((float(r["sigma_px"]), r["method"], r["eye"]), []).append(r)
+    out = []
+    for (sigma, method, eye), rs in sorted(groups.items(),
+                                           key=lambda kv: (kv[0][0], ALL_METHODS.index(kv[0][1]),
+                                                           EYES.index(kv[0][2]))):
+        ok = [r for r in rs if r["status"] == "ok"]
+        rm, rsd = mean_std(r["rotation_deg"] for r in ok)
+        tm, tsd = mean_std(r["translation_mm"] for r in ok)
+        qm, _ = mean_std(r["quality"] for r in ok)
+        out.append((sigma, method, eye, len(rs), len(rs) - len(ok), rm, rsd, tm, tsd, qm))
+    return out
+
+
+SUMMARY_HEADER = ("sigma_px", "method", "eye", "n", "failures", "rotation_mean_deg",
+                  "rotation_std_deg", "translation_mean_mm", "translation_std_mm",
+                  "quality_mean")
+
+
+def summarise_pose_noise(raw: list[dict]) -> list[tuple]:
+    """Per sigma: RMS over seeds and eyes per camera axis, and the eq. 13-14 equivalent
+    (sigma_r, sigma_t = RMS over the three axes) as a multiple of the paper's level 1."""
+    groups: dict[float, list[dict]] = {}
+    for r in raw:
+        groups.setdefault(float(r["sigma_px"]), []).append(r)
+    out = []
+    for sigma in sorted(groups):
+        rs = groups[sigma]
+
+        def rms(col, rs=rs):
+            return float(np.sqrt(np.mean([float(r[col]) ** 2 for r in rs])))
+        rot = [rms(f"rot_rms_{a}_rad") for a in AXES]
+        tr = [rms(f"t_rms_{a}_mm") for a in AXES]
+        sr, st = float(np.sqrt(np.mean(np.square(rot)))), float(np.sqrt(np.mean(np.square(tr))))
+        out.append((sigma, sr, st, sr / PAPER_LEVELS[0][0], st / PAPER_LEVELS[0][1], *rot, *tr))
+    return out
+
+
+POSE_SUMMARY_HEADER = ("sigma_px", "eq13_sigma_r_rad", "eq13_sigma_t_mm",
+                       "multiple_of_paper_level1_r", "multiple_of_paper_level1_t",
+                       *(f"rot_rms_{a}_rad" for a in AXES), *(f"t_rms_{a}_mm" for a in AXES))
+
+
+def slopes(summary: list[dict]) -> dict[str, float]:
+    """Least-squares slope through the origin of mean error against sigma (sigma > 0), per
+    method and eye: ``<method>_<eye>_deg_per_px`` and ``..._mm_per_px``."""
+    out = {}
+    for method in SOLVERS:
+        for eye in EYES:
+            rs = [r for r in summary if r["method"] == method and r["eye"] == eye
+                  and float(r["sigma_px"]) > 0]
+            s = np.array([float(r["sigma_px"]) for r in rs])
+            for col, unit in (("rotation_mean_deg", "deg"), ("translation_mean_mm", "mm")):
+                y = np.array([float(r[col]) for r in rs])
+                out[f"{method}_{eye}_{unit}_per_px"] = float(s @ y / (s @ s))
+    return out
+
+
+def plot(summary_csv, stem) -> list:
+    """Error against sigma (log-log), from the summary file; sigma = 0 as dotted lines."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = read_csv(summary_csv)
+    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4))
+    colours = {"left": "tab:blue", "right": "tab:orange"}
+    styles = {"rasc": ("-", "o", 1.6, "RASC"), "li": ("--", "s", 1.2, "Li"),
+              MODEL: (":", "x", 1.0, "RASC, eq. 13–14 at matched level")}
+    for ax, col, label in ((axes[0], "rotation_mean_deg", "rotation error (deg)"),
+                           (axes[1], "translation_mean_mm", "translation error (mm)")):
+        for method in ALL_METHODS:
+            ls, marker, lw, name = styles[method]
+            for eye in EYES:
+                rs = [r for r in rows if r["method"] == method and r["eye"] == eye]
+                pos = [(float(r["sigma_px"]), float(r[col])) for r in rs
+                       if float(r["sigma_px"]) > 0]
+                zero = [float(r[col]) for r in rs if float(r["sigma_px"]) == 0]
+                if pos:
+                    s, y = zip(*pos, strict=True)
+                    ax.plot(s, y, ls=ls, marker=marker, lw=lw, color=colours[eye],
+                            label=f"{name} {eye}")
+                if zero and method == "rasc":
+                    ax.axhline(zero[0], ls=(0, (1, 3)), lw=0.8, color=colours[eye])
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("corner noise σ (px)")
+        ax.set_ylabel(f"T_cam_from_gaze {label}")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7, loc="upper left")
+    fig.suptitle("E6a: hand-eye error vs image corner noise (mean over seeds; "
+                 "sparse dots: RASC at σ = 0)", fontsize=10)
+    fig.tight_layout()
+    paths = save_figure(fig, stem)
+    plt.close(fig)
+    return paths
+
+
+def _g(x, digits=3) -> str:
+    return f"{float(x):.{digits}g}"
+
+
+def _fit_slope(x, y) -> float:
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    return float(x @ y / (x @ x))
+
+
+def run(ctx: Context) -> Section:
+    sigmas = QUICK_SIGMAS_PX if ctx.quick else SIGMAS_PX
+    n_seeds = QUICK_N_SEEDS if ctx.quick else N_SEEDS
+    n_model = QUICK_MODEL_SAMPLES if ctx.quick else MODEL_SAMPLES
+    out = ctx.dir(NAME)
+    with stage("E6a: detect the nine pose views per eye (saddle)"):
+        eyes = pose_eye_data(ctx)
+        board = load_dataset(ctx.dataset_dir()).board
+    tasks = []
+    for sigma in sigmas:
+        rngs = spawn_rngs(ctx.seed, n_seeds, *RNG_KEY, int(round(1000 * sigma)))
+        tasks += [(sigma, k, rngs[k], [eyes[e] for e in EYES], board) for k in range(n_seeds)]
+    with stage(f"E6a: {len(sigmas)} corner-noise levels x {n_seeds} seeds x 2 eyes, "
+               "extrinsics + RASC + Li"):
+        results = run_tasks(_task, tasks, ctx.workers, label="E6a")
+    write_csv(out / "raw.csv", RAW_HEADER, [row for rows, _ in results for row in rows])
+    write_csv(out / "pose_noise_raw.csv", POSE_HEADER,
+              [row for _, rows in results for row in rows])
+    # ---- from here on, everything derives from the files written
+    pose = summarise_pose_noise(read_csv(out / "pose_noise_raw.csv"))
+    write_csv(out / "pose_noise.csv", POSE_SUMMARY_HEADER, pose)
+    pose_rows = read_csv(out / "pose_noise.csv")
+    with stage(f"E6a: eq. 13-14 at the matched levels, {n_model} samples x 2 eyes, RASC batch"):
+        write_csv(out / "eq13_matched_raw.csv", RAW_HEADER,
+                  matched_model(eyes, pose_rows, n_model, ctx.seed))
+    write_csv(out / "summary.csv", SUMMARY_HEADER,
+              summarise(read_csv(out / "raw.csv") + read_csv(out / "eq13_matched_raw.csv")))
+    summ_rows = read_csv(out / "summary.csv")
+    fig_paths = plot(out / "summary.csv", out / "e6a_pixel_noise")
+
+    by = {(float(r["sigma_px"]), r["method"], r["eye"]): r for r in summ_rows}
+    pos = [s for s in sigmas if s > 0]
+    top, low = max(pos), min(pos)
+
+    def mean_over_eyes(method, sigma, col):
+        return float(np.mean([float(by[(sigma, method, e)][col]) for e in EYES]))
+
+    # RASC vs Li over every (sigma > 0, eye, component) cell; image vs matched model
+    cells = [(s, e, c) for s in pos for e in EYES
+             for c in ("rotation_mean_deg", "translation_mean_mm")]
+    rasc_better = sum(float(by[(s, "rasc", e)][c]) < float(by[(s, "li", e)][c])
+                      for s, e, c in cells)
+    li_excess = {c: float(np.mean([float(by[(s, "li", e)][c]) / float(by[(s, "rasc", e)][c])
+                                   for s in pos for e in EYES]) - 1.0)
+                 for c in ("rotation_mean_deg", "translation_mean_mm")}
+    model_ratio = {c: float(np.mean([float(by[(s, "rasc", e)][c]) / float(by[(s, MODEL, e)][c])
+                                     for s in pos for e in EYES]))
+                   for c in ("rotation_mean_deg", "translation_mean_mm")}
+    pr = {float(r["sigma_px"]): r for r in pose_rows}
+    px_per_level1 = {
+        "rotation": PAPER_LEVELS[0][0] / _fit_slope(pos, [float(pr[s]["eq13_sigma_r_rad"])
+                                                          for s in pos]),
+        "translation": PAPER_LEVELS[0][1] / _fit_slope(pos, [float(pr[s]["eq13_sigma_t_mm"])
+                                                             for s in pos])}
+    doc = {
+        "protocol": {"sigmas_px": list(sigmas), "n_seeds": n_seeds, "seed": ctx.seed,
+                     "model_samples": n_model, "gross_rotation_deg": GROSS_ROTATION_DEG,
+                     "gross_translation_mm": GROSS_TRANSLATION_MM},
+        "failures": {m: int(sum(int(r["failures"]) for r in summ_rows if r["method"] == m))
+                     for m in ALL_METHODS},
+        "slopes": slopes(summ_rows),
+        "rasc_better_than_li_cells": [int(rasc_better), len(cells)],
+        "li_mean_excess_over_rasc": li_excess,
+        "image_over_matched_model": model_ratio,
+        "px_per_paper_level1": px_per_level1,
+        "eq13_equivalent": {f"{s!r}": {"sigma_r_rad": float(pr[s]["eq13_sigma_r_rad"]),
+                                       "sigma_t_mm": float(pr[s]["eq13_sigma_t_mm"])}
+                            for s in sigmas},
+        # per camera axis at the largest sigma: how unlike eq. 13-14's isotropic draws
+        "extrinsics_rms_per_camera_axis_at_max_sigma": {
+            "rotation_rad": [float(pr[top][f"rot_rms_{a}_rad"]) for a in AXES],
+            "translation_mm": [float(pr[top][f"t_rms_{a}_mm"]) for a in AXES]},
+    }
+    write_json(out / "summary.json", doc)
+    md = _markdown(ctx, sigmas, n_seeds, n_model, by, pr, doc)
+    files = [out / f for f in ("raw.csv", "pose_noise_raw.csv", "eq13_matched_raw.csv",
+                               "summary.csv", "pose_noise.csv", "summary.json")]
+    headline = {
+        "max_sigma_px": top, "min_positive_sigma_px": low,
+        "rasc_rotation_deg_at_max_sigma": mean_over_eyes("rasc", top, "rotation_mean_deg"),
+        "rasc_rotation_deg_at_min_positive_sigma": mean_over_eyes("rasc", low,
+                                                                  "rotation_mean_deg"),
+        "rasc_translation_mm_at_max_sigma": mean_over_eyes("rasc", top, "translation_mean_mm"),
+        "rasc_translation_mm_at_min_positive_sigma": mean_over_eyes("rasc", low,
+                                                                    "translation_mean_mm"),
+        "li_translation_mm_at_max_sigma": mean_over_eyes("li", top, "translation_mean_mm"),
+        "failures": sum(doc["failures"].values()),
+        "rasc_better_than_li_cells": doc["rasc_better_than_li_cells"],
+        "px_per_paper_level1_rotation": px_per_level1["rotation"],
+        "px_per_paper_level1_translation": px_per_level1["translation"],
+        **{f"slope_{k}": v for k, v in doc["slopes"].items()},
+    }
+    return Section(NAME, "E6a (beyond the paper): hand-eye error against image corner noise",
+                   md, [*files, *fig_paths], headline)
+
+
+def _markdown(ctx, sigmas, n_seeds, n_model, by, pr, doc) -> str:
+    def cell(s, m, e):
+        r = by[(s, m, e)]
+        return (f"{_g(r['rotation_mean_deg'])} ± {_g(r['rotation_std_deg'], 2)} / "
+                f"{_g(r['translation_mean_mm'])} ± {_g(r['translation_std_mm'], 2)}")
+
+    def short(s, m, e):
+        r = by[(s, m, e)]
+        return f"{_g(r['rotation_mean_deg'])} / {_g(r['translation_mean_mm'])}"
+
+    rows = [[f"{s:g}", f"{_g(pr[s]['eq13_sigma_r_rad'])} rad, {_g(pr[s]['eq13_sigma_t_mm'])} mm",
+             *(cell(s, m, e) for m in SOLVERS for e in EYES)] for s in sigmas]
+    table = md_table(["σ (px)", "extrinsics error as eq. 13–14 (σ_r, σ_t)",
+                      "RASC left", "RASC right", "Li left", "Li right"], rows)
+    model_rows = [[f"{s:g}", *(v for e in EYES
+                               for v in (short(s, "rasc", e), short(s, MODEL, e)))]
+                  for s in sigmas if s > 0]
+    model_table = md_table(["σ (px)", "left: image noise", "left: eq. 13–14 matched",
+                            "right: image noise", "right: eq. 13–14 matched"], model_rows)
+    sl, p1, p8 = doc["slopes"], PAPER_LEVELS[0], PAPER_LEVELS[-1]
+    lvl = doc["px_per_paper_level1"]
+    better, n_cells = doc["rasc_better_than_li_cells"]
+    ex = doc["li_mean_excess_over_rasc"]
+    mr = doc["image_over_matched_model"]
+    top = max(sigmas)
+    ax_r = doc["extrinsics_rms_per_camera_axis_at_max_sigma"]["rotation_rad"]
+    ax_t = doc["extrinsics_rms_per_camera_axis_at_max_sigma"]["translation_mm"]
+    fails = ", ".join(f"{m} {n}" for m, n in doc["failures"].items())
+    return f"""\
+**Protocol.** Default dataset (seed {ctx.seed}): the nine ±8° pose renders per eye, corners
+detected once ("saddle"), then Gaussian noise N(0, σ²) added to both coordinates of every
+corner; σ ∈ {{{", ".join(f"{s:g}" for s in sigmas)}}} px, {n_seeds} seeds per level (one
+generator per (σ, seed), spawned from the master seed); every pose's extrinsics
+re-estimated with the pipeline's intrinsics fixed; RASC and Li (home = the (0, 0) view)
+solve `T_cam_from_gaze`; errors against the rendered truth (rotation: geodesic angle;
+translation: distance). Mean ± sample std over the seeds. Failures (exception, NaN, or above
+{GROSS_ROTATION_DEG:g}° / {GROSS_TRANSLATION_MM:g} mm): {fails}. The paper has no
+image-space experiment: it says (section 4) that the error "arise[s] predominantly from the
+calibration procedure (image noise and errors in corner detection)" and models it by eq.
+13–14 on `T_cam_from_world`. The second column measures what σ px of corner noise does to
+the extrinsics, in the paper's own parameters (per-axis RMS of the rotation-error vector and
+of the translation error, over views, eyes and seeds), which puts each row beside the
+paper's levels: level 1 = ({p1[0]:g} rad, {p1[1]:g} mm) … level 8 = ({p8[0]:g} rad,
+{p8[1]:g} mm).
+
+Cells: rotation error (deg) ± std / translation error (mm) ± std.
+
+{table}
+![E6a: hand-eye error against corner noise](e6a/e6a_pixel_noise.png)
+
+Is eq. 13–14 a faithful stand-in for image noise? The same RASC, fed the true extrinsics
+perturbed by eq. 13–14 (exponential variant) at exactly the (σ_r, σ_t) of the second column
+({n_model} samples per level and eye); cells: mean rotation (deg) / translation (mm):
+
+{model_table}
+**Reading.** Above the noise-free floor (the σ = 0 row: detection and intrinsics errors
+alone) the errors grow in proportion to the corner noise: RASC {_g(sl['rasc_left_deg_per_px'])}
+/ {_g(sl['rasc_right_deg_per_px'])} deg and {_g(sl['rasc_left_mm_per_px'])} /
+{_g(sl['rasc_right_mm_per_px'])} mm per pixel of σ (left / right eye; slope through the
+origin of the means). RASC's mean error is below Li's in {better} of {n_cells} (σ > 0, eye,
+rotation/translation) cells; on average Li's mean is {100 * ex['rotation_mean_deg']:.0f} %
+above RASC's in rotation and {100 * ex['translation_mean_mm']:.0f} % in translation, less
+than the spread across seeds. That agrees with the paper's ranking (RASC lower on average;
+the rotation difference not significant) but not with a *significant* translation
+advantage: with the noise spread evenly over the views, Li's dependence on the home view
+(E2) costs little. The mapping to the paper's levels: for this camera (1280×960, fy ≈ 1159
+px, 9×6-corner board of 50 mm squares at 1 m) the paper's level 1 corresponds to about
+{_g(lvl['rotation'], 2)} px of corner noise by its rotation part and {_g(lvl['translation'], 2)}
+px by its translation part, so its eight levels span roughly 1–8 px: far coarser than
+sub-pixel detection (the pipeline's saddle refinement has 0.012 px RMS on these renders);
+the ratio of its rotation to its translation levels is the ratio image noise produces. Fed
+those matched
+levels, eq. 13–14 does not predict RASC's errors: the image-noise mean is on average
+{_g(mr['rotation_mean_deg'], 2)}× the model's in rotation and
+{_g(mr['translation_mean_mm'], 2)}× in translation. The reason is the shape of the
+extrinsics' error, which eq. 13–14 draws alike on every axis: at σ = {top:g} px its
+rotation part is {_g(ax_r[0], 2)}, {_g(ax_r[1], 2)}, {_g(ax_r[2], 2)} rad RMS about the camera's
+x, y and optical axes (the board's tilt is poorly seen, its in-plane turn well), and its
+translation part {_g(ax_t[0], 2)}, {_g(ax_t[1], 2)}, {_g(ax_t[2], 2)} mm (depth is poorly seen),
+with the tilt and the depth errors correlated. A noise model for this kind of bench would
+draw the extrinsics' error from the PnP covariance rather than isotropically.
+"""
+
+
+def main(argv=None) -> int:
+    ctx = Context.from_argv(__doc__, argv)
+    print(run(ctx).markdown)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
