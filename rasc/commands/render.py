@@ -10,6 +10,7 @@ when complete, so an interrupted run leaves no partial dataset.
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import sys
 import tempfile
@@ -58,20 +59,29 @@ def run(args: argparse.Namespace) -> int:
     from rasc.render import RenderOptions, parse_poses, render_dataset
 
     out = Path(args.out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: output folder exists as a file")
+    if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     if not out.parent.is_dir():
         raise InputError(f"{out}: parent folder {out.parent} does not exist")
-    if len(args.distortion) > 5:
-        raise InputError(f"--distortion: at most 5 coefficients (k1,k2,p1,p2,k3), got "
-                         f"{len(args.distortion)}")
+    if args.model is not None and not Path(args.model).is_file():
+        raise InputError(f"--model {args.model}: file not found")
     options = RenderOptions(poses_deg=parse_poses(args.poses),
                             n_intrinsics=args.intrinsics_views, target_distance=args.distance,
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
                             dist=args.distortion)
     t0 = time.perf_counter()
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create a folder in {out.parent}: "
+                         f"{exc.strerror or exc}") from None
+    try:
+        # mkdtemp makes the folder private (0700); the dataset gets the usual mode
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)
         render_dataset(tmp, options, model_path=args.model, quiet=args.quiet)
         if out.exists():
             out.rmdir()
