@@ -23,7 +23,7 @@ from rasc.base_to_ptu import (
     cyclopean_base,
     mount_errors,
 )
-from rasc.errors import InputError
+from rasc.errors import InputError, RascError
 from rasc.frames import EYES
 from rasc.head import EyeCalibration, HeadCalibration
 from rasc.kinematics import T_gaze_from_ptu
@@ -106,10 +106,56 @@ class _Timer:
         self.timings[stage] = self.timings.get(stage, 0.0) + seconds
 
 
+def detect_pose_views(dataset, eye: str, method: str):
+    """Detect the board in ``eye``'s pose images → :class:`rasc.dataset.Detections`.
+
+    Called after the intrinsics views have shown the board, so the board's size is right:
+    unlike :meth:`rasc.dataset.Dataset.detect` (which then suspects ``inner_corners``), a
+    board missing from the pose images is reported as a problem of those images.
+
+    Raises
+    ------
+    InputError
+        No pose images for ``eye``, or the board found in fewer than
+        :data:`rasc.dataset.MIN_POSE_VIEWS` of them.
+    """
+    from rasc.camera import detect_corners
+    from rasc.dataset import MIN_POSE_VIEWS, Detections
+
+    entries = dataset.select(eye, "pose")
+    where = f"{dataset.manifest_path}: {eye} pose images"
+    if not entries:
+        raise InputError(f"{where}: none in the manifest; hand-eye needs at least "
+                         f"{MIN_POSE_VIEWS} images with role 'pose' (pan, tilt, view)")
+    corners, not_found = {}, []
+    for e in entries:
+        c = detect_corners(dataset.read(e), dataset.board, method=method)
+        if c is None:
+            not_found.append(e.file)
+        else:
+            corners[e.file] = c
+    if len(corners) < MIN_POSE_VIEWS:
+        nx, ny = dataset.board.inner_corners
+        raise InputError(
+            f"{where}: board {nx}x{ny} found in {len(corners)} of {len(entries)} (first "
+            f"without: {not_found[0]}) though the intrinsics images show it; hand-eye needs "
+            f"at least {MIN_POSE_VIEWS} pan-tilt positions with rotations about two different "
+            f"axes, each with the whole board in view")
+    return Detections(corners=corners, not_found=not_found,
+                      entries={e.file: e for e in entries})
+
+
+def _where(dataset, entry) -> str:
+    return f"{dataset.manifest_path}: images[{entry.index}] ({entry.file})"
+
+
 def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
                   timer: _Timer | None = None,
                   log: Callable[[str], None] = lambda s: None) -> EyeResult:
-    """Detection → intrinsics → extrinsics → hand-eye for one eye of ``dataset``."""
+    """Detection → intrinsics → extrinsics → hand-eye for one eye of ``dataset``.
+
+    Every error names the manifest and the eye (and the image, when there is one).
+    """
     from rasc.camera import calibrate_intrinsics, estimate_extrinsics
     from rasc.methods import solve
 
@@ -118,15 +164,18 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     size = dataset.image_size(eye)
     t0 = time.perf_counter()
     det_i = dataset.detect(eye, "intrinsics", method=options.detector)
-    det_p = dataset.detect(eye, "pose", method=options.detector)
+    det_p = detect_pose_views(dataset, eye, options.detector)
     timer.add("detection", time.perf_counter() - t0)
     for kind, det in (("intrinsics", det_i), ("pose", det_p)):
         if det.not_found:
             log(f"{eye}: board not found in {len(det.not_found)} {kind} image(s), left out: "
                 + ", ".join(det.not_found))
     t0 = time.perf_counter()
-    intr = calibrate_intrinsics(det_i.corners, board, size, dist_model=options.dist_model,
-                                exclude_outliers=options.exclude_outliers)
+    try:
+        intr = calibrate_intrinsics(det_i.corners, board, size, dist_model=options.dist_model,
+                                    exclude_outliers=options.exclude_outliers)
+    except RascError as exc:
+        raise type(exc)(f"{dataset.manifest_path}: {eye} intrinsics images: {exc}") from None
     timer.add("intrinsics", time.perf_counter() - t0)
     if intr.outliers:
         log(f"{eye}: intrinsics outlier views (RMS > {intr.outlier_threshold:.3f} px): "
@@ -135,7 +184,10 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     files = list(det_p.corners)
     T_cw, rms = [], {}
     for f in files:
-        T, r = estimate_extrinsics(det_p.corners[f], board, intr.K, intr.dist)
+        try:
+            T, r = estimate_extrinsics(det_p.corners[f], board, intr.K, intr.dist)
+        except RascError as exc:
+            raise type(exc)(f"{_where(dataset, det_p.entries[f])}: {exc}") from None
         T_cw.append(T)
         rms[f] = r
     T_cw = np.array(T_cw)
@@ -210,7 +262,8 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
                       timings=dict(timer.timings))
     if dataset.ground_truth is not None:
-        cal.errors = errors_against_truth(cal, dataset.load_ground_truth())
+        cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
+                                          where=str(dataset.ground_truth))
     return cal
 
 
@@ -221,8 +274,12 @@ def transform_error(T_est, T_true) -> dict[str, float]:
             "translation": float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))}
 
 
-def errors_against_truth(cal: Calibration, truth: dict) -> dict[str, Any]:
-    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout), metres."""
+def errors_against_truth(cal: Calibration, truth: dict,
+                         where: str = "ground truth") -> dict[str, Any]:
+    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout), metres.
+
+    ``where`` names the ground truth's source in error messages (its file).
+    """
     out: dict[str, Any] = {"units": "degrees; metres; pixels"}
     try:
         for eye in EYES:
@@ -254,6 +311,9 @@ def errors_against_truth(cal: Calibration, truth: dict) -> dict[str, Any]:
                               np.asarray(truth["T_ptuL_from_ptuR"], float))
             out["loop_closure"] = {"rotation_deg": ml.rotation_deg,
                                    "translation": ml.translation}
-    except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"ground truth: missing or malformed field {exc}") from None
+    except KeyError as exc:
+        raise InputError(f"{where}: missing field {exc}") from None
+    except (TypeError, ValueError, IndexError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{where}: malformed ground truth ({first})") from None
     return out

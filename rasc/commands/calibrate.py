@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rasc.commands.handeye import QUALITY_UNUSABLE
 from rasc.errors import InputError
 from rasc.io import check_writable, dumps_json, write_json_atomic
 
@@ -85,6 +86,12 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         sys.stdout.write(dumps_json(doc))
+    for eye in ("left", "right"):
+        quality = cal.eyes[eye].handeye.quality
+        if quality > QUALITY_UNUSABLE:  # a warning, not progress: printed even with --quiet
+            print(f"rasc calibrate: warning: {eye} eye: hand-eye quality (eq. 10) "
+                  f"{quality:.3g} > {QUALITY_UNUSABLE:g}; the paper found such solutions "
+                  "unusable", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):
             r = cal.eyes[eye]
