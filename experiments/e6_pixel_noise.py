@@ -205,7 +205,7 @@ def run_method(solver, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray
         res = solver(T_cam_from_world, T_gaze_from_ptu)
     except FAILURES as exc:
         msg = " ".join(str(exc).split())
-        return {"status": "exception", "detail": f"{type(exc).__name__}: {msg[:160]}",
+        return {"status": "exception", "detail": f"{type(exc).__name__}: {msg[:300]}",
                 "rotation_deg": nan, "translation_mm": nan, "quality": nan}
     T = np.asarray(res.T_cam_from_gaze, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
@@ -218,8 +218,10 @@ def run_method(solver, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray
         return {"status": "nan", "detail": "non-finite error", "rotation_deg": nan,
                 "translation_mm": nan, "quality": quality}
     gross = rot > GROSS_ROTATION_DEG or trans > GROSS_TRANSLATION_MM
+    # an exact identity is what OpenCV's TSAI returns when it gives up (it only logs)
+    what = " (the identity returned)" if np.array_equal(T, np.eye(4)) else ""
     return {"status": "gross" if gross else "ok",
-            "detail": f"{rot:.3g} deg, {trans:.3g} mm" if gross else "",
+            "detail": f"gross: {rot:.4g} deg, {trans:.4g} mm{what}" if gross else "",
             "rotation_deg": rot, "translation_mm": trans, "quality": quality}
 
 
