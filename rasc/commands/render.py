@@ -20,12 +20,15 @@ from pathlib import Path
 from rasc.errors import InputError
 
 
-def _floats(text: str) -> tuple[float, ...]:
+def _floats(text: str, flag: str) -> tuple[float, ...]:
+    """``"-0.2,0.05"`` → (-0.2, 0.05); "" → (). Parsed in :func:`run`, not by argparse, so
+    that a bad value is one error line like every other input error."""
+    if not text.strip():
+        return ()
     try:
         return tuple(float(v) for v in text.split(","))
     except ValueError:
-        msg = f"expected comma-separated numbers, got {text!r}"
-        raise argparse.ArgumentTypeError(msg) from None
+        raise InputError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -48,8 +51,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="Gaussian pixel noise, grey levels (default 0)")
     p.add_argument("--blur", type=float, default=0.0, metavar="SIGMA",
                    help="Gaussian blur, pixels (default 0)")
-    p.add_argument("--distortion", type=_floats, default=(), metavar="K1,K2,P1,P2,K3",
-                   help="lens distortion applied by warping the renders (OpenCV model)")
+    p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
+                   help="lens distortion applied by warping the renders (OpenCV model), "
+                        "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -70,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     options = RenderOptions(poses_deg=parse_poses(args.poses),
                             n_intrinsics=args.intrinsics_views, target_distance=args.distance,
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
-                            dist=args.distortion)
+                            dist=_floats(args.distortion, "--distortion"))
     t0 = time.perf_counter()
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
