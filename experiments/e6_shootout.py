@@ -223,6 +223,7 @@ def plot(summary_csv, stem) -> list:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     rows = read_csv(summary_csv)
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -247,7 +248,7 @@ def plot(summary_csv, stem) -> list:
         ax.set_yscale("log")
         ax.set_xscale("log", base=2)
         ax.set_xticks(sets, [f"±{s:g}°" for s in sets])
-        ax.minorticks_off()
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_xlabel("pose set (3×3 grid of pan, tilt)")
         ax.set_ylabel(f"T_cam_from_gaze {label}")
         ax.grid(True, which="both", alpha=0.3)
@@ -262,7 +263,8 @@ def plot(summary_csv, stem) -> list:
         axes[2].legend(fontsize=7)
     axes[0].legend(fontsize=7)
     fig.suptitle("E6b: hand-eye methods on identical rendered data, corner noise "
-                 "(medians over runs that did not fail, both eyes)", fontsize=10)
+                 "(medians over runs that did not fail, both eyes; RASC, Park and Horaud "
+                 "overlap in rotation)", fontsize=10)
     fig.tight_layout()
     paths = save_figure(fig, stem)
     plt.close(fig)
