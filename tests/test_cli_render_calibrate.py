@@ -1,0 +1,553 @@
+"""``rasc render`` and ``rasc calibrate`` end to end, through the command line.
+
+The default dataset is rendered and calibrated once per module by the real command line
+in subprocesses (``python -m rasc``); the other datasets (same seed again, a modified
+head model, image noise, lens distortion) and the many bad inputs go through
+:func:`rasc.cli.main` in-process to keep the module fast. Expected values come from each
+dataset's ``ground_truth.json`` (read from the MuJoCo model) or from the inputs the test
+chose, never from the code under test. Every bad input must give exit status 2, exactly
+one line on stderr naming the file and the problem, nothing on stdout, no output file and
+no temporary file.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
+
+import difflib
+import json
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from rasc.base_to_ptu import cyclopean_base, perturb_mounts
+from rasc.board import DEFAULT_BOARD
+from rasc.cli import main
+from rasc.frames import EYES
+from rasc.sim import HEAD_XML, scene_xml
+
+#: Same bounds as tests/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
+#: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
+HANDEYE_ROT_DEG = 0.05
+HANDEYE_TRANS_M = 1.5e-3
+LOOP_ROT_DEG = 0.1
+LOOP_TRANS_M = 3.0e-3
+K_PX = 0.25
+
+
+def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    return subprocess.run([sys.executable, "-m", "rasc", *map(str, argv)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300, check=False)
+
+
+def run_cli(argv, capsys) -> tuple[int, str, str]:
+    capsys.readouterr()
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse
+        code = exc.code
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+def rotation_deg(R_a, R_b) -> float:
+    c = (np.trace(np.asarray(R_a) @ np.asarray(R_b).T) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def errors(T_est, T_true) -> tuple[float, float]:
+    T_est, T_true = np.asarray(T_est), np.asarray(T_true)
+    return rotation_deg(T_est[:3, :3], T_true[:3, :3]), \
+        float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))
+
+
+def read_json(path) -> dict:
+    return json.loads(Path(path).read_text())
+
+
+def assert_recovered(cal: dict, truth: dict, rot=HANDEYE_ROT_DEG, trans=HANDEYE_TRANS_M,
+                     loop_rot=LOOP_ROT_DEG, loop_trans=LOOP_TRANS_M, k_px=K_PX) -> dict:
+    """Errors recomputed here from the calibration JSON and the dataset's truth."""
+    measured = {}
+    for eye in EYES:
+        r, t = errors(cal["eyes"][eye]["T_cam_from_gaze"], truth[eye]["T_cam_from_gaze"])
+        assert r <= rot and t <= trans, f"{eye}: {r:.4f} deg, {1e3 * t:.3f} mm"
+        K, K_true = np.asarray(cal["eyes"][eye]["K"]), np.asarray(truth[eye]["K"])
+        assert np.all(np.abs((K - K_true)[[0, 1, 0, 1], [0, 1, 2, 2]]) <= k_px), eye
+        measured[eye] = (r, t)
+    r, t = errors(cal["base_to_ptu"]["T_ptuL_from_ptuR"], truth["T_ptuL_from_ptuR"])
+    assert r <= loop_rot and t <= loop_trans, f"loop closure: {r:.4f} deg, {1e3 * t:.3f} mm"
+    measured["loop"] = (r, t)
+    return measured
+
+
+def files_of(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def default(tmp_path_factory):
+    """The default dataset and its calibration, both by the real command line."""
+    root = tmp_path_factory.mktemp("cli")
+    proc = python_rasc("render", "--out", root / "ds", "--quiet")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    proc = python_rasc("calibrate", root / "ds", "--out", root / "cal.json", "--quiet")
+    assert proc.returncode == 0 and proc.stderr == "" and proc.stdout == "", proc.stderr
+    return root
+
+
+# ------------------------------------------------------------------- happy paths
+
+def test_subprocess_render_and_calibrate_recover_the_truth(default):
+    ds = default / "ds"
+    names = set(files_of(ds))
+    assert names == {"manifest.json", "ground_truth.json",
+                     *(f"intrinsics/{e}_{k:03d}.png" for e in EYES for k in range(20)),
+                     *(f"poses/{e}_{k:02d}.png" for e in EYES for k in range(9))}
+    # the folder was built under a temporary name and renamed: nothing else left beside it
+    assert sorted(p.name for p in default.iterdir()) == ["cal.json", "ds"]
+    # mkdtemp's private mode is not passed on to the dataset
+    assert ds.stat().st_mode & 0o777 == 0o777 & ~_umask()
+    cal, truth = read_json(default / "cal.json"), read_json(ds / "ground_truth.json")
+    assert cal["format"] == "rasc-calibration/1" and cal["base_to_ptu"]["source"] == \
+        "loop closure"
+    assert_recovered(cal, truth)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def test_same_seed_gives_identical_files_and_calibration(default, tmp_path, capsys):
+    """Issue 3: same seed → byte-identical images, manifest and ground truth; and the
+    calibration JSON identical except its timings (and the dataset path as given)."""
+    code, _, err = run_cli(["render", "--out", tmp_path / "again", "--quiet"], capsys)
+    assert code == 0 and err == ""
+    first, again = files_of(default / "ds"), files_of(tmp_path / "again")
+    assert first.keys() == again.keys()
+    differ = [name for name in first if first[name] != again[name]]
+    assert differ == []
+    code, out, err = run_cli(["calibrate", tmp_path / "again", "--quiet"], capsys)  # stdout
+    assert code == 0 and err == ""
+    a, b = (default / "cal.json").read_text().splitlines(), out.splitlines()
+    changed = [line for line in difflib.unified_diff(a, b, n=0, lineterm="")
+               if line[:1] in "+-" and not line.startswith(("+++", "---"))]
+    timing_keys = ('"detection"', '"intrinsics"', '"extrinsics"', '"hand-eye"',
+                   '"base-to-ptu"', '"dataset"')
+    assert changed, "the dataset path differs, so the diff cannot be empty"
+    assert all(line[1:].strip().startswith(timing_keys) for line in changed), changed
+    doc_a, doc_b = read_json(default / "cal.json"), json.loads(out)
+    for d in (doc_a, doc_b):
+        d.pop("timings_s"), d.pop("dataset")
+    assert doc_a == doc_b
+
+
+def modified_head(folder: Path) -> Path:
+    """A copy of the default head with both cameras moved and turned in their housings,
+    other focal lengths, a 0.2012 m baseline and another mount rotation; returns a scene
+    that includes it (rasc.sim.scene_xml), written next to it."""
+    changes = {
+        ("body", "left_ptu_link"): {"pos": "0.01 0.005 0.10", "axisangle": "0.2 1 0.4 -1.5"},
+        ("body", "right_ptu_link"): {"pos": "-0.01 -0.005 -0.10",
+                                     "axisangle": "0.2 1 0.4 1.5"},
+        ("body", "left_camera_link"): {"pos": "0.040 0.045 0.015"},
+        ("body", "right_camera_link"): {"pos": "0.060 0.025 -0.010"},
+        ("camera", "left_camera"): {"euler": "-1.0 -1.0 -1.2", "focalpixel": "1105 1102.5"},
+        ("camera", "right_camera"): {"euler": "1.1 0.4 1.7", "focalpixel": "1190 1188"},
+    }
+    tree = ET.parse(HEAD_XML)
+    for (tag, name), attrs in changes.items():
+        element = tree.getroot().find(f".//{tag}[@name='{name}']")
+        assert element is not None, name
+        for key, value in attrs.items():
+            assert element.get(key) != value  # a real change of the default
+            element.set(key, value)
+    folder.mkdir(parents=True)
+    tree.write(folder / "stereo_head.xml")
+    scene = folder / "scene.xml"
+    scene.write_text(scene_xml(DEFAULT_BOARD, "stereo_head.xml"))
+    return scene
+
+
+def test_modified_model_is_recovered_just_as_well(default, tmp_path, capsys):
+    scene = modified_head(tmp_path / "model")
+    code, _, err = run_cli(["render", "--model", scene, "--out", tmp_path / "ds", "--quiet"],
+                           capsys)
+    assert code == 0 and err == ""
+    code, _, err = run_cli(["calibrate", tmp_path / "ds", "--out", tmp_path / "cal.json",
+                            "--quiet"], capsys)
+    assert code == 0 and err == ""
+    truth = read_json(tmp_path / "ds" / "ground_truth.json")
+    default_truth = read_json(default / "ds" / "ground_truth.json")
+    assert truth["model_file"] == "scene.xml"
+    # the edit reached the truth: baseline 2·|(0.01, 0.005, 0.10)| = 0.20125 m (1e-9 m:
+    # MuJoCo's float64 kinematics), and the focal lengths written in the XML
+    assert np.linalg.norm(np.asarray(truth["T_ptuL_from_ptuR"])[:3, 3]) == \
+        pytest.approx(2 * np.sqrt(0.01**2 + 0.005**2 + 0.10**2), abs=1e-9)
+    assert np.asarray(truth["left"]["K"])[0, 0] == pytest.approx(1105, abs=1e-3)
+    # ... and differs from the default geometry by far more than the bounds
+    for eye in EYES:
+        r, t = errors(truth[eye]["T_cam_from_gaze"], default_truth[eye]["T_cam_from_gaze"])
+        assert r > 1.0 and t > 5e-3, (eye, r, t)
+    r, t = errors(truth["T_ptuL_from_ptuR"], default_truth["T_ptuL_from_ptuR"])
+    assert r > 0.5 and t > 0.09
+    cal = read_json(tmp_path / "cal.json")
+    assert_recovered(cal, truth)
+    for eye in EYES:  # the model's base is cyclopean too
+        r, t = errors(cal["eyes"][eye]["T_ptu_from_base"], truth[eye]["T_ptu_from_base"])
+        assert r <= LOOP_ROT_DEG and t <= LOOP_TRANS_M
+
+
+def test_noise_and_blur_still_calibrate(default, tmp_path, capsys):
+    """--noise 2 --blur 0.7: measured left 0.018 deg / 0.21 mm, right 0.008 deg / 0.52 mm,
+    about as clean renders; the looser bounds (0.1 deg, 3 mm; K 0.5 px) leave room for
+    other seeds."""
+    code, _, err = run_cli(["render", "--out", tmp_path / "ds", "--noise", 2, "--blur", 0.7,
+                            "--quiet"], capsys)
+    assert code == 0 and err == ""
+    # the images really are degraded: against the clean render, a difference of the
+    # noise's size (2 grey levels, blurred edges add some), not 0 and not more than 5
+    clean = cv2.imread(str(default / "ds" / "poses" / "left_04.png"), cv2.IMREAD_GRAYSCALE)
+    noisy = cv2.imread(str(tmp_path / "ds" / "poses" / "left_04.png"), cv2.IMREAD_GRAYSCALE)
+    diff = np.abs(clean.astype(float) - noisy)
+    assert 1.0 < diff.mean() < 5.0
+    code, _, err = run_cli(["calibrate", tmp_path / "ds", "--out", tmp_path / "cal.json",
+                            "--quiet"], capsys)
+    assert code == 0 and err == ""
+    cal = read_json(tmp_path / "cal.json")
+    assert_recovered(cal, read_json(tmp_path / "ds" / "ground_truth.json"), rot=0.1,
+                     trans=3e-3, loop_rot=0.2, loop_trans=6e-3, k_px=0.5)
+    clean_cal = read_json(default / "cal.json")
+    for eye in EYES:  # the calibration sees the noise
+        assert cal["eyes"][eye]["intrinsics_rms"] > clean_cal["eyes"][eye]["intrinsics_rms"]
+
+
+def test_distortion_is_rendered_and_recovered(tmp_path, capsys):
+    """--distortion=-0.2,0.05 (barrel), calibrated with the default k1k2 model: measured
+    k1 within 0.0005 and k2 within 0.002 of the truth (bounds 0.005, 0.01: a corner at the
+    image corner moves ~5 px per 0.01 of k1), T_cam_from_gaze left 0.018 deg / 0.36 mm,
+    right 0.008 deg / 0.98 mm (the clean bounds)."""
+    code, _, err = run_cli(["render", "--out", tmp_path / "ds", "--distortion=-0.2,0.05",
+                            "--quiet"], capsys)
+    assert code == 0 and err == ""
+    truth = read_json(tmp_path / "ds" / "ground_truth.json")
+    code, _, err = run_cli(["calibrate", tmp_path / "ds", "--out", tmp_path / "cal.json",
+                            "--quiet"], capsys)
+    assert code == 0 and err == ""
+    cal = read_json(tmp_path / "cal.json")
+    for eye in EYES:
+        assert truth[eye]["dist"] == [-0.2, 0.05, 0.0, 0.0, 0.0]
+        assert cal["eyes"][eye]["dist_model"] == "k1k2"
+        k1, k2 = cal["eyes"][eye]["dist"][:2]
+        assert abs(k1 + 0.2) <= 0.005 and abs(k2 - 0.05) <= 0.01, (eye, k1, k2)
+    assert_recovered(cal, truth)
+
+
+def test_distortion_warp_is_rasc_sim_distort():
+    """render's once-per-eye remap gives the pixels of rasc.sim.distort."""
+    from rasc.render import _distortion_warp
+    from rasc.sim import distort
+
+    rng = np.random.default_rng(7)
+    image = rng.integers(0, 256, (120, 160), dtype=np.uint8)
+    K = np.array([[150.0, 0, 79.5], [0, 151.0, 59.5], [0, 0, 1]])
+    dist = np.array([-0.2, 0.05, 0.001, -0.002, 0.0])
+    warped = _distortion_warp(K, dist, (160, 120))(image)
+    np.testing.assert_array_equal(warped, distort(image, K, dist))
+    assert not np.array_equal(warped, image)
+
+
+def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
+    """--mounts: the base uses the given T_ptuL_from_ptuR (here the truth turned by 0.5 deg
+    and moved by 2 mm, the paper's measured-mount accuracy); hand-eye does not change."""
+    truth = read_json(default / "ds" / "ground_truth.json")
+    T_given = perturb_mounts(np.asarray(truth["T_ptuL_from_ptuR"]), 0.5, 2e-3,
+                             np.random.default_rng(11))
+    mounts = tmp_path / "mounts.json"
+    mounts.write_text(json.dumps({"T_ptuL_from_ptuR": T_given.tolist()}))
+    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts,
+                            "--out", tmp_path / "cal.json", "--quiet"], capsys)
+    assert code == 0 and err == ""
+    cal, loop_cal = read_json(tmp_path / "cal.json"), read_json(default / "cal.json")
+    base = cal["base_to_ptu"]
+    assert base["source"] == "measured mounts"
+    np.testing.assert_array_equal(base["T_ptuL_from_ptuR"], T_given)  # JSON keeps floats
+    for eye, T in zip(EYES, cyclopean_base(T_given), strict=True):
+        np.testing.assert_allclose(cal["eyes"][eye]["T_ptu_from_base"], T, atol=1e-12)
+        assert cal["eyes"][eye]["T_cam_from_gaze"] == loop_cal["eyes"][eye]["T_cam_from_gaze"]
+    # errors against the truth are the perturbation chosen (1e-9: rounding)
+    err_mounts = cal["errors_against_truth"]["T_ptuL_from_ptuR"]
+    assert err_mounts["rotation_deg"] == pytest.approx(0.5, abs=1e-9)
+    assert err_mounts["translation"] == pytest.approx(2e-3, abs=1e-9)
+    # loop closure is still computed and reported beside it
+    assert base["loop_closure"]["T_ptuL_from_ptuR"] == loop_cal["base_to_ptu"]["T_ptuL_from_ptuR"]
+
+
+def test_small_board_warns_at_render_and_calibrate_says_which_images(tmp_path, capsys):
+    """At 4.6 m the default board's squares are 12.5 px: render warns (measured: the
+    detector misses squares that small) and calibrate names the pose images, not the
+    board size (the intrinsics views, at 0.6-1.2 m, show the board)."""
+    code, _, err = run_cli(["render", "--out", tmp_path / "ds", "--distance", 4.6,
+                            "--intrinsics-views", 3, "--poses", "0,0;8,0;0,8"], capsys)
+    assert code == 0
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert len(warnings) == 1 and "board squares are only 12." in warnings[0], warnings
+    code, out, err = run_cli(["calibrate", tmp_path / "ds", "--quiet"], capsys)
+    assert code == 2 and out == ""
+    assert err.splitlines() == [
+        f"rasc calibrate: error: {tmp_path / 'ds' / 'manifest.json'}: left pose images: "
+        "board 9x6 found in 0 of 3 (first without: poses/left_00.png) though the intrinsics "
+        "images show it; hand-eye needs at least 3 pan-tilt positions with rotations about "
+        "two different axes, each with the whole board in view"]
+
+
+# -------------------------------------------------------------- calibrate: bad inputs
+
+@pytest.fixture
+def copy(default, tmp_path):
+    """A fresh copy of the default dataset, and an empty folder for --out."""
+    shutil.copytree(default / "ds", tmp_path / "ds")
+    (tmp_path / "out").mkdir()
+    return tmp_path
+
+
+def fails(argv, capsys, out_dir: Path, command: str) -> str:
+    """Exit 2, one line on stderr, nothing on stdout, nothing in ``out_dir``."""
+    code, out, err = run_cli(argv, capsys)
+    lines = err.splitlines()
+    assert code == 2 and out == "", (code, err)
+    assert len(lines) == 1 and lines[0].startswith(f"rasc {command}: error: "), err
+    assert sorted(os.listdir(out_dir)) == []
+    return lines[0]
+
+
+def edit_manifest(folder: Path, change) -> None:
+    m = read_json(folder / "manifest.json")
+    change(m)
+    (folder / "manifest.json").write_text(json.dumps(m))
+
+
+def index_of(folder: Path, file: str) -> int:
+    return [im["file"] for im in read_json(folder / "manifest.json")["images"]].index(file)
+
+
+def blank(path: Path, size=(1280, 960)) -> None:
+    cv2.imwrite(str(path), np.full(size[::-1], 235, np.uint8))
+
+
+def _truncate(path: Path) -> None:
+    path.write_bytes(path.read_bytes()[:300])  # PNG header intact, pixels cut off
+
+
+def _resize(path: Path) -> None:
+    cv2.imwrite(str(path), cv2.resize(cv2.imread(str(path), cv2.IMREAD_GRAYSCALE), (640, 480)))
+
+
+def _degenerate_intrinsics(ds: Path) -> None:
+    """Three left intrinsics views that are one view three times: focal length unknown."""
+    for k in (1, 2):
+        shutil.copy(ds / "intrinsics/left_000.png", ds / f"intrinsics/left_00{k}.png")
+    edit_manifest(ds, lambda m: m.__setitem__("images", [
+        im for im in m["images"] if not (im["eye"] == "left" and im["role"] == "intrinsics"
+                                         and im["file"] > "intrinsics/left_002.png")]))
+
+
+def _too_few_pose_views(ds: Path) -> None:
+    for k in range(2, 9):
+        blank(ds / f"poses/left_{k:02d}.png")
+
+
+CALIBRATE_CASES = {
+    # name: (change to the copied dataset, message after "<manifest>: ")
+    "missing image": (lambda ds: (ds / "poses/left_03.png").unlink(),
+                      r"images\[46\] \(poses/left_03.png\): file does not exist"),
+    "unreadable image": (lambda ds: (ds / "poses/left_03.png").write_text("not a PNG"),
+                         r"images\[46\] \(poses/left_03.png\): cannot read"),
+    "truncated image": (lambda ds: _truncate(ds / "poses/right_05.png"),
+                        r"images\[\d+\] \(poses/right_05.png\): cannot read image"),
+    "manifest names a missing file": (
+        lambda ds: edit_manifest(ds, lambda m: m["images"].append(
+            {"file": "poses/left_99.png", "eye": "left", "role": "pose", "pan": 1.0,
+             "tilt": 2.0, "view": "99"})),
+        r"images\[58\] \(poses/left_99.png\): file does not exist"),
+    "manifest lacks pan": (
+        lambda ds: edit_manifest(ds, lambda m: m["images"][50].pop("pan")),
+        r"images\[50\] \(poses/left_05.png\): missing field 'pan'"),
+    "manifest lacks eye": (
+        lambda ds: edit_manifest(ds, lambda m: m["images"][3].pop("eye")),
+        r"images\[3\] \(intrinsics/left_003.png\): missing field 'eye'"),
+    "manifest lacks board": (lambda ds: edit_manifest(ds, lambda m: m.pop("board")),
+                             r"missing field 'board'"),
+    "manifest is not JSON": (lambda ds: (ds / "manifest.json").write_text("{\n  'format'"),
+                             r"malformed JSON"),
+    "mixed image sizes in one eye": (
+        lambda ds: _resize(ds / "poses/right_04.png"),
+        r"images\[\d+\] \(poses/right_04.png\) is 640x480 but intrinsics/right_000.png is "
+        r"1280x960: all right images must have one size"),
+    "board in too few pose views": (
+        _too_few_pose_views,
+        r"left pose images: board 9x6 found in 2 of 9 \(first without: poses/left_02.png\) "
+        r"though the intrinsics images show it; hand-eye needs at least 3 pan-tilt"),
+    "wrong board size": (
+        lambda ds: edit_manifest(ds, lambda m: m["board"].__setitem__("inner_corners",
+                                                                      [10, 7])),
+        r"left intrinsics images: board 10x7 not found in 20 of 20 \(first: "
+        r"intrinsics/left_000.png\): check board.inner_corners"),
+    "degenerate intrinsics views": (
+        _degenerate_intrinsics,
+        r"left intrinsics images: calibrate_intrinsics: all 3 views show the board at nearly "
+        r"the same orientation .* add views with the board tilted"),
+    "malformed ground truth": (
+        lambda ds: (ds / "ground_truth.json").write_text('{"views": {}}'),
+        None),  # checked below: the error names ground_truth.json, not the manifest
+}
+
+
+@pytest.mark.parametrize("case", list(CALIBRATE_CASES))
+def test_calibrate_bad_input(case, copy, capsys):
+    import re
+
+    change, message = CALIBRATE_CASES[case]
+    ds = copy / "ds"
+    change(ds)
+    line = fails(["calibrate", ds, "--out", copy / "out" / "cal.json", "--quiet"], capsys,
+                 copy / "out", "calibrate")
+    if message is None:
+        assert line == f"rasc calibrate: error: {ds / 'ground_truth.json'}: missing field " \
+                       "'left'"
+    else:
+        assert re.match(rf"rasc calibrate: error: {re.escape(str(ds / 'manifest.json'))}: "
+                        rf"{message}", line), line
+
+
+def test_calibrate_bad_input_with_progress_ends_with_the_one_error_line(copy, capsys):
+    ds = copy / "ds"
+    _too_few_pose_views(ds)
+    code, out, err = run_cli(["calibrate", ds, "--out", copy / "out" / "cal.json"], capsys)
+    lines = err.splitlines()
+    assert code == 2 and out == "" and os.listdir(copy / "out") == []
+    assert [line for line in lines if "error" in line] == [lines[-1]]
+    assert lines[-1].startswith("rasc calibrate: error: ") and lines[0].startswith("calibrate:")
+
+
+def test_calibrate_missing_dataset_and_output_folder(copy, capsys):
+    line = fails(["calibrate", copy / "nowhere", "--quiet"], capsys, copy / "out", "calibrate")
+    assert line == f"rasc calibrate: error: {copy / 'nowhere'}: no such dataset folder"
+    (copy / "empty").mkdir()
+    line = fails(["calibrate", copy / "empty", "--quiet"], capsys, copy / "out", "calibrate")
+    assert f"{copy / 'empty' / 'manifest.json'}: no manifest" in line
+    line = fails(["calibrate", copy / "ds", "--out", copy / "no" / "cal.json", "--quiet"],
+                 capsys, copy / "out", "calibrate")
+    assert line.endswith(f"{copy / 'no' / 'cal.json'}: cannot write: folder {copy / 'no'} "
+                         "does not exist")
+
+
+def _rigid_but_scaled() -> dict:
+    T = np.eye(4)
+    T[:3, :3] *= 1.1
+    return {"T_ptuL_from_ptuR": T.tolist()}
+
+
+@pytest.mark.parametrize("content, fragment", [
+    (None, "mounts file does not exist"),
+    ("{not json", "malformed JSON at line 1 column 2"),
+    (json.dumps({"T": np.eye(4).tolist()}), "expected an object with field T_ptuL_from_ptuR"),
+    (json.dumps(_rigid_but_scaled()), "T_ptuL_from_ptuR"),
+    (json.dumps({"T_ptuL_from_ptuR": [[1, 0], [0, 1]]}), "T_ptuL_from_ptuR"),
+])
+def test_calibrate_bad_mounts_file(content, fragment, copy, capsys):
+    mounts = copy / "mounts.json"
+    if content is not None:
+        mounts.write_text(content)
+    line = fails(["calibrate", copy / "ds", "--mounts", mounts, "--out",
+                  copy / "out" / "cal.json", "--quiet"], capsys, copy / "out", "calibrate")
+    assert line.startswith(f"rasc calibrate: error: {mounts}: ") and fragment in line, line
+
+
+def test_subprocess_bad_inputs_one_line_exit_2(copy):
+    ds = copy / "ds"
+    (ds / "poses/right_07.png").unlink()
+    proc = python_rasc("calibrate", ds, "--out", copy / "out" / "cal.json")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        f"rasc calibrate: error: {ds / 'manifest.json'}: images[55] (poses/right_07.png): "
+        f"file does not exist ({ds / 'poses/right_07.png'})"]
+    proc = python_rasc("render", "--out", copy / "out" / "x", "--poses", "0,0;8")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        "rasc render: error: --poses: item 1 '8' is not 'pan,tilt' in degrees"]
+    assert os.listdir(copy / "out") == []
+
+
+# ------------------------------------------------------------------ render: bad inputs
+
+RENDER_CASES = {
+    # name: (extra arguments, message fragment); "{out}" is the --out folder
+    "poses syntax": (["--poses", "1,2;3"], "--poses: item 1 '3' is not 'pan,tilt'"),
+    "too few poses": (["--poses", "0,0;8,8"], "--poses: need at least 3 pan-tilt positions"),
+    "pose not finite": (["--poses", "0,0;nan,8;8,0"],
+                        "--poses: item 1 (nan, 8.0) is not two finite angles"),
+    "pose outside the joint range": (
+        ["--poses", "0,0;8,8;100,0"],
+        "--poses: item 2 (100,0): left pan = 100 deg is outside the joint range [-60, 60]"),
+    "distortion not numbers": (["--distortion", "a,b"],
+                               "--distortion: expected comma-separated numbers, got 'a,b'"),
+    "distortion too long": (["--distortion", "0.1,0.2,0,0,0,0"],
+                            "--distortion: at most 5 coefficients"),
+    "distortion not finite": (["--distortion", "nan"],
+                              "--distortion: coefficients must be finite numbers"),
+    "distortion pushes the board out": (
+        ["--distortion", "0.3"],
+        "--distance 1: at pan, tilt = (8, 8) deg the corners of the 9x6 board do not all "
+        "fit inside the left image"),
+    "board too close": (["--distance", "0.6"],
+                        "--distance 0.6: at pan, tilt = (0, 0) deg the corners"),
+    "distance not finite": (["--distance", "inf"], "--distance must be a positive number"),
+    "negative seed": (["--seed", "-1"], "--seed must be a non-negative integer, got -1"),
+    "negative noise": (["--noise", "-1"], "--noise must be a finite number >= 0"),
+    "blur not finite": (["--blur", "nan"], "--blur must be a finite number >= 0"),
+    "too few intrinsics views": (["--intrinsics-views", "2"],
+                                 "--intrinsics-views: need an integer of at least 3"),
+    "missing model": (["--model", "{tmp}/nowhere.xml"], "--model {tmp}/nowhere.xml: file not"),
+    "model without target": (["--model", str(HEAD_XML)],
+                             f"{HEAD_XML}: the model has no calibration target"),
+}
+
+
+@pytest.mark.parametrize("case", list(RENDER_CASES))
+def test_render_bad_input(case, tmp_path, capsys):
+    extra, fragment = RENDER_CASES[case]
+    extra = [a.replace("{tmp}", str(tmp_path)) for a in extra]
+    parent = tmp_path / "parent"
+    parent.mkdir()
+    line = fails(["render", "--out", parent / "ds", "--quiet", *extra], capsys, parent,
+                 "render")
+    assert fragment.replace("{tmp}", str(tmp_path)) in line, line
+
+
+def test_render_out_folder_problems(tmp_path, capsys):
+    parent = tmp_path / "parent"
+    (parent / "full").mkdir(parents=True)
+    (parent / "full" / "keep.txt").write_text("mine")
+    (parent / "file").write_text("mine")
+    before = files_of(parent)
+    for out, fragment in ((parent / "full", "output folder exists and is not empty"),
+                          (parent / "file", "output folder exists as a file"),
+                          (parent / "no" / "ds", f"parent folder {parent / 'no'} does not "
+                                                 "exist")):
+        code, stdout, err = run_cli(["render", "--out", out, "--quiet"], capsys)
+        assert code == 2 and stdout == ""
+        assert err.splitlines() == [f"rasc render: error: {out}: {fragment}"]
+    assert files_of(parent) == before and sorted(os.listdir(parent)) == ["file", "full"]
