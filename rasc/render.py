@@ -60,8 +60,7 @@ class RenderOptions:
     dist: tuple[float, ...] = ()    # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
 
     def __post_init__(self):
-        if isinstance(self.n_intrinsics, bool) or not isinstance(self.n_intrinsics, int) \
-                or self.n_intrinsics < 3:
+        if not _integer(self.n_intrinsics) or self.n_intrinsics < 3:
             raise InputError(f"--intrinsics-views: need an integer of at least 3, got "
                              f"{self.n_intrinsics!r}")
         if len(self.poses_deg) < 3:
@@ -74,7 +73,7 @@ class RenderOptions:
         if not (_finite(self.target_distance) and self.target_distance > 0):
             raise InputError(f"--distance must be a positive number of metres, got "
                              f"{self.target_distance}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+        if not _integer(self.seed) or self.seed < 0:
             raise InputError(f"--seed must be a non-negative integer, got {self.seed!r}")
         for flag, value, unit in (("--noise", self.noise_sigma, "grey levels"),
                                   ("--blur", self.blur_sigma, "pixels")):
@@ -86,6 +85,10 @@ class RenderOptions:
         if not all(_finite(v) for v in self.dist):
             raise InputError(f"--distortion: coefficients must be finite numbers, got "
                              f"{','.join(str(v) for v in self.dist)}")
+
+
+def _integer(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 def _finite(value) -> bool:
