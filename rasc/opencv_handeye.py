@@ -67,6 +67,9 @@ def calibrate_hand_eye_cv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndar
                             "(the 5.0 wheels lack it); install opencv-python-headless<5")
     T_base_from_gripper = invert_transform(np.asarray(T_gaze_from_ptu, dtype=float))
     T_cw = np.asarray(T_cam_from_world, dtype=float)
+    log = cv2.utils.logging
+    level = log.getLogLevel()
+    log.setLogLevel(log.LOG_LEVEL_SILENT)  # failures are reported by SolverFailure below
     try:
         R, t = cv2.calibrateHandEye(
             list(T_base_from_gripper[:, :3, :3]), list(T_base_from_gripper[:, :3, 3]),
@@ -76,7 +79,15 @@ def calibrate_hand_eye_cv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndar
         msg = " ".join(str(exc).split())
         raise SolverFailure(f"OpenCV's {method.upper()} hand-eye solver failed ({msg}); "
                             "try method 'rasc'") from None
+    finally:
+        log.setLogLevel(level)
     R, t = np.asarray(R, dtype=float), np.asarray(t, dtype=float).reshape(-1)
+    if R.shape == (3, 3) and np.array_equal(R, np.eye(3)) and not np.any(t):
+        # Tsai's way of failing: it logs "not enough informative motions" and returns
+        # exactly the identity, which no real data produces
+        raise SolverFailure(f"OpenCV's {method.upper()} hand-eye solver found too few "
+                            "informative motions (it returned the identity); include "
+                            "larger rotations or try method 'rasc'")
     ok = (R.shape == (3, 3) and t.shape == (3,) and np.all(np.isfinite(R))
           and np.all(np.isfinite(t)))
     if ok:

@@ -289,3 +289,23 @@ def test_bad_method_and_bad_files(tmp_path):
     (tmp_path / "cali.txt").write_text("\n".join(lines[:-1]))
     with pytest.raises(InputError, match="expected 88 lines"):
         read_tabb_rwhe(tmp_path)
+
+
+def test_tsai_identity_is_a_failure_not_an_answer():
+    # At ±2° motions OpenCV's Tsai logs "not enough informative motions" and returns
+    # exactly the identity (measured in E6b); that must be a SolverFailure, not a result.
+    from rasc.kinematics import T_gaze_from_ptu
+    from rasc.opencv_handeye import SolverFailure, solve_opencv
+    from rasc.transforms import invert_transform, make_transform, matrix_from_rotvec
+
+    deg = np.radians([(0, 0), (2, 2), (2, 0), (2, -2), (0, 2), (0, -2), (-2, 2), (-2, 0),
+                      (-2, -2)])
+    T_gp = T_gaze_from_ptu(deg[:, 0], deg[:, 1])
+    X = make_transform(matrix_from_rotvec([0.01, -0.02, 0.03]) @
+                       np.array([[0, 0, -1], [-1, 0, 0], [0, 1, 0.0]]), [0.02, 0.05, -0.03])
+    T_world_from_ptu = make_transform(np.eye(3), [0.1, -0.9, 0.2])
+    T_cw = X @ T_gp @ invert_transform(T_world_from_ptu)
+    with pytest.raises(SolverFailure, match="informative motions"):
+        solve_opencv(T_cw, T_gp, "tsai")
+    park = solve_opencv(T_cw, T_gp, "park")  # the same data is fine for Park
+    np.testing.assert_allclose(park.T_cam_from_gaze, X, atol=1e-9)
