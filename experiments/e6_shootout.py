@@ -491,9 +491,10 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
         if failing and working and max(failing) < min(working):
             said.append(f"Tsai works at ±{min(working):g}° and fails at every run from "
                         f"±{max(failing):g}° down, consistent with its failure at ±5° in "
-                        "SIM_NOTES" + (": OpenCV logs 'Not enough informative motions' on "
-                                       "stderr and returns the identity, which only the gross "
-                                       "threshold catches." if "identity" in detail else "."))
+                        "SIM_NOTES" + (": OpenCV logs 'Not enough informative motions' and "
+                                       "returns exactly the identity, which "
+                                       "rasc.opencv_handeye turns into a SolverFailure."
+                                       if "identity" in detail else "."))
     if "opencv-andreff" in methods and all(
             int(by[(a, "opencv-andreff")]["failures"]) == n_runs
             and int(by[(a, "opencv-andreff")]["clean_failures"]) == 2 for a in sets):
