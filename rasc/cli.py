@@ -19,8 +19,15 @@ from rasc.errors import RascError
 COMMANDS = ("handeye", "render", "calibrate")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (``rasc <command>: error: ...``), exit 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rasc", description="Robust Active Stereo Calibration (Neubert & Ferrier 2002).")
     parser.add_argument("--version", action="version", version=f"rasc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

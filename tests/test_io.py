@@ -55,3 +55,18 @@ def test_unwritable_paths(tmp_path):
         check_writable(tmp_path)
     with pytest.raises(InputError, match="does not exist"):
         write_json_atomic(tmp_path / "missing" / "x.json", {})
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["render", "--seed", "abc"], "rasc render: error: argument --seed: invalid int value"),
+    (["handeye", "x.json", "--method", "bogus"], "rasc handeye: error: argument --method"),
+    ([], "rasc: error: the following arguments are required"),
+])
+def test_usage_errors_are_one_line(argv, fragment, capsys):
+    from rasc.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(fragment)
