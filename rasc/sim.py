@@ -603,6 +603,31 @@ def blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return _to_uint8(gaussian_filter(image.astype(float), sigmas, mode="nearest"))
 
 
+def distortion_warp(K: np.ndarray, dist, size: tuple[int, int]):
+    """The warp of :func:`distort` for one camera, its remap computed once.
+
+    Returns ``warp(image) -> image`` for images of ``size`` (width, height); the remap
+    costs ~0.8 s at 1280×960, the warp itself ~0.03 s, so a renderer builds it once per
+    camera.
+    """
+    from scipy.ndimage import map_coordinates
+
+    from rasc.lens import distortion_remap
+
+    map_x, map_y = distortion_remap(K, dist, size)
+    coords = np.stack([map_y.astype(float), map_x.astype(float)])
+
+    def warp(image: np.ndarray) -> np.ndarray:
+        image = _image(image)
+        channels = image[..., None] if image.ndim == 2 else image
+        out = np.stack([map_coordinates(channels[..., c].astype(float), coords, order=1,
+                                        mode="constant", cval=0.0)
+                        for c in range(channels.shape[2])], axis=-1)
+        return _to_uint8(out.reshape(image.shape))
+
+    return warp
+
+
 def distort(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     """Warp an ideal render into the image of a camera with lens distortion ``dist``.
 
@@ -610,19 +635,9 @@ def distort(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
     ``rasc.lens.project_points`` with ``dist`` (OpenCV model, same ``K``). Bilinear
     interpolation; pixels whose ray falls outside the render are black.
     """
-    from scipy.ndimage import map_coordinates
-
-    from rasc.lens import distortion_remap
-
     image = _image(image)
     h, w = image.shape[:2]
-    map_x, map_y = distortion_remap(K, dist, (w, h))
-    coords = np.stack([map_y.astype(float), map_x.astype(float)])
-    channels = image[..., None] if image.ndim == 2 else image
-    out = np.stack([map_coordinates(channels[..., c].astype(float), coords, order=1,
-                                    mode="constant", cval=0.0)
-                    for c in range(channels.shape[2])], axis=-1)
-    return _to_uint8(out.reshape(image.shape))
+    return distortion_warp(K, dist, (w, h))(image)
 
 
 def degrade(image: np.ndarray, rng: np.random.Generator, *, K: np.ndarray | None = None,

@@ -256,17 +256,22 @@ def test_distortion_is_rendered_and_recovered(tmp_path, capsys):
 
 
 def test_distortion_warp_is_rasc_sim_distort():
-    """render's once-per-eye remap gives the pixels of rasc.sim.distort."""
-    from rasc.render import _distortion_warp
-    from rasc.sim import distort
+    """The warp render builds once per eye gives rasc.sim.distort's pixels, image after
+    image, grey or colour."""
+    from rasc.sim import distort, distortion_warp
 
     rng = np.random.default_rng(7)
-    image = rng.integers(0, 256, (120, 160), dtype=np.uint8)
+    images = rng.integers(0, 256, (2, 120, 160), dtype=np.uint8)
     K = np.array([[150.0, 0, 79.5], [0, 151.0, 59.5], [0, 0, 1]])
     dist = np.array([-0.2, 0.05, 0.001, -0.002, 0.0])
-    warped = _distortion_warp(K, dist, (160, 120))(image)
-    np.testing.assert_array_equal(warped, distort(image, K, dist))
-    assert not np.array_equal(warped, image)
+    warp = distortion_warp(K, dist, (160, 120))
+    for image in images:  # the same warp, reused
+        warped = warp(image)
+        np.testing.assert_array_equal(warped, distort(image, K, dist))
+        assert not np.array_equal(warped, image)
+        colour = warp(np.repeat(image[..., None], 3, axis=2))
+        for c in range(3):
+            np.testing.assert_array_equal(colour[..., c], warped)
 
 
 def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
