@@ -151,17 +151,20 @@ def _where(dataset, entry) -> str:
 
 def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
                   timer: _Timer | None = None,
-                  log: Callable[[str], None] = lambda s: None) -> EyeResult:
+                  log: Callable[[str], None] = lambda s: None,
+                  size: tuple[int, int] | None = None) -> EyeResult:
     """Detection → intrinsics → extrinsics → hand-eye for one eye of ``dataset``.
 
-    Every error names the manifest and the eye (and the image, when there is one).
+    ``size``: the eye's (width, height) when already known from ``dataset.validate()``
+    (otherwise every image header is read again). Every error names the manifest and the
+    eye (and the image, when there is one).
     """
     from rasc.camera import calibrate_intrinsics, estimate_extrinsics
     from rasc.methods import solve
 
     timer = timer or _Timer()
     board = dataset.board
-    size = dataset.image_size(eye)
+    size = dataset.image_size(eye) if size is None else size
     t0 = time.perf_counter()
     det_i = dataset.detect(eye, "intrinsics", method=options.detector)
     det_p = detect_pose_views(dataset, eye, options.detector)
@@ -228,11 +231,13 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     """Calibrate the whole head from a :class:`rasc.dataset.Dataset`."""
     options = options or CalibrationOptions()
     timer = _Timer()
-    dataset.validate()
+    sizes = dataset.validate()  # reads every image header once
     eyes = {}
     for eye in EYES:
+        if eye not in sizes:
+            raise InputError(f"{dataset.manifest_path}: no images of the {eye} eye")
         log(f"{eye}: detecting, calibrating")
-        eyes[eye] = calibrate_eye(dataset, eye, options, timer, log)
+        eyes[eye] = calibrate_eye(dataset, eye, options, timer, log, size=sizes[eye])
     t0 = time.perf_counter()
     loop, common = _loop_closure(eyes)
     base: dict[str, Any] = {"simultaneous_views": common}
@@ -257,7 +262,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     head = HeadCalibration(**{
         eye: EyeCalibration(K=eyes[eye].intrinsics.K, dist=eyes[eye].intrinsics.dist,
                             T_cam_from_gaze=eyes[eye].handeye.T_cam_from_gaze,
-                            T_ptu_from_base=T_pb[eye], image_size=dataset.image_size(eye))
+                            T_ptu_from_base=T_pb[eye], image_size=sizes[eye])
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
                       timings=dict(timer.timings))
