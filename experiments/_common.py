@@ -211,6 +211,13 @@ class Context:
         return self._truth
 
 
+def script_main(run: Callable[[Context], Section], doc: str,
+                argv: Sequence[str] | None = None) -> int:
+    """What every experiment script's ``main`` does: arguments → ``run`` → its section."""
+    print(run(Context.from_argv(doc, argv)).markdown)
+    return 0
+
+
 class Section:
     """One experiment's part of REPORT.md: markdown text plus the files it made."""
 

@@ -40,6 +40,7 @@ from _common import (
     md_table,
     read_csv,
     save_figure,
+    script_main,
     stage,
     write_csv,
     write_json,
@@ -359,9 +360,7 @@ Per set ({main} noise, both eyes):
 
 
 def main(argv=None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":

@@ -43,6 +43,7 @@ from _common import (
     read_csv,
     run_tasks,
     save_figure,
+    script_main,
     spawn_rngs,
     write_csv,
     write_json,
@@ -439,10 +440,8 @@ def markdown(ctx: Context, loop: dict, m_rot, m_tr, m_bl, stats: dict, summary: 
     return "\n".join(text)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+def main(argv=None) -> int:
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":

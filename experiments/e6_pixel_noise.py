@@ -40,6 +40,7 @@ from _common import (
     read_csv,
     run_tasks,
     save_figure,
+    script_main,
     spawn_rngs,
     stage,
     write_csv,
@@ -615,9 +616,7 @@ refinement has about 0.012 px RMS on these renders, rasc.camera). {ratio_text}
 
 
 def main(argv=None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":

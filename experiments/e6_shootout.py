@@ -32,6 +32,7 @@ from _common import (
     read_csv,
     run_tasks,
     save_figure,
+    script_main,
     spawn_rngs,
     stage,
     write_csv,
@@ -507,9 +508,7 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
 
 
 def main(argv=None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ from _common import (
     read_csv,
     run_tasks,
     save_figure,
+    script_main,
     spawn_rngs,
     stage,
     write_csv,
@@ -548,9 +549,7 @@ can, and is tested above.
 
 
 def main(argv=None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":

@@ -49,6 +49,7 @@ from _common import (
     md_table,
     read_csv,
     save_figure,
+    script_main,
     spawn_rngs,
     write_csv,
     write_json,
@@ -584,10 +585,8 @@ def markdown(ctx: Context, P: dict[str, np.ndarray], stats: dict, draws: list[di
     return "\n".join(text)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    ctx = Context.from_argv(__doc__, argv)
-    print(run(ctx).markdown)
-    return 0
+def main(argv=None) -> int:
+    return script_main(run, __doc__, argv)
 
 
 if __name__ == "__main__":
