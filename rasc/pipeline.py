@@ -202,7 +202,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
         he = solve(options.method, T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]))
     except InputError:
         raise
-    except Exception as exc:  # DegenerateDataError, SolverFailure: name the eye
+    except RascError as exc:  # DegenerateDataError, SolverFailure: name the eye
         raise type(exc)(f"{dataset.manifest_path}: {eye} eye: {exc}") from None
     timer.add("hand-eye", time.perf_counter() - t0)
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
