@@ -499,9 +499,13 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
     if "opencv-andreff" in methods and all(
             int(by[(a, "opencv-andreff")]["failures"]) == n_runs
             and int(by[(a, "opencv-andreff")]["clean_failures"]) == 2 for a in sets):
-        said.append("Andreff fails on every set, noise-free or not: with OpenCV 4.14 the "
-                    "small-motion breakdown SIM_NOTES saw as NaN is an exception "
-                    "(see its message above).")
+        said.append("Andreff fails on every set, noise-free or not, and not because the "
+                    "motions are small: its linear system (rotation and translation solved "
+                    "together) has the unit's translations as its only right-hand side, and "
+                    "a pan-tilt unit's motions have none, so the system is homogeneous and "
+                    "its solution's rotation is zero (OpenCV's 'determinant(R) is null' "
+                    "above). SIM_NOTES saw this as a NaN at ±5° and ±10°; it fails at any "
+                    "motion range on pan-tilt data.")
     return ("How this compares with the OpenCV behaviour measured earlier on this machine "
             "(different grid and noise, so compare tendencies, not values):\n\n"
             + "\n".join(lines) + "\n\n" + " ".join(said) + "\n")
