@@ -48,7 +48,7 @@ from e6_pixel_noise import (
     run_method,
 )
 
-from rasc.camera import detect_corners, to_grey
+from rasc.camera import detect_corners
 from rasc.dataset import load_dataset
 from rasc.errors import InputError
 from rasc.frames import EYES
@@ -129,7 +129,7 @@ def render_pose_set(ctx: Context, amplitude: float, board) -> dict[str, EyeData]
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             for eye in EYES:
-                images[eye].append(to_grey(sim.render(eye)[..., ::-1]))   # as rasc.render
+                images[eye].append(sim.render_grey(eye))   # as rasc.render
                 T_cw[eye].append(sim.T_cam_from_world(eye))
         X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
     pt = np.radians(np.array(poses))

@@ -168,7 +168,7 @@ def render_and_detect(depths: Sequence[float], rng: np.random.Generator) -> list
     corner positions, ``corner_rms`` {eye: px} detection error against the projected
     truth. Runs in this process (one OpenGL context).
     """
-    from rasc.camera import detect_corners, to_grey
+    from rasc.camera import detect_corners
     from rasc.sim import StereoHeadSim, T_base_from_world_facing
     from rasc.transforms import transform_points
 
@@ -188,7 +188,7 @@ def render_and_detect(depths: Sequence[float], rng: np.random.Generator) -> list
                         "angles_rad": cmd_rad + rng.normal(0.0, sigma, 4), "p_base": p_base,
                         "corner_rms": {}}
                 for eye in EYES:
-                    image = to_grey(sim.render(eye)[..., ::-1])
+                    image = sim.render_grey(eye)
                     uv = detect_corners(image, BOARD, method="saddle")
                     if uv is None:
                         raise DegenerateDataError(

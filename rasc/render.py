@@ -237,7 +237,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
 
     Returns the manifest path. Images are written as 8-bit grey PNG.
     """
-    from rasc.camera import to_grey, write_image
+    from rasc.camera import write_image
     from rasc.dataset import write_manifest
     from rasc.sim import StereoHeadSim, T_base_from_world_facing, degrade, distortion_warp
 
@@ -278,7 +278,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         (out / "poses").mkdir(exist_ok=True)
 
         def shoot(eye: str, name: str, entry: dict) -> None:
-            image = to_grey(sim.render(eye)[..., ::-1])
+            image = sim.render_grey(eye)
             if distorted:  # as rasc.sim.degrade: distortion, then blur, then noise
                 image = warp[eye](image)
             image = degrade(image, rng, blur_sigma=options.blur_sigma,

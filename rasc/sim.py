@@ -518,6 +518,12 @@ class StereoHeadSim:
         """Render ``eye``'s camera: RGB uint8 (H, W, 3), row 0 at the top, no distortion."""
         return self.render_camera(f"{self._eye(eye)}_camera")
 
+    def render_grey(self, eye: str) -> np.ndarray:
+        """Render ``eye``'s camera as an 8-bit grey image (H, W), as a grey camera gives."""
+        from rasc.camera import to_grey
+
+        return to_grey(self.render(eye), order="rgb")
+
     def render_camera(self, name: str) -> np.ndarray:
         """Render any named camera of the model (e.g. ``overview``) at the image size."""
         mujoco = import_mujoco()

@@ -236,6 +236,20 @@ def test_grey_conversion_and_bad_arguments():
         detect_corners(img, BOARD, order_by="color")
 
 
+def test_grey_from_rgb_equals_grey_from_reversed_channels():
+    # A renderer gives RGB; order="rgb" must weight the channels exactly as reversing them
+    # and converting BGR does (the rendered datasets' bytes depend on it). Random colours,
+    # so that a swapped red/blue weight cannot pass.
+    rgb = np.random.default_rng(7).integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    ref = to_grey(np.ascontiguousarray(rgb[..., ::-1]))
+    np.testing.assert_array_equal(to_grey(rgb, order="rgb"), ref)
+    assert not np.array_equal(to_grey(rgb), ref)
+    rgba = np.dstack([rgb, np.full(rgb.shape[:2], 255, np.uint8)])
+    np.testing.assert_array_equal(to_grey(rgba, order="rgb"), ref)
+    with pytest.raises(ValueError, match="order"):
+        to_grey(rgb, order="RGB")
+
+
 def test_read_image_and_header_size(tmp_path):
     img = np.zeros((37, 53), np.uint8)
     for ext in ("png", "jpg", "bmp"):
