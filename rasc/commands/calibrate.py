@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from rasc.commands.handeye import QUALITY_UNUSABLE
 from rasc.errors import InputError
 from rasc.io import check_writable, dumps_json, write_json_atomic
 
@@ -64,6 +63,7 @@ def _read_mounts(path: str) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     from rasc.dataset import load_dataset
+    from rasc.handeye import solution_warnings
     from rasc.pipeline import CalibrationOptions, calibrate_dataset
 
     if args.out:
@@ -86,12 +86,9 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         sys.stdout.write(dumps_json(doc))
-    for eye in ("left", "right"):
-        quality = cal.eyes[eye].handeye.quality
-        if quality > QUALITY_UNUSABLE:  # a warning, not progress: printed even with --quiet
-            print(f"rasc calibrate: warning: {eye} eye: hand-eye quality (eq. 10) "
-                  f"{quality:.3g} > {QUALITY_UNUSABLE:g}; the paper found such solutions "
-                  "unusable", file=sys.stderr)
+    for eye in ("left", "right"):  # warnings, not progress: printed even with --quiet
+        for warning in solution_warnings(cal.eyes[eye].handeye):
+            print(f"rasc calibrate: warning: {eye} eye: hand-eye {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):
             r = cal.eyes[eye]

@@ -9,7 +9,8 @@ Output (``rasc-handeye-result/1``): ``T_cam_from_gaze`` (4×4) and its inverse
 ``T_gaze_from_cam`` (OpenCV's ``cam2gripper``), translations in the input's length unit;
 ``quality`` (eq. 10) with a note; the solver's ``diagnostics``; ``method``,
 ``n_positions``, ``input`` (the path as given), ``angle_unit``, ``length_unit``. A quality
-above 1 (unusable, paper section 3.2) adds one warning line on stderr; the exit status
+above 1 (unusable, paper section 3.2), or motions that turn mostly about one axis
+(``rasc.handeye.WEAK_AXIS_SPREAD``), add a warning line each on stderr; the exit status
 stays 0.
 """
 
@@ -32,9 +33,6 @@ RESULT_FORMAT = "rasc-handeye-result/1"
 #: imports no solver (and no cv2); a test checks that they match.
 METHOD_NAMES = ("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
                 "opencv-andreff", "opencv-daniilidis")
-
-#: The paper (section 3.2) found solutions with quality (eq. 10) above 1 unusable.
-QUALITY_UNUSABLE = 1.0
 
 QUALITY_NOTE = ("eq. 10: mean over ordered pairs i != j of ||X B_ij X^T - A_ij||_F; "
                 "0 is a perfect fit, the paper found solutions above 1 unusable")
@@ -113,8 +111,9 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
-    if doc["quality"] > QUALITY_UNUSABLE:
-        print(f"rasc handeye: warning: quality {doc['quality']:.3g} > {QUALITY_UNUSABLE:g}; "
-              "the paper found such solutions unusable", file=sys.stderr)
+    from rasc.handeye import solution_warnings
+
+    for warning in solution_warnings(result):
+        print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 
