@@ -160,8 +160,11 @@ class Dataset:
         if entries and len(corners) < MIN_FOUND_FRACTION * len(entries):
             raise InputError(
                 f"{where}: board {nx}x{ny} not found in {len(not_found)} of {len(entries)} "
-                f"(first: {not_found[0]}): check board.inner_corners (inner corners, not "
-                f"squares: a board of {nx + 1}x{ny + 1} squares has {nx}x{ny})")
+                f"(first: {not_found[0]}): "
+                + ("check those images (the whole board in view, sharp, evenly lit), then "
+                   if corners else "")
+                + f"check board.inner_corners (inner corners, not squares: a board of "
+                f"{nx + 1}x{ny + 1} squares has {nx}x{ny})")
         if len(corners) < min_found:
             need = ("views with the board tilted 20-45 degrees about different axes"
                     if role == "intrinsics" else

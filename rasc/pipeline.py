@@ -124,9 +124,10 @@ def detect_pose_views(dataset, eye: str, method: str):
 
     entries = dataset.select(eye, "pose")
     where = f"{dataset.manifest_path}: {eye} pose images"
-    if not entries:
-        raise InputError(f"{where}: none in the manifest; hand-eye needs at least "
-                         f"{MIN_POSE_VIEWS} images with role 'pose' (pan, tilt, view)")
+    if len(entries) < MIN_POSE_VIEWS:
+        raise InputError(f"{where}: {len(entries) or 'none'} in the manifest; hand-eye needs "
+                         f"at least {MIN_POSE_VIEWS} images with role 'pose' (pan, tilt, "
+                         "view) at positions that turn about two different axes")
     corners, not_found = {}, []
     for e in entries:
         c = detect_corners(dataset.read(e), dataset.board, method=method)

@@ -405,11 +405,22 @@ CALIBRATE_CASES = {
         _too_few_pose_views,
         r"left pose images: board 9x6 found in 2 of 9 \(first without: poses/left_02.png\) "
         r"though the intrinsics images show it; hand-eye needs at least 3 pan-tilt"),
+    "fewer than 3 pose images": (
+        lambda ds: edit_manifest(ds, lambda m: m.__setitem__("images", [
+            e for e in m["images"] if not (e["role"] == "pose" and e["eye"] == "right"
+                                           and e["view"] not in ("00", "01"))])),
+        r"right pose images: 2 in the manifest; hand-eye needs at least 3 images with role "
+        r"'pose'"),
     "wrong board size": (
         lambda ds: edit_manifest(ds, lambda m: m["board"].__setitem__("inner_corners",
                                                                       [10, 7])),
         r"left intrinsics images: board 10x7 not found in 20 of 20 \(first: "
         r"intrinsics/left_000.png\): check board.inner_corners"),
+    "board missing from most intrinsics views": (
+        lambda ds: [blank(ds / f"intrinsics/right_{k:03d}.png") for k in range(11)],
+        r"right intrinsics images: board 9x6 not found in 11 of 20 \(first: "
+        r"intrinsics/right_000.png\): check those images \(the whole board in view, sharp, "
+        r"evenly lit\), then check board.inner_corners"),
     "degenerate intrinsics views": (
         _degenerate_intrinsics,
         r"left intrinsics images: calibrate_intrinsics: all 3 views show the board at nearly "
