@@ -528,6 +528,55 @@ def _diagnostics(out: dict, n: int, pair: tuple) -> HandEyeDiagnostics:
         dominant_axis=_unit_axis(out["dominant_axis"][0]))
 
 
+#: Motions that do not match: the median over pairs of angle(B_ij) / angle(A_ij) must lie
+#: within this factor of 1. The two angles are equal for consistent data whatever X is
+#: (A = X B X⁻¹ is a conjugation), so the test needs no solution. Degrees read as radians
+#: make the ratio 57 (or, wrapped past π, anything above ~10 for motions of a few
+#: degrees); radians read as degrees 1/57. Noise moves it little: at the paper's largest
+#: level (σ_r = 0.04 rad, literal eq. 13, ±8° motions) it stays within 0.69–1.12 over
+#: 200 samples (tests/test_handeye.py); 3 leaves room for smaller motions and worse data
+#: (±2° motions at that noise: 0.37–0.85).
+MAX_MOTION_ANGLE_RATIO = 3.0
+
+
+def motion_angle_ratio(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray) -> float:
+    """Median over pairs i > j of ``angle(B_ij) / angle(A_ij)``: 1 for consistent data.
+
+    Pairs where either rotation is below ``MIN_PAIR_ROTATION_RAD`` are left out; NaN when
+    none is left. Accepts slightly non-orthogonal rotations (nearest rotation taken).
+    """
+    R = np.asarray(T_cam_from_world, dtype=float)[..., :3, :3]
+    Q = np.asarray(T_gaze_from_ptu, dtype=float)[..., :3, :3]
+    i, j = np.tril_indices(R.shape[0], -1)
+    a = np.linalg.norm(pair_rotvecs(R, i, j), axis=-1)
+    b = np.linalg.norm(pair_rotvecs(Q, i, j), axis=-1)
+    ok = (a >= MIN_PAIR_ROTATION_RAD) & (b >= MIN_PAIR_ROTATION_RAD)
+    return float(np.median(b[ok] / a[ok])) if ok.any() else math.nan
+
+
+def check_motions_match(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
+                        angle_unit: str | None = None) -> None:
+    """Raise :class:`InputError` when the unit's motions and the camera's do not match.
+
+    ``angle_unit`` ("deg" or "rad") is the unit the pan/tilt angles were read in, or None
+    when the motions were given as matrices; it only words the message.
+    """
+    ratio = motion_angle_ratio(T_cam_from_world, T_gaze_from_ptu)
+    if not math.isfinite(ratio) or 1.0 / MAX_MOTION_ANGLE_RATIO <= ratio <= \
+            MAX_MOTION_ANGLE_RATIO:
+        return
+    what = (f"the unit's motions turn {ratio:.3g}× as far as the camera's (median over "
+            "pairs; the two angles are equal for consistent data)")
+    if angle_unit == "rad" and ratio > 1:
+        hint = "the pan/tilt angles look like degrees; set angle_unit to 'deg'"
+    elif angle_unit == "deg" and ratio < 1:
+        hint = "the pan/tilt angles look like radians; set angle_unit to 'rad'"
+    else:
+        hint = ("check that each T_cam_from_world belongs to the motion beside it and that "
+                "the angles' unit is right")
+    raise InputError(f"{what}: {hint}")
+
+
 def solution_warnings(result: HandEyeResult) -> list[str]:
     """What a user should be told about a solution that is returned: one sentence each.
 

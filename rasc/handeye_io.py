@@ -27,7 +27,9 @@ the file name): JSON syntax (line, column), duplicate keys, shapes (4×4 only; a
 ``[R|t]`` is refused with a hint), non-numeric entries (``true``, ``"1"``, ``null``),
 NaN and infinity (Python's json accepts ``NaN``/``Infinity`` tokens and ``1e999``;
 they are refused here), rigidity (:func:`rasc.transforms.validate_rigid_transform`),
-at least 3 positions, and the angle unit (:func:`check_angle_unit`).
+at least 3 positions, the angle unit (:func:`check_angle_unit`), and that the unit's
+motions turn as far as the camera's (:func:`rasc.handeye.check_motions_match`, which
+catches a wrong angle unit that the values alone cannot show).
 """
 
 from __future__ import annotations
@@ -301,9 +303,13 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
     angles: list[tuple[str, float]] = []
     parsed = [_position(item, k, angle_unit, angles) for k, item in enumerate(positions)]
     check_angle_unit(angles, angle_unit)
+    T_cw, T_gp = np.stack([p[0] for p in parsed]), np.stack([p[1] for p in parsed])
+    from rasc.handeye import check_motions_match  # scipy: not needed to build the parser
+
+    check_motions_match(T_cw, T_gp, angle_unit if angles else None)
     return HandEyeInput(
-        T_cam_from_world=np.stack([p[0] for p in parsed]),
-        T_gaze_from_ptu=np.stack([p[1] for p in parsed]),
+        T_cam_from_world=T_cw,
+        T_gaze_from_ptu=T_gp,
         angle_unit=angle_unit,
         length_unit=length_unit,
         labels=tuple(p[2] for p in parsed),

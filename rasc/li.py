@@ -78,7 +78,24 @@ class _Problem:
         return J.reshape(-1, 6)
 
 
-def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, home: int = 0, *,
+#: A position is the home pose when its unit motion is the identity to this tolerance
+#: (pan = tilt = 0 gives the identity exactly; an encoder reading of 1e-9 rad too).
+HOME_ATOL = 1e-9
+
+
+def home_index(T_gaze_from_ptu: np.ndarray) -> int:
+    """The default home view: the first position whose unit motion is the identity (the
+    (0, 0) pose of a pan-tilt unit), else the first position (a robot arm's data)."""
+    T = np.asarray(T_gaze_from_ptu, dtype=float)
+    if T.ndim == 3 and T.shape[1:] == (4, 4):
+        at_home = np.flatnonzero(np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL)
+        if at_home.size:
+            return int(at_home[0])
+    return 0
+
+
+def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
+             home: int | None = None, *,
              min_rotation_rad: float = MIN_PAIR_ROTATION_RAD,
              check_rigid: bool = True) -> HandEyeResult:
     """Li's method: non-linear least squares over the motions from the home view.
@@ -90,8 +107,9 @@ def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, home: in
         ``check_rigid=False``).
     T_gaze_from_ptu : array-like, shape (n, 4, 4)
         The unit's motion ``T_gp`` (eq. 3), or ``T_gripper_from_base`` for an arm.
-    home : int
-        The home view (default 0, the (0, 0) pose of ``PAPER_POSES_DEG``).
+    home : int, optional
+        The home view's index; by default :func:`home_index`: the position at pan = tilt
+        = 0 (identity motion), or the first position when there is none.
     min_rotation_rad : float
         Used only by the degeneracy check (≥ 2 motions from home rotating at least
         this much, about different axes); every motion enters the cost.
@@ -105,6 +123,8 @@ def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, home: in
         diagnostics describe the n − 1 home motions. Raises ``DegenerateDataError``
         for degenerate data and :class:`SolverFailure` if the optimiser does not converge.
     """
+    if home is None:
+        home = home_index(T_gaze_from_ptu)
     diagnostics, T_cw, T_gp = diagnose(T_cam_from_world, T_gaze_from_ptu, home=home,
                                        min_rotation_rad=min_rotation_rad,
                                        check_rigid=check_rigid)

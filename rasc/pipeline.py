@@ -161,6 +161,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     eye (and the image, when there is one).
     """
     from rasc.camera import calibrate_intrinsics, estimate_extrinsics
+    from rasc.handeye import check_motions_match
     from rasc.methods import solve
 
     timer = timer or _Timer()
@@ -199,8 +200,13 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     views = [det_p.entries[f].view for f in files]
     timer.add("extrinsics", time.perf_counter() - t0)
     t0 = time.perf_counter()
+    T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
     try:
-        he = solve(options.method, T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]))
+        check_motions_match(T_cw, T_gp, dataset.angle_unit)
+    except InputError as exc:
+        raise InputError(f"{dataset.manifest_path}: {eye} pose images: {exc}") from None
+    try:
+        he = solve(options.method, T_cw, T_gp)
     except InputError:
         raise
     except RascError as exc:  # DegenerateDataError, SolverFailure: name the eye

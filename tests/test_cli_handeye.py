@@ -183,12 +183,14 @@ def test_output_is_deterministic(tmp_path, capsys):
 
 
 def test_unusable_quality_warns_but_writes(tmp_path, capsys):
-    """Camera poses unrelated to the motions: eq. 10 above 1 -> one warning line, exit 0."""
-    rng = np.random.default_rng(11)
-    positions = [{"pan": pan, "tilt": tilt,
-                  "T_cam_from_world": make_transform(matrix_from_rotvec(rng.normal(0, 1.0, 3)),
-                                                     rng.normal(0, 1.0, 3)).tolist()}
-                 for pan, tilt in PAPER_POSES_DEG]
+    """Camera rotations that are the inverses of the unit's: every relative rotation turns
+    as far as the unit's (so the motion check passes) but about another axis, so no X
+    fits; with ±60° motions eq. 10 is 1.10 > 1 -> one warning line, exit 0."""
+    pan_tilt = [(p, t) for p in (-60.0, 0.0, 60.0) for t in (-60.0, 0.0, 60.0)]
+    T_gp = T_gaze_from_ptu(*np.radians(np.array(pan_tilt)).T)
+    T_cw = invert_transform(T_gp) @ make_transform(np.eye(3), [0.0, 0.0, 1.0])
+    positions = [{"pan": pan, "tilt": tilt, "T_cam_from_world": T.tolist()}
+                 for (pan, tilt), T in zip(pan_tilt, T_cw, strict=True)]
     path = write_doc(tmp_path / "random.json", {"positions": positions})
     out = tmp_path / "result.json"
     rc, stdout, stderr = run_cli([path, "--out", out], capsys)
@@ -197,6 +199,85 @@ def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     assert quality > 1.0
     assert stderr.splitlines() == [f"rasc handeye: warning: quality {quality:.3g} > 1; "
                                    "the paper found such solutions unusable"]
+
+
+def test_weak_axis_spread_warns_but_writes(tmp_path, capsys):
+    """Pan ±8° with tilt ±0.5°: solved, with one warning that names the pan axis."""
+    pan_tilt = [(p, t) for p in (-8.0, 0.0, 8.0) for t in (-0.5, 0.0, 0.5)]
+    T_gp = T_gaze_from_ptu(*np.radians(np.array(pan_tilt)).T)
+    X, Y = gen.true_T_cam_from_gaze(), gen._true_T_ptu_from_world()
+    positions = [{"pan": pan, "tilt": tilt, "T_cam_from_world": (X @ T @ Y).tolist()}
+                 for (pan, tilt), T in zip(pan_tilt, T_gp, strict=True)]
+    path = write_doc(tmp_path / "weak.json", {"positions": positions})
+    out = tmp_path / "result.json"
+    rc, stdout, stderr = run_cli([path, "--out", out], capsys)
+    assert rc == 0 and stdout == "" and out.is_file()
+    assert json.loads(out.read_text(encoding="utf-8"))["diagnostics"]["axis_spread"] < 0.01
+    (line,) = stderr.splitlines()
+    assert line.startswith("rasc handeye: warning: the motions turn mostly about the unit's "
+                           "axis [1.000, 0.000, 0.000] (axis spread 0.0039 < 0.01)")
+
+
+def _consistent_doc(pan_tilt_deg, written, angle_unit):
+    """Poses of the generator's rig at ``pan_tilt_deg``, the angles written as
+    ``written(degrees)`` under ``angle_unit``."""
+    T_gp = T_gaze_from_ptu(*np.radians(np.array(pan_tilt_deg)).T)
+    X, Y = gen.true_T_cam_from_gaze(), gen._true_T_ptu_from_world()
+    return {"angle_unit": angle_unit,
+            "positions": [{"pan": written(p), "tilt": written(t),
+                           "T_cam_from_world": (X @ T @ Y).tolist()}
+                          for (p, t), T in zip(pan_tilt_deg, T_gp, strict=True)]}
+
+
+@pytest.mark.parametrize("case", ["degrees as rad", "radians as deg"])
+def test_unit_mix_up_the_values_cannot_show(case, tmp_path, capsys):
+    """Angle values that pass check_angle_unit's rules but not the motions: the camera's
+    relative rotations turn 57× less (more) than the unit's. ±5° written as 5 "rad" (all
+    below 2π); ±63.7° written as 1.112 "deg" (largest above 1, not whole degrees)."""
+    if case == "degrees as rad":
+        doc = _consistent_doc([(p, t) for p in (-5, 0, 5) for t in (-5, 0, 5)],
+                              float, "rad")
+        fragment = "the pan/tilt angles look like degrees; set angle_unit to 'deg'"
+    else:
+        doc = _consistent_doc([(p, t) for p in (-63.7, 0, 63.7) for t in (-20.3, 0, 20.3)],
+                              math.radians, "deg")
+        fragment = "the pan/tilt angles look like radians; set angle_unit to 'rad'"
+    path = write_doc(tmp_path / "poses.json", doc)
+    assert_bad_input([path], ["the unit's motions turn", "as far as the camera's", fragment],
+                     tmp_path, capsys, prefix=f"{path}: ")
+    # the same poses with the right unit solve
+    doc["angle_unit"] = "deg" if case == "degrees as rad" else "rad"
+    rc, _, _ = run_cli([write_doc(tmp_path / "fixed.json", doc)], capsys)
+    assert rc == 0
+
+
+def test_li_home_is_the_zero_pose_and_selectable(tmp_path, capsys):
+    """--method li takes (0, 0) as home wherever it stands in the file (the result names
+    it); --home picks another; --home with another method, or out of range, is refused."""
+    doc = example_doc()
+    zero = [k for k, p in enumerate(doc["positions"]) if p["pan"] == p["tilt"] == 0]
+    assert zero == [0]
+    doc["positions"] = doc["positions"][1:] + doc["positions"][:1]     # (0, 0) last
+    path = write_doc(tmp_path / "moved.json", doc)
+
+    def li(*extra):
+        rc, out, _ = run_cli([path, "--method", "li", *extra], capsys)
+        assert rc == 0
+        return json.loads(out)
+
+    default, named, first = li(), li("--home", "8"), li("--home", "0")
+    assert default["home"] == named["home"] == 8 and first["home"] == 0
+    assert default["T_cam_from_gaze"] == named["T_cam_from_gaze"]
+    assert default["T_cam_from_gaze"] != first["T_cam_from_gaze"]
+    # the example with (0, 0) first gives the same solution as (0, 0) moved and found
+    rc, out, _ = run_cli([EXAMPLE, "--method", "li"], capsys)
+    np.testing.assert_allclose(json.loads(out)["T_cam_from_gaze"],
+                               default["T_cam_from_gaze"], atol=1e-12, rtol=0)
+    assert_bad_input([path, "--home", "3"], ["--home 3: only --method li uses a home"],
+                     tmp_path, capsys)
+    assert_bad_input([path, "--method", "li", "--home", "9"],
+                     ["home: expected a view index in 0..8, got 9"], tmp_path, capsys,
+                     prefix=f"{path}: ")
 
 
 def test_unknown_method_is_argparse_error(capsys):

@@ -18,6 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 
 import difflib
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -405,6 +406,12 @@ CALIBRATE_CASES = {
         _too_few_pose_views,
         r"left pose images: board 9x6 found in 2 of 9 \(first without: poses/left_02.png\) "
         r"though the intrinsics images show it; hand-eye needs at least 3 pan-tilt"),
+    "pan/tilt written in radians, angle_unit deg": (
+        lambda ds: edit_manifest(ds, lambda m: [
+            e.update(pan=math.radians(e["pan"]), tilt=math.radians(e["tilt"]))
+            for e in m["images"] if e["role"] == "pose"]),
+        r"left pose images: the unit's motions turn 0\.017\d× as far as the camera's .*: "
+        r"the pan/tilt angles look like radians; set angle_unit to 'rad'"),
     "fewer than 3 pose images": (
         lambda ds: edit_manifest(ds, lambda m: m.__setitem__("images", [
             e for e in m["images"] if not (e["role"] == "pose" and e["eye"] == "right"

@@ -16,7 +16,9 @@ from rasc.handeye import (
     WEAK_AXIS_SPREAD,
     HandEyeDiagnostics,
     HandEyeResult,
+    check_motions_match,
     diagnose,
+    motion_angle_ratio,
     pair_rotvecs,
     quality_eq10,
     solution_warnings,
@@ -480,6 +482,32 @@ def test_nearly_pan_only_is_rejected_and_weak_spread_is_warned():
     # the paper's nine poses: no warning
     T_gp = _pan_with_small_tilt(8.0)
     assert solution_warnings(solve_rasc(X @ T_gp @ Y, T_gp)) == []
+
+
+def test_motion_angle_ratio_is_one_under_noise_and_57_for_a_unit_mix_up():
+    """MAX_MOTION_ANGLE_RATIO's comment: consistent data give a median ratio near 1 even
+    at the paper's largest noise (σ_r = 0.04 rad, literal eq. 13) on ±8° motions
+    (measured 0.69-1.12 over these 200 samples: bounds 0.6 and 1.4); angles read in the
+    wrong unit give π/180 (or its inverse), far outside 1/3..3."""
+    X, Y = rig(np.random.default_rng(3))
+    T_gp = pan_tilt(PAPER_POSES_DEG)
+    exact = X @ T_gp @ Y
+    assert motion_angle_ratio(exact, T_gp) == pytest.approx(1.0, abs=1e-9)
+    ratios = [motion_angle_ratio(perturb_T_cam_from_world(exact, 0.04, 0.008,
+                                                          np.random.default_rng(s)), T_gp)
+              for s in range(200)]
+    assert min(ratios) > 0.6 and max(ratios) < 1.4
+    check_motions_match(perturb_T_cam_from_world(exact, 0.04, 0.008,
+                                                 np.random.default_rng(0)), T_gp, "deg")
+    # ±2° written in radians (0.035) and read as degrees: the unit turns 57× too little
+    small = [(p / 4, t / 4) for p, t in PAPER_POSES_DEG]
+    T_small = pan_tilt(small)
+    in_rad = T_gaze_from_ptu(*np.radians(np.radians(np.array(small))).T)
+    assert motion_angle_ratio(X @ T_small @ Y, in_rad) == pytest.approx(np.pi / 180, rel=1e-3)
+    with pytest.raises(InputError, match="look like radians; set angle_unit to 'rad'"):
+        check_motions_match(X @ T_small @ Y, in_rad, "deg")
+    with pytest.raises(InputError, match="check that each T_cam_from_world belongs"):
+        check_motions_match(X @ T_small @ Y, in_rad, None)
 
 
 def test_ill_conditioned_translation_is_degenerate():

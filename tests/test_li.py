@@ -8,8 +8,8 @@ from scipy.optimize import approx_fprime
 from rasc.errors import DegenerateDataError, InputError
 from rasc.handeye import solve_rasc
 from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.li import _left_jacobian, _Problem, solve_li
-from rasc.noise import perturb_one_view
+from rasc.li import _left_jacobian, _Problem, home_index, solve_li
+from rasc.noise import perturb_one_view, perturb_T_cam_from_world
 from rasc.transforms import make_transform, matrix_from_rotvec, rotation_angle
 
 R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -54,6 +54,23 @@ def test_noise_free_recovery_arm(seed):
     T_gp = random_rigid(rng, 8, max_angle=1.0)
     res = solve_li(X @ T_gp @ Y, T_gp, home=3)
     np.testing.assert_allclose(res.T_cam_from_gaze, X, atol=1e-9, rtol=0)
+
+
+def test_default_home_is_the_zero_pose_wherever_it_stands():
+    """home=None takes the position at pan = tilt = 0, not the first: moving the (0, 0)
+    view to the end gives the same solution as naming it (bit for bit), and a different
+    one from home=0 under noise (home noise biases every equation, SPEC §4)."""
+    X, Y = rig(np.random.default_rng(6))
+    order = [*range(1, 9), 0]                      # PAPER[0] is (0, 0): put it last
+    T_gp = PAPER[order]
+    noisy = perturb_T_cam_from_world(X @ T_gp @ Y, 0.005, 0.001, np.random.default_rng(1),
+                                     variant="exponential")
+    assert home_index(T_gp) == 8 and home_index(PAPER) == 0
+    default = solve_li(noisy, T_gp).T_cam_from_gaze
+    np.testing.assert_array_equal(default, solve_li(noisy, T_gp, home=8).T_cam_from_gaze)
+    assert np.abs(default - solve_li(noisy, T_gp, home=0).T_cam_from_gaze).max() > 1e-4
+    # no identity motion (a robot arm's poses): the first position
+    assert home_index(random_rigid(np.random.default_rng(2), 5)) == 0
 
 
 def test_analytic_jacobian_matches_finite_differences():

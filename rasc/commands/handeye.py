@@ -49,6 +49,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser.add_argument("poses", metavar="POSES.json", help="input document (rasc-handeye/1)")
     parser.add_argument("--method", choices=METHOD_NAMES, default="rasc",
                         help="solver (default: rasc, all pairs, Park-Martin closed form)")
+    parser.add_argument("--home", metavar="K", type=int,
+                        help="li only: index of the home position in 'positions' (default: "
+                             "the position at pan = tilt = 0, else the first)")
     parser.add_argument("--out", metavar="FILE",
                         help="write the result JSON here (atomically) instead of stdout")
     parser.set_defaults(func=run)
@@ -69,8 +72,9 @@ def _same_file(a: str, b: str) -> bool:
         return False
 
 
-def result_document(data: HandEyeInput, result, *, source: str, method: str) -> dict:
-    """The output JSON object (``rasc-handeye-result/1``)."""
+def result_document(data: HandEyeInput, result, *, source: str, method: str,
+                    home: int | None = None) -> dict:
+    """The output JSON object (``rasc-handeye-result/1``); ``home``: Li's home position."""
     T = np.asarray(result.T_cam_from_gaze, dtype=float)
     quality = float(result.quality)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)) or not np.isfinite(quality):
@@ -89,6 +93,7 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str) -> 
         "diagnostics": diagnostics,
         "angle_unit": data.angle_unit,
         "length_unit": data.length_unit or "same as the input's T_cam_from_world translations",
+        **({} if home is None else {"home": home}),
     }
 
 
@@ -98,15 +103,23 @@ def run(args: argparse.Namespace) -> int:
         check_writable(args.out)  # before reading or solving
         if _same_file(args.out, source):
             raise InputError(f"--out {args.out} is the input file; choose another path")
+    if args.home is not None and args.method != "li":
+        raise InputError(f"--home {args.home}: only --method li uses a home position")
     data = load_handeye_input(source)
     solve = _solver(args.method)
+    kwargs = {} if args.home is None else {"home": args.home}
     try:
-        result = solve(data.T_cam_from_world, data.T_gaze_from_ptu)
+        result = solve(data.T_cam_from_world, data.T_gaze_from_ptu, **kwargs)
     except DegenerateDataError as exc:
         raise DegenerateDataError(f"{source}: {exc}") from None
     except RascError as exc:
         raise RascError(f"{source}: {exc}") from None
-    doc = result_document(data, result, source=source, method=args.method)
+    home = None
+    if args.method == "li":
+        from rasc.li import home_index
+
+        home = home_index(data.T_gaze_from_ptu) if args.home is None else args.home
+    doc = result_document(data, result, source=source, method=args.method, home=home)
     if args.out is None:
         sys.stdout.write(dumps_json(doc))
     else:
