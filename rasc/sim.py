@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -532,7 +533,11 @@ class StereoHeadSim:
         if self._renderer is None:
             w, h = self.image_size
             try:
-                self._renderer = mujoco.Renderer(self.model, height=h, width=w)
+                with warnings.catch_warnings():
+                    # MUJOCO_GL=glx without a display: GLFW warns twice before failing;
+                    # the one-line error below says what happened and what fixes it
+                    warnings.filterwarnings("ignore", module="glfw")
+                    self._renderer = mujoco.Renderer(self.model, height=h, width=w)
             except Exception as exc:  # GL context creation fails without a working backend
                 raise _gl_error(exc) from None
         self.forward()

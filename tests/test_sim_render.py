@@ -281,6 +281,17 @@ def test_invalid_backend_gives_the_clear_message():
     assert len(msg.splitlines()) == 1
 
 
+def test_glx_without_a_display_is_one_line_and_nothing_else():
+    """MUJOCO_GL=glx on a machine without a screen: GLFW's own warnings are silenced, so
+    stderr holds nothing and the message is the one line with the packages."""
+    proc = _python(_CONSTRUCT.format(setup="", patch="pass"), MUJOCO_GL="glx", DISPLAY=None)
+    assert proc.returncode == 3, proc.stderr
+    msg = proc.stdout.strip()
+    assert len(msg.splitlines()) == 1 and msg.startswith("MUJOCO_GL='glx': cannot render")
+    assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
+    assert proc.stderr == "", proc.stderr
+
+
 def test_no_working_backend_names_the_packages():
     patch = "sim._probe_backend = lambda name: False"
     proc = _python(_CONSTRUCT.format(setup="", patch=patch), MUJOCO_GL=None)
