@@ -219,12 +219,16 @@ def test_tabb_against_tabbs_solution(tabb):
     T = res.T_cam_from_gaze
     ours_deg = rotation_error_deg(T[:3, :3], Z[:3, :3])
     ours_mm = np.linalg.norm(T[:3, 3] - Z[:3, 3])
-    assert ours_deg < 1.0 and ours_mm < 50.0
-    assert abs(ours_deg - 0.545) < 0.001 and abs(ours_mm - 33.0) < 0.1   # as measured
+    assert ours_deg < 1.0 and ours_mm < 50.0                            # OpenCV's bounds
     park = invert_transform(solve_opencv(T_cw, T_gb, "park").T_cam_from_gaze)
     Zi = invert_transform(Z)
-    assert abs(rotation_error_deg(park[:3, :3], Zi[:3, :3]) - 0.545) < 0.001
+    park_deg = rotation_error_deg(park[:3, :3], Zi[:3, :3])
+    assert abs(park_deg - 0.545) < 0.001                        # the independent figure
     assert abs(np.linalg.norm(park[:3, 3] - Zi[:3, 3]) - 43.4) < 0.05
+    # one Park–Martin rotation: pair (j, i) adds the same term to M as (i, j), so all
+    # ordered pairs and OpenCV's i < j give the same rotation (to round-off, 1e-9°
+    # measured; the translations differ by eq. 7's weighting, see the docstring)
+    assert abs(ours_deg - park_deg) < 1e-6
     assert 0.005 < res.quality < 0.02                                   # measured 0.0115
 
 
