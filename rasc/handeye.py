@@ -554,27 +554,33 @@ def motion_angle_ratio(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray
     return float(np.median(b[ok] / a[ok])) if ok.any() else math.nan
 
 
-def check_motions_match(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-                        angle_unit: str | None = None) -> None:
+def check_motions_match(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
+                        other_unit: tuple[str, np.ndarray] | None = None) -> None:
     """Raise :class:`InputError` when the unit's motions and the camera's do not match.
 
-    ``angle_unit`` ("deg" or "rad") is the unit the pan/tilt angles were read in, or None
-    when the motions were given as matrices; it only words the message.
+    ``other_unit``: for motions read from pan/tilt angles, ``(name, T_gaze_from_ptu)``
+    with the same angles read in the other unit ("deg" or "rad"); when those match, the
+    message says to change the unit, otherwise it calls the data inconsistent.
     """
     ratio = motion_angle_ratio(T_cam_from_world, T_gaze_from_ptu)
-    if not math.isfinite(ratio) or 1.0 / MAX_MOTION_ANGLE_RATIO <= ratio <= \
-            MAX_MOTION_ANGLE_RATIO:
+    if _motions_match(ratio):
         return
     what = (f"the unit's motions turn {ratio:.3g}× as far as the camera's (median over "
             "pairs; the two angles are equal for consistent data)")
-    if angle_unit == "rad" and ratio > 1:
-        hint = "the pan/tilt angles look like degrees; set angle_unit to 'deg'"
-    elif angle_unit == "deg" and ratio < 1:
-        hint = "the pan/tilt angles look like radians; set angle_unit to 'rad'"
-    else:
-        hint = ("check that each T_cam_from_world belongs to the motion beside it and that "
-                "the angles' unit is right")
-    raise InputError(f"{what}: {hint}")
+    if other_unit is not None:
+        name, T_other = other_unit
+        alt = motion_angle_ratio(T_cam_from_world, T_other)
+        if _motions_match(alt):
+            raise InputError(f"{what}: read as {name} the angles match ({alt:.3g}×); "
+                             f"set angle_unit to '{name}'")
+    raise InputError(f"{what}: the data are inconsistent; check that each "
+                     "T_cam_from_world is the target's pose in the camera (not its inverse), "
+                     "belongs to the motion beside it, and that the angles' unit is right")
+
+
+def _motions_match(ratio: float) -> bool:
+    return not math.isfinite(ratio) or 1.0 / MAX_MOTION_ANGLE_RATIO <= ratio \
+        <= MAX_MOTION_ANGLE_RATIO
 
 
 def solution_warnings(result: HandEyeResult) -> list[str]:

@@ -226,8 +226,9 @@ def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
                 f" degrees that way; they look like radians; set angle_unit to 'rad'")
 
 
-def _position(item: Any, k: int, angle_unit: str,
-              angles: list[tuple[str, float]]) -> tuple[np.ndarray, np.ndarray, str | None]:
+def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]]
+              ) -> tuple[np.ndarray, np.ndarray, str | None, tuple[float, float] | None]:
+    """(T_cam_from_world, T_gaze_from_ptu, label, (pan, tilt) as written or None)."""
     where = f"positions[{k}]"
     if not isinstance(item, dict):
         raise InputError(f"{where}: expected an object with T_cam_from_world and pan/tilt or "
@@ -252,16 +253,22 @@ def _position(item: Any, k: int, angle_unit: str,
         pan = _number(item["pan"], f"{where}.pan")
         tilt = _number(item["tilt"], f"{where}.tilt")
         angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
-        if angle_unit == "deg":
-            pan, tilt = math.radians(pan), math.radians(tilt)
-        T_gp = T_gaze_from_ptu_eq3(pan, tilt)  # eq. 3
+        written = (pan, tilt)
+        T_gp = _eq3(pan, tilt, angle_unit)
     else:
+        written = None
         T_gp = _matrix4(item["T_gaze_from_ptu"], f"{where}.T_gaze_from_ptu")
     T_cw = _matrix4(item["T_cam_from_world"], f"{where}.T_cam_from_world")
     label = item.get("label")
     if label is not None and not isinstance(label, str):
         raise InputError(f"{where}.label: expected a string, got {_type_name(label)}")
-    return T_cw, T_gp, label
+    return T_cw, T_gp, label, written
+
+
+def _eq3(pan: float, tilt: float, angle_unit: str) -> np.ndarray:
+    if angle_unit == "deg":
+        pan, tilt = math.radians(pan), math.radians(tilt)
+    return T_gaze_from_ptu_eq3(pan, tilt)  # eq. 3
 
 
 def _optional_text(doc: dict, key: str) -> str | None:
@@ -306,7 +313,9 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
     T_cw, T_gp = np.stack([p[0] for p in parsed]), np.stack([p[1] for p in parsed])
     from rasc.handeye import check_motions_match  # scipy: not needed to build the parser
 
-    check_motions_match(T_cw, T_gp, angle_unit if angles else None)
+    other = "rad" if angle_unit == "deg" else "deg"
+    T_other = np.stack([p[1] if p[3] is None else _eq3(*p[3], other) for p in parsed])
+    check_motions_match(T_cw, T_gp, other_unit=(other, T_other) if angles else None)
     return HandEyeInput(
         T_cam_from_world=T_cw,
         T_gaze_from_ptu=T_gp,

@@ -202,7 +202,11 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     t0 = time.perf_counter()
     T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
     try:
-        check_motions_match(T_cw, T_gp, dataset.angle_unit)
+        # the same angles read in the other unit, for the message
+        other = "rad" if dataset.angle_unit == "deg" else "deg"
+        k = 180.0 / np.pi if other == "rad" else np.pi / 180.0
+        T_other = T_gaze_from_ptu(k * pan_tilt[:, 0], k * pan_tilt[:, 1])
+        check_motions_match(T_cw, T_gp, other_unit=(other, T_other))
     except InputError as exc:
         raise InputError(f"{dataset.manifest_path}: {eye} pose images: {exc}") from None
     try:

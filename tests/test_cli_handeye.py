@@ -237,11 +237,11 @@ def test_unit_mix_up_the_values_cannot_show(case, tmp_path, capsys):
     if case == "degrees as rad":
         doc = _consistent_doc([(p, t) for p in (-5, 0, 5) for t in (-5, 0, 5)],
                               float, "rad")
-        fragment = "the pan/tilt angles look like degrees; set angle_unit to 'deg'"
+        fragment = "read as deg the angles match (1×); set angle_unit to 'deg'"
     else:
         doc = _consistent_doc([(p, t) for p in (-63.7, 0, 63.7) for t in (-20.3, 0, 20.3)],
                               math.radians, "deg")
-        fragment = "the pan/tilt angles look like radians; set angle_unit to 'rad'"
+        fragment = "read as rad the angles match (1×); set angle_unit to 'rad'"
     path = write_doc(tmp_path / "poses.json", doc)
     assert_bad_input([path], ["the unit's motions turn", "as far as the camera's", fragment],
                      tmp_path, capsys, prefix=f"{path}: ")

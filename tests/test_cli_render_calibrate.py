@@ -411,7 +411,7 @@ CALIBRATE_CASES = {
             e.update(pan=math.radians(e["pan"]), tilt=math.radians(e["tilt"]))
             for e in m["images"] if e["role"] == "pose"]),
         r"left pose images: the unit's motions turn 0\.017\d× as far as the camera's .*: "
-        r"the pan/tilt angles look like radians; set angle_unit to 'rad'"),
+        r"read as rad the angles match \(1×\); set angle_unit to 'rad'"),
     "fewer than 3 pose images": (
         lambda ds: edit_manifest(ds, lambda m: m.__setitem__("images", [
             e for e in m["images"] if not (e["role"] == "pose" and e["eye"] == "right"

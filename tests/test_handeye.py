@@ -498,16 +498,22 @@ def test_motion_angle_ratio_is_one_under_noise_and_57_for_a_unit_mix_up():
               for s in range(200)]
     assert min(ratios) > 0.6 and max(ratios) < 1.4
     check_motions_match(perturb_T_cam_from_world(exact, 0.04, 0.008,
-                                                 np.random.default_rng(0)), T_gp, "deg")
+                                                 np.random.default_rng(0)), T_gp)
     # ±2° written in radians (0.035) and read as degrees: the unit turns 57× too little
     small = [(p / 4, t / 4) for p, t in PAPER_POSES_DEG]
     T_small = pan_tilt(small)
     in_rad = T_gaze_from_ptu(*np.radians(np.radians(np.array(small))).T)
     assert motion_angle_ratio(X @ T_small @ Y, in_rad) == pytest.approx(np.pi / 180, rel=1e-3)
-    with pytest.raises(InputError, match="look like radians; set angle_unit to 'rad'"):
-        check_motions_match(X @ T_small @ Y, in_rad, "deg")
-    with pytest.raises(InputError, match="check that each T_cam_from_world belongs"):
-        check_motions_match(X @ T_small @ Y, in_rad, None)
+    # the same values read as radians (what they were) match: the message says so
+    with pytest.raises(InputError, match=r"turn 0\.0175× .*read as rad the angles match "
+                                         r"\(1×\); set angle_unit to 'rad'"):
+        check_motions_match(X @ T_small @ Y, in_rad, other_unit=("rad", T_small))
+    # no reading matches (here: camera poses inverted and noisy): inconsistent data
+    with pytest.raises(InputError, match="the data are inconsistent; check that each "
+                                         "T_cam_from_world is the target's pose"):
+        check_motions_match(X @ T_small @ Y, in_rad, other_unit=("rad", in_rad))
+    with pytest.raises(InputError, match="the data are inconsistent"):
+        check_motions_match(X @ T_small @ Y, in_rad)
 
 
 def test_ill_conditioned_translation_is_degenerate():
