@@ -76,6 +76,10 @@ WEAK_AXIS_SPREAD = 1e-2
 #: The paper (section 3.2) found solutions with quality (eq. 10) above 1 unusable.
 QUALITY_UNUSABLE = 1.0
 
+#: Warn when the estimated rotation error (jackknife) exceeds this: at 2 m, 1° moves a
+#: point seen through the calibrated camera by 35 mm; the paper's Table 1 std is 9-54 mm.
+MAX_ROTATION_UNCERTAINTY_DEG = 1.0
+
 #: Translation ill-conditioned: reject when cond(CᵀC) > 1e4, i.e. σ_max/σ_min of C above
 #: 100, so 1 mm of error in the camera translations can move t_X by 0.1 m along the weak
 #: direction. For small angles CᵀC ≈ tr(G) I − G, so this is the same axis-spread
@@ -148,6 +152,27 @@ class HandEyeResult:
                 "T_cam_from_gaze": np.asarray(self.T_cam_from_gaze).tolist(),
                 "quality": float(self.quality),
                 "diagnostics": self.diagnostics.to_dict()}
+
+
+@dataclass(frozen=True)
+class HandEyeUncertainty:
+    """The estimated error of a solution (:func:`rasc.methods.jackknife_uncertainty`).
+
+    rotation_deg : jackknife standard error of the rotation, degrees (None: no estimate).
+    translation : the same for the translation, in the input's length unit (or None).
+    n_subsets : solves it took (the positions, each left out once).
+    reason : why there is no estimate, else None.
+    """
+
+    rotation_deg: float | None
+    translation: float | None
+    n_subsets: int
+    reason: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": "jackknife over positions (each left out once)",
+                "rotation_deg": self.rotation_deg, "translation": self.translation,
+                **({"reason": self.reason} if self.reason else {})}
 
 
 @dataclass(frozen=True)
@@ -583,11 +608,34 @@ def _motions_match(ratio: float) -> bool:
         <= MAX_MOTION_ANGLE_RATIO
 
 
-def solution_warnings(result: HandEyeResult) -> list[str]:
+def input_warnings(T_cam_from_world: np.ndarray) -> list[str]:
+    """What looks wrong in the target poses themselves, one sentence each: the target's
+    origin (a corner of the board, which the camera sees) behind most cameras, as when
+    T_world_from_cam is given for T_cam_from_world (a solver still returns an answer)."""
+    z = np.asarray(T_cam_from_world, dtype=float)[:, 2, 3]
+    behind = np.flatnonzero(z <= 0)
+    if 2 * behind.size > z.size:
+        return [f"{behind.size} of {z.size} poses put the target's origin behind the camera "
+                f"(T_cam_from_world[{int(behind[0])}] has z = {z[behind[0]]:.3g}); a "
+                "camera sees its target in front (z > 0): are these T_world_from_cam?"]
+    return []
+
+
+def solution_warnings(result: HandEyeResult, *,
+                      uncertainty: HandEyeUncertainty | None = None,
+                      pan_tilt: bool = False) -> list[str]:
     """What a user should be told about a solution that is returned: one sentence each.
 
-    Quality (eq. 10) above ``QUALITY_UNUSABLE``; motions that turn mostly about one
-    axis (axis spread below ``WEAK_AXIS_SPREAD``, see ``MIN_AXIS_SPREAD``).
+    - quality (eq. 10) above ``QUALITY_UNUSABLE`` (the paper's rule);
+    - motions that turn mostly about one axis (axis spread below ``WEAK_AXIS_SPREAD``);
+    - an estimated rotation error above ``MAX_ROTATION_UNCERTAINTY_DEG``, or none to be
+      had (``uncertainty``, from :func:`rasc.methods.jackknife_uncertainty`);
+    - with ``pan_tilt`` (motions from pan/tilt angles, eq. 3): a camera whose optical axis
+      points backwards in the gaze frame (gaze +y is forward). A pan or tilt turning the
+      other way than eq. 3 assumes, pan and tilt swapped, or T_world_from_cam given for
+      T_cam_from_world all give such a solution, often with a good quality: a reversed
+      pan conjugates every motion by a half-turn, so the data stay consistent and the
+      answer is the truth turned by 180°.
     """
     out = []
     if result.quality > QUALITY_UNUSABLE:
@@ -601,6 +649,25 @@ def solution_warnings(result: HandEyeResult) -> list[str]:
                    f"are weakly determined, errors about {1 / math.sqrt(d.axis_spread):.0f}× "
                    "those of well-spread motions; add positions that move the other joint "
                    "further")
+    if uncertainty is not None:
+        if uncertainty.rotation_deg is None:
+            out.append(f"no error estimate: {uncertainty.reason}")
+        elif uncertainty.rotation_deg > MAX_ROTATION_UNCERTAINTY_DEG:
+            out.append(f"estimated error (jackknife over positions) "
+                       f"{uncertainty.rotation_deg:.2g}° in rotation and "
+                       f"{uncertainty.translation:.3g} in translation (the input's length "
+                       "unit), "
+                       f"above {MAX_ROTATION_UNCERTAINTY_DEG:g}°: the poses are too noisy "
+                       "for these motions; add positions with larger pan and tilt, or "
+                       "improve the camera calibration")
+    if pan_tilt:
+        forward = float(np.asarray(result.T_cam_from_gaze)[2, 1])  # cam +z · gaze +y
+        if forward < 0:
+            out.append(f"the camera's optical axis points backwards in the gaze frame "
+                       f"(its component along gaze +y, forward, is {forward:.2f}): pan or "
+                       "tilt probably turns the other way than eq. 3 assumes (positive pan "
+                       "looks left, positive tilt up), pan and tilt are swapped, or the "
+                       "poses are T_world_from_cam instead of T_cam_from_world")
     return out
 
 

@@ -87,6 +87,8 @@ class HandEyeInput:
         Free text from the document, or None.
     labels : tuple of (str or None), length n
     description : str or None
+    from_angles : bool
+        Every position gave pan/tilt (a pan-tilt unit, eq. 3), none a matrix.
     """
 
     T_cam_from_world: np.ndarray
@@ -95,6 +97,7 @@ class HandEyeInput:
     length_unit: str | None
     labels: tuple
     description: str | None
+    from_angles: bool = False
 
     @property
     def n_positions(self) -> int:
@@ -323,6 +326,7 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
         length_unit=length_unit,
         labels=tuple(p[2] for p in parsed),
         description=description,
+        from_angles=all(p[3] is not None for p in parsed),
     )
 
 

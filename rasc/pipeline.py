@@ -55,6 +55,7 @@ class EyeResult:
     pose_rms: dict[str, float]
     not_found: dict[str, list[str]]
     handeye: Any                       # rasc.handeye.HandEyeResult
+    uncertainty: Any = None            # rasc.handeye.HandEyeUncertainty
 
 
 @dataclass
@@ -80,6 +81,8 @@ class Calibration:
                 "quality": r.handeye.quality,
                 "handeye_method": r.handeye.method,
                 "handeye_diagnostics": r.handeye.diagnostics.to_dict(),
+                "handeye_uncertainty": (None if r.uncertainty is None
+                                        else r.uncertainty.to_dict()),
                 "pose_views": [{"file": f, "view": v, "pan_deg": float(np.degrees(pt[0])),
                                 "tilt_deg": float(np.degrees(pt[1])), "rms": r.pose_rms[f],
                                 "T_cam_from_world": T.tolist()}
@@ -162,7 +165,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     """
     from rasc.camera import calibrate_intrinsics, estimate_extrinsics
     from rasc.handeye import check_motions_match
-    from rasc.methods import solve
+    from rasc.methods import jackknife_uncertainty, solve
 
     timer = timer or _Timer()
     board = dataset.board
@@ -215,11 +218,12 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
         raise
     except RascError as exc:  # DegenerateDataError, SolverFailure: name the eye
         raise type(exc)(f"{dataset.manifest_path}: {eye} eye: {exc}") from None
+    uncertainty = jackknife_uncertainty(options.method, T_cw, T_gp, he)
     timer.add("hand-eye", time.perf_counter() - t0)
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
                      not_found={"intrinsics": det_i.not_found, "pose": det_p.not_found},
-                     handeye=he)
+                     handeye=he, uncertainty=uncertainty)
 
 
 def _loop_closure(eyes: dict[str, EyeResult]):

@@ -197,8 +197,12 @@ def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     assert rc == 0 and stdout == ""
     quality = json.loads(out.read_text(encoding="utf-8"))["quality"]
     assert quality > 1.0
-    assert stderr.splitlines() == [f"rasc handeye: warning: quality {quality:.3g} > 1; "
-                                   "the paper found such solutions unusable"]
+    lines = stderr.splitlines()
+    assert lines[0] == (f"rasc handeye: warning: quality {quality:.3g} > 1; "
+                        "the paper found such solutions unusable")
+    # and the positions disagree with one another: the jackknife sees it too
+    assert len(lines) == 2 and lines[1].startswith("rasc handeye: warning: estimated error "
+                                                   "(jackknife over positions)")
 
 
 def test_weak_axis_spread_warns_but_writes(tmp_path, capsys):
@@ -278,6 +282,43 @@ def test_li_home_is_the_zero_pose_and_selectable(tmp_path, capsys):
     assert_bad_input([path, "--method", "li", "--home", "9"],
                      ["home: expected a view index in 0..8, got 9"], tmp_path, capsys,
                      prefix=f"{path}: ")
+
+
+@pytest.mark.parametrize("mistake", ["pan reversed", "inverted poses"])
+def test_reversed_convention_warns(mistake, tmp_path, capsys):
+    """The example with every pan negated (a unit that turns the other way), or with
+    T_world_from_cam given: a result is written (the data stay consistent) and a warning
+    says what is likely wrong; the uncertainty is part of the result."""
+    doc = example_doc()
+    for pos in doc["positions"]:
+        if mistake == "pan reversed":
+            pos["pan"] = -pos["pan"]
+        else:
+            pos["T_cam_from_world"] = invert_transform(
+                np.array(pos["T_cam_from_world"])).tolist()
+    path = write_doc(tmp_path / "poses.json", doc)
+    rc, out, err = run_cli([path], capsys)
+    assert rc == 0
+    result = json.loads(out)
+    assert result["uncertainty"]["method"] == "jackknife over positions (each left out once)"
+    if mistake == "pan reversed":
+        # exactly consistent: as good a fit as the right convention, the truth turned 180°
+        assert result["quality"] < 0.01
+        rot, _ = errors_of(result, gen.true_T_cam_from_gaze())
+        assert rot > 179.0
+        assert err.splitlines() == [line for line in err.splitlines()
+                                    if "optical axis points backwards" in line] != []
+    else:
+        assert "poses put the target's origin behind the camera" in err.splitlines()[0]
+
+
+def test_example_has_a_small_estimated_error_and_no_warning(capsys):
+    rc, out, err = run_cli([EXAMPLE], capsys)
+    unc = json.loads(out)["uncertainty"]
+    # the example's noise (0.03°, 0.5 mm per pose) gives errors of 0.12° / 2.4 mm on
+    # average over 1000 draws (see the tolerances above): the estimate is of that size
+    assert rc == 0 and err == "" and 0.03 < unc["rotation_deg"] < 0.35
+    assert 0.0005 < unc["translation"] < EXAMPLE_TRANS_TOL_M
 
 
 def test_unknown_method_is_argparse_error(capsys):

@@ -455,6 +455,21 @@ def test_calibrate_bad_input(case, copy, capsys):
                         rf"{message}", line), line
 
 
+def test_calibrate_warns_when_pan_turns_the_other_way(copy, capsys):
+    """Every pose's pan negated (a unit whose pan turns the other way than eq. 3): the
+    calibration is written, and each eye warns that its camera looks backwards."""
+    ds = copy / "ds"
+    edit_manifest(ds, lambda m: [e.update(pan=-e["pan"]) for e in m["images"]
+                                 if e["role"] == "pose"])
+    code, out, err = run_cli(["calibrate", ds, "--out", copy / "cal.json", "--quiet"], capsys)
+    assert code == 0 and (copy / "cal.json").is_file()
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert [w.split(":")[2].strip() for w in warnings] == ["left eye", "right eye"], warnings
+    assert all("optical axis points backwards" in w for w in warnings)
+    cal = read_json(copy / "cal.json")
+    assert cal["eyes"]["left"]["handeye_uncertainty"]["rotation_deg"] < 0.1
+
+
 def test_calibrate_bad_input_with_progress_ends_with_the_one_error_line(copy, capsys):
     ds = copy / "ds"
     _too_few_pose_views(ds)

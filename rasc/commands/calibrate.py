@@ -87,8 +87,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(dumps_json(doc))
     for eye in ("left", "right"):  # warnings, not progress: printed even with --quiet
-        for warning in solution_warnings(cal.eyes[eye].handeye):
-            print(f"rasc calibrate: warning: {eye} eye: hand-eye {warning}", file=sys.stderr)
+        r = cal.eyes[eye]
+        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True):
+            print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):
             r = cal.eyes[eye]

@@ -8,10 +8,11 @@ checked before anything is read or solved; on any error no output file appears.
 Output (``rasc-handeye-result/1``): ``T_cam_from_gaze`` (4×4) and its inverse
 ``T_gaze_from_cam`` (OpenCV's ``cam2gripper``), translations in the input's length unit;
 ``quality`` (eq. 10) with a note; the solver's ``diagnostics``; ``method``,
-``n_positions``, ``input`` (the path as given), ``angle_unit``, ``length_unit``. A quality
-above 1 (unusable, paper section 3.2), or motions that turn mostly about one axis
-(``rasc.handeye.WEAK_AXIS_SPREAD``), add a warning line each on stderr; the exit status
-stays 0.
+``n_positions``, ``input`` (the path as given), ``angle_unit``, ``length_unit``,
+``uncertainty`` (the estimated error, :func:`rasc.methods.jackknife_uncertainty`), and
+``home`` with ``--method li``. Each of :func:`rasc.handeye.solution_warnings` (a quality
+above 1, motions mostly about one axis, a large estimated error, a camera looking
+backwards) adds a warning line on stderr; the exit status stays 0.
 """
 
 from __future__ import annotations
@@ -98,6 +99,11 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 
 def run(args: argparse.Namespace) -> int:
+    # imported here, not at module level: building the parser loads no solver
+    from rasc.handeye import input_warnings, solution_warnings
+    from rasc.li import home_index
+    from rasc.methods import jackknife_uncertainty
+
     source = args.poses
     if args.out is not None:
         check_writable(args.out)  # before reading or solving
@@ -116,17 +122,17 @@ def run(args: argparse.Namespace) -> int:
         raise RascError(f"{source}: {exc}") from None
     home = None
     if args.method == "li":
-        from rasc.li import home_index
-
         home = home_index(data.T_gaze_from_ptu) if args.home is None else args.home
     doc = result_document(data, result, source=source, method=args.method, home=home)
+    uncertainty = jackknife_uncertainty(args.method, data.T_cam_from_world,
+                                        data.T_gaze_from_ptu, result, **kwargs)
+    doc["uncertainty"] = uncertainty.to_dict()
     if args.out is None:
         sys.stdout.write(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
-    from rasc.handeye import solution_warnings
-
-    for warning in solution_warnings(result):
+    for warning in input_warnings(data.T_cam_from_world) + solution_warnings(
+            result, uncertainty=uncertainty, pan_tilt=data.from_angles):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 
