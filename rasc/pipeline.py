@@ -66,6 +66,7 @@ class Calibration:
     options: CalibrationOptions
     timings: dict[str, float] = field(default_factory=dict)
     errors: dict[str, Any] | None = None
+    warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -241,6 +242,35 @@ def _loop_closure(eyes: dict[str, EyeResult]):
     return (T, spread), common
 
 
+#: Measured mounts and loop closure disagree "too much" beyond these: the paper's loop
+#: closure was 2-3° and ~1 cm off on a real head, its measured mounts < 1° and 2-3 mm.
+MOUNTS_WARN_ROTATION_DEG = 3.0
+MOUNTS_WARN_TRANSLATION_FRACTION = 0.1     # of the baseline
+#: a baseline this many times longer or shorter than loop closure's is another unit
+MOUNTS_UNIT_RATIO = 3.0
+
+
+def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
+                    warnings: list[str]) -> dict[str, float]:
+    """Measured mounts against loop closure: refuse another length unit, warn on a large
+    disagreement (either may be wrong), return the differences for the output."""
+    b_measured = float(np.linalg.norm(T_measured[:3, 3]))
+    b_loop = float(np.linalg.norm(T_loop[:3, 3]))
+    if b_loop > 0 and not (1 / MOUNTS_UNIT_RATIO <= b_measured / b_loop <= MOUNTS_UNIT_RATIO):
+        raise InputError(f"--mounts: T_ptuL_from_ptuR puts the units {b_measured:.4g} apart "
+                         f"but loop closure measures {b_loop:.4g} (in the unit of "
+                         "board.square_size): give its translation in that unit")
+    rot = float(rotation_error_deg(T_measured[:3, :3], T_loop[:3, :3]))
+    trans = float(np.linalg.norm(T_measured[:3, 3] - T_loop[:3, 3]))
+    if rot > MOUNTS_WARN_ROTATION_DEG or trans > MOUNTS_WARN_TRANSLATION_FRACTION * b_loop:
+        warnings.append(f"the measured mounts and loop closure differ by {rot:.2g}° and "
+                        f"{trans:.3g} (baseline {b_loop:.3g}): one of them is wrong; check "
+                        "the mounts' frames (T_ptuL_from_ptuR: the right unit's frame in the "
+                        "left one) and the hand-eye warnings")
+    return {"rotation_deg": rot, "translation": trans, "baseline_measured": b_measured,
+            "baseline_loop_closure": b_loop}
+
+
 def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                       log: Callable[[str], None] = lambda s: None) -> Calibration:
     """Calibrate the whole head from a :class:`rasc.dataset.Dataset`."""
@@ -260,10 +290,13 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
         T_loop, spread = loop
         base["loop_closure"] = {"T_ptuL_from_ptuR": T_loop.tolist(),
                                 "spread": spread.to_dict()}
+    warnings: list[str] = []
     if options.T_ptuL_from_ptuR_measured is not None:
         T_pLpR = validate_rigid_transform(options.T_ptuL_from_ptuR_measured,
                                           name="measured T_ptuL_from_ptuR")
         base["source"] = "measured mounts"
+        if loop is not None:
+            base["measured_vs_loop_closure"] = _compare_mounts(T_pLpR, loop[0], warnings)
     elif loop is not None:
         T_pLpR = loop[0]
         base["source"] = "loop closure"
@@ -280,7 +313,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                             T_ptu_from_base=T_pb[eye], image_size=sizes[eye])
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
-                      timings=dict(timer.timings))
+                      timings=dict(timer.timings), warnings=warnings)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
                                           where=str(dataset.ground_truth))

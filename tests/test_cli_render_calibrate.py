@@ -19,6 +19,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 import difflib
 import json
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -440,7 +441,6 @@ CALIBRATE_CASES = {
 
 @pytest.mark.parametrize("case", list(CALIBRATE_CASES))
 def test_calibrate_bad_input(case, copy, capsys):
-    import re
 
     change, message = CALIBRATE_CASES[case]
     ds = copy / "ds"
@@ -492,6 +492,39 @@ def test_calibrate_missing_dataset_and_output_folder(copy, capsys):
                          "does not exist")
 
 
+def test_mounts_in_another_unit_or_far_from_loop_closure(default, tmp_path, capsys):
+    """The true mounts in millimetres (a 300 m baseline) are refused: loop closure says
+    0.3; the true mounts turned by 5° are used, with a warning that they and loop closure
+    disagree (the paper: loop closure 2-3° off at worst)."""
+    truth = np.asarray(read_json(default / "ds" / "ground_truth.json")["T_ptuL_from_ptuR"])
+    in_mm = truth.copy()
+    in_mm[:3, 3] *= 1000.0
+    mounts = tmp_path / "mounts.json"
+    mounts.write_text(json.dumps({"format": "rasc-mounts/1", "T_ptuL_from_ptuR": in_mm.tolist(),
+                                  "description": "measured with calipers"}))
+    (tmp_path / "out").mkdir()
+    line = fails(["calibrate", default / "ds", "--mounts", mounts, "--out",
+                  tmp_path / "out" / "cal.json", "--quiet"], capsys, tmp_path / "out",
+                 "calibrate")
+    # the model's baseline is 0.300 m (sim/models/README.md), loop closure 0.56 mm off
+    assert line == ("rasc calibrate: error: --mounts: T_ptuL_from_ptuR puts the units 300 "
+                    "apart but loop closure measures 0.3 (in the unit of board.square_size): "
+                    "give its translation in that unit")
+    turned = perturb_mounts(truth, 5.0, 0.0, np.random.default_rng(2))
+    mounts.write_text(json.dumps({"T_ptuL_from_ptuR": turned.tolist()}))
+    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts,
+                            "--out", tmp_path / "cal.json", "--quiet"], capsys)
+    assert code == 0
+    # (the rotation alone was perturbed: the translations differ by loop closure's 0.56 mm)
+    (line,) = err.splitlines()
+    assert re.fullmatch(r"rasc calibrate: warning: the measured mounts and loop closure differ "
+                        r"by 5° and 0\.000\d+ \(baseline 0\.3\): one of them is wrong; check "
+                        r"the mounts' frames \(T_ptuL_from_ptuR: the right unit's frame in the "
+                        r"left one\) and the hand-eye warnings", line), line
+    cmp = read_json(tmp_path / "cal.json")["base_to_ptu"]["measured_vs_loop_closure"]
+    assert cmp["rotation_deg"] == pytest.approx(5.0, abs=0.05)   # loop closure: 0.02° off
+
+
 def _rigid_but_scaled() -> dict:
     T = np.eye(4)
     T[:3, :3] *= 1.1
@@ -504,6 +537,10 @@ def _rigid_but_scaled() -> dict:
     (json.dumps({"T": np.eye(4).tolist()}), "expected an object with field T_ptuL_from_ptuR"),
     (json.dumps(_rigid_but_scaled()), "T_ptuL_from_ptuR"),
     (json.dumps({"T_ptuL_from_ptuR": [[1, 0], [0, 1]]}), "T_ptuL_from_ptuR"),
+    (json.dumps({"T_ptuL_from_ptuR": np.eye(4).tolist(), "length_unit": "mm"}),
+     "unknown key 'length_unit'; allowed: format, T_ptuL_from_ptuR, description"),
+    (json.dumps({"T_ptuL_from_ptuR": np.eye(4).tolist(), "format": "rasc-mounts/2"}),
+     "format = 'rasc-mounts/2': expected 'rasc-mounts/1'"),
 ])
 def test_calibrate_bad_mounts_file(content, fragment, copy, capsys):
     mounts = copy / "mounts.json"

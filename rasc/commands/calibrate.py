@@ -16,6 +16,12 @@ import numpy as np
 from rasc.errors import InputError
 from rasc.io import check_writable, dumps_json, write_json_atomic
 
+#: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
+#: right unit's frame in the left one, translation in the unit of board.square_size),
+#: "description": free text (optional)}; any other key is an error.
+MOUNTS_FORMAT = "rasc-mounts/1"
+MOUNTS_KEYS = ("format", "T_ptuL_from_ptuR", "description")
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
@@ -35,8 +41,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--keep-outliers", action="store_true",
                    help="keep intrinsics views flagged as outliers")
     p.add_argument("--mounts", metavar="FILE",
-                   help="measured mounts: JSON with T_ptuL_from_ptuR (4x4), the right unit's "
-                        "frame in the left one; used instead of loop closure")
+                   help="measured mounts: JSON {\"T_ptuL_from_ptuR\": 4x4} (the right "
+                        "unit's frame in the left one, translation in the unit of the "
+                        "board's square_size; optional \"format\": \"rasc-mounts/1\", "
+                        "\"description\"); used instead of loop closure, and compared "
+                        "with it")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -58,6 +67,12 @@ def _read_mounts(path: str) -> np.ndarray:
                          f"{exc.msg}") from None
     if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
         raise InputError(f"{path}: expected an object with field T_ptuL_from_ptuR (4x4)")
+    unknown = [key for key in obj if key not in MOUNTS_KEYS]
+    if unknown:
+        raise InputError(f"{path}: unknown key {unknown[0]!r}; allowed: "
+                         + ", ".join(MOUNTS_KEYS))
+    if "format" in obj and obj["format"] != MOUNTS_FORMAT:
+        raise InputError(f"{path}: format = {obj['format']!r}: expected {MOUNTS_FORMAT!r}")
     return validate_rigid_transform(obj["T_ptuL_from_ptuR"], name=f"{path}: T_ptuL_from_ptuR")
 
 
@@ -86,7 +101,9 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         sys.stdout.write(dumps_json(doc))
-    for eye in ("left", "right"):  # warnings, not progress: printed even with --quiet
+    for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
+        print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
+    for eye in ("left", "right"):
         r = cal.eyes[eye]
         for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True):
             print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
