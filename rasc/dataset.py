@@ -3,7 +3,8 @@
 ::
 
     {"format": "rasc-dataset/1",
-     "board": {"inner_corners": [9, 6], "square_size": 0.05},        (metres)
+     "board": {"inner_corners": [9, 6], "square_size": 0.05},
+     "length_unit": "m",                      (optional: the unit of square_size, echoed)
      "angle_unit": "deg",                                             ("deg" | "rad")
      "images": [
        {"file": "intrinsics/left_000.png", "eye": "left", "role": "intrinsics"},
@@ -26,6 +27,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 import numpy as np
 
@@ -83,6 +85,7 @@ class Dataset:
     angle_unit: str
     images: tuple[ImageEntry, ...]
     ground_truth: Path | None = None
+    length_unit: str | None = None           # the unit of board.square_size, if stated
 
     def select(self, eye: str | None = None, role: str | None = None) -> list[ImageEntry]:
         """Images of one eye and/or role, in manifest order."""
@@ -186,7 +189,8 @@ class Dataset:
         return _manifest_dict(self.board, [_entry_dict(e, self.angle_unit) for e in self.images],
                               self.angle_unit,
                               None if self.ground_truth is None
-                              else self.ground_truth.relative_to(self.root).as_posix())
+                              else self.ground_truth.relative_to(self.root).as_posix(),
+                              self.length_unit)
 
 
 # ------------------------------------------------------------------------- reading
@@ -332,6 +336,10 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
     if angle_unit is not None and angle_unit not in ANGLE_UNITS:
         raise InputError(f"{where}: field 'angle_unit' must be 'deg' or 'rad', "
                          f"got {angle_unit!r}")
+    length_unit = obj.get("length_unit")
+    if length_unit is not None and (not isinstance(length_unit, str) or not length_unit):
+        raise InputError(f"{where}: field 'length_unit' must be a non-empty string (the unit "
+                         f"of board.square_size, e.g. \"m\"), got {length_unit!r}")
     images = _parse_images(obj, where, root, angle_unit, check_files)
     gt = obj.get("ground_truth")
     gt_path = None
@@ -340,7 +348,8 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
         if check_files and not gt_path.is_file():
             raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
     return Dataset(root=root, manifest_path=Path(where), board=board,
-                   angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path)
+                   angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path,
+                   length_unit=length_unit)
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
@@ -370,10 +379,11 @@ def _entry_dict(e: ImageEntry, angle_unit: str) -> dict:
     return d
 
 
-def _manifest_dict(board: Board, images: list[dict], angle_unit: str,
-                   ground_truth: str | None) -> dict:
-    obj = {"format": FORMAT, "board": board.to_dict(), "angle_unit": angle_unit,
-           "images": images}
+def _manifest_dict(board: Board | Any, images: list[dict], angle_unit: str,
+                   ground_truth: str | None, length_unit: str | None = None) -> dict:
+    obj = {"format": FORMAT, "board": board.to_dict() if hasattr(board, "to_dict") else board,
+           **({} if length_unit is None else {"length_unit": length_unit}),
+           "angle_unit": angle_unit, "images": images}
     if ground_truth is not None:
         obj["ground_truth"] = ground_truth
     return obj
@@ -381,7 +391,7 @@ def _manifest_dict(board: Board, images: list[dict], angle_unit: str,
 
 def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[dict], *,
                    angle_unit: str = "deg", ground_truth: str | None = None,
-                   check_files: bool = True) -> Path:
+                   length_unit: str | None = None, check_files: bool = True) -> Path:
     """Validate and write ``manifest.json`` atomically; return its path.
 
     Parameters
@@ -392,16 +402,15 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     images : list of image dicts exactly as in the manifest (file relative to the folder;
         pan, tilt in ``angle_unit``)
     ground_truth : file name of the ground-truth JSON, relative to the folder
+    length_unit : the unit of the board's square_size (written when given)
     check_files : require the images (and ground truth) to exist already
     """
     path = Path(path)
     manifest = path if path.suffix == ".json" else path / MANIFEST
     if hasattr(board, "to_dict"):  # rasc.camera.Board, or rasc.sim.Board (same dict)
         board = board.to_dict()
-    obj = {"format": FORMAT, "board": board, "angle_unit": angle_unit,
-           "images": [dict(im) if isinstance(im, dict) else im for im in images]}
-    if ground_truth is not None:
-        obj["ground_truth"] = ground_truth
+    obj = _manifest_dict(board, [dict(im) if isinstance(im, dict) else im for im in images],
+                         angle_unit, ground_truth, length_unit)
     # json round trip: numpy scalars become numbers, and what is written is what is checked
     obj = json.loads(json.dumps(obj, default=_jsonable))
     parse_manifest(obj, manifest.parent, where=str(manifest), check_files=check_files)

@@ -67,6 +67,7 @@ class Calibration:
     timings: dict[str, float] = field(default_factory=dict)
     errors: dict[str, Any] | None = None
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
+    length_unit: str | None = None     # the dataset's (the unit of board.square_size)
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -91,7 +92,9 @@ class Calibration:
                                                       r.T_cam_from_world, strict=True)],
                 "not_found": r.not_found,
             }
-        out = {"format": FORMAT, "head": self.head.to_dict(), "eyes": eyes,
+        out = {"format": FORMAT,
+               "length_unit": self.length_unit or "that of the dataset's board.square_size",
+               "head": self.head.to_dict(), "eyes": eyes,
                "base_to_ptu": self.base,
                "options": {"method": self.options.method, "detector": self.options.detector,
                            "dist_model": self.options.dist_model,
@@ -313,7 +316,8 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                             T_ptu_from_base=T_pb[eye], image_size=sizes[eye])
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
-                      timings=dict(timer.timings), warnings=warnings)
+                      timings=dict(timer.timings), warnings=warnings,
+                      length_unit=dataset.length_unit)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
                                           where=str(dataset.ground_truth))

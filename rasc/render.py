@@ -316,4 +316,4 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         gt["model_file"] = Path(gt["model_file"]).name
     write_json_atomic(out / "ground_truth.json", gt)
     return write_manifest(out, board, images, angle_unit="deg",
-                          ground_truth="ground_truth.json")
+                          ground_truth="ground_truth.json", length_unit="m")

@@ -455,6 +455,19 @@ def test_calibrate_bad_input(case, copy, capsys):
                         rf"{message}", line), line
 
 
+def test_length_unit_from_the_manifest_reaches_the_calibration(copy, capsys):
+    """rasc render states metres; a manifest without length_unit gives a calibration that
+    says its lengths are in the board's square_size unit."""
+    ds = copy / "ds"
+    assert read_json(ds / "manifest.json")["length_unit"] == "m"
+    code, _, _ = run_cli(["calibrate", ds, "--out", copy / "m.json", "--quiet"], capsys)
+    assert code == 0 and read_json(copy / "m.json")["length_unit"] == "m"
+    edit_manifest(ds, lambda m: m.pop("length_unit"))
+    code, _, _ = run_cli(["calibrate", ds, "--out", copy / "none.json", "--quiet"], capsys)
+    assert read_json(copy / "none.json")["length_unit"] == \
+        "that of the dataset's board.square_size"
+
+
 def test_calibrate_warns_when_pan_turns_the_other_way(copy, capsys):
     """Every pose's pan negated (a unit whose pan turns the other way than eq. 3): the
     calibration is written, and each eye warns that its camera looks backwards."""

@@ -126,6 +126,8 @@ def _mutations():
         ("wrong format", setitem("format", "rasc-dataset/9"), "'rasc-dataset/9'"),
         ("no board", drop("board"), "missing field 'board'"),
         ("board not object", setitem("board", [9, 6]), "'board' must be an object"),
+        ("length_unit not text", setitem("length_unit", 1000),
+         "field 'length_unit' must be a non-empty string"),
         ("board no corners", setitem("board", {"square_size": 1}), "'inner_corners'"),
         ("board even", setitem("board", {"inner_corners": [8, 6], "square_size": 0.03}),
          "nx \\+ ny even"),
@@ -183,7 +185,7 @@ def test_bad_manifest_fields(folder, name, change, fragment):
     (folder / "manifest.json").unlink()
     with pytest.raises(InputError, match=fragment):
         write_manifest(folder, obj["board"], obj["images"], angle_unit=obj["angle_unit"],
-                       ground_truth=obj.get("ground_truth"))
+                       ground_truth=obj.get("ground_truth"), length_unit=obj.get("length_unit"))
     assert not (folder / "manifest.json").exists()
     assert not list(folder.glob(".manifest.json.*"))  # no temporary file left either
 
