@@ -23,6 +23,9 @@ class _Parser(argparse.ArgumentParser):
     """argparse, but a usage error is one line (``rasc <command>: error: ...``), exit 2."""
 
     def error(self, message: str):
+        if message.endswith("expected one argument"):
+            # argparse takes a value starting with '-' for an option: say how to pass one
+            message += " (a value starting with '-' is written with '=', e.g. --distortion=-0.2)"
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 

@@ -148,6 +148,11 @@ class Dataset:
         :data:`MIN_POSE_VIEWS` for poses).
         """
         entries = self.select(eye, role)
+        if not entries:
+            what = ("views of the board moved in front of the fixed camera" if role ==
+                    "intrinsics" else "views at pan-tilt positions")
+            raise InputError(f"{self.manifest_path}: no {role} images of the {eye} eye "
+                             f"(role '{role}': {what})")
         if min_found is None:
             min_found = MIN_INTRINSICS_VIEWS if role == "intrinsics" else MIN_POSE_VIEWS
         corners: dict[str, np.ndarray] = {}

@@ -767,7 +767,7 @@ def diagnose(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
     _check_positions(n, T_gp.shape[0])
     _check_min_rotation(min_rotation_rad)
     if home is not None and not (isinstance(home, int | np.integer) and 0 <= home < n):
-        raise InputError(f"home: expected a view index in 0..{n - 1}, got {home!r}")
+        raise InputError(f"home: expected a position index in 0..{n - 1}, got {home!r}")
     pair = _pairs(n, pairs, None if home is None else int(home))
     out = _solve(T_cw[None], T_gp[None], pair, min_rotation_rad)
     return _diagnostics(out, n, pair), T_cw, T_gp

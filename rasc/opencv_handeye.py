@@ -22,6 +22,7 @@ reader of Tabb's robot-world-hand-eye dataset that OpenCV uses in its own tests.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -76,9 +77,8 @@ def calibrate_hand_eye_cv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndar
             list(T_cw[:, :3, :3]), list(T_cw[:, :3, 3]),
             method=getattr(cv2, CV_METHODS[method]))
     except cv2.error as exc:
-        msg = " ".join(str(exc).split())
-        raise SolverFailure(f"OpenCV's {method.upper()} hand-eye solver failed ({msg}); "
-                            "try method 'rasc'") from None
+        raise SolverFailure(f"OpenCV's {method.upper()} hand-eye solver failed "
+                            f"({_cv_reason(exc)}); try method 'rasc'") from None
     finally:
         log.setLogLevel(level)
     R, t = np.asarray(R, dtype=float), np.asarray(t, dtype=float).reshape(-1)
@@ -97,6 +97,17 @@ def calibrate_hand_eye_cv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndar
         raise SolverFailure(f"OpenCV's {method.upper()} hand-eye solver returned no valid "
                             f"rotation (R = {np.round(R, 6).tolist()}); try method 'rasc'")
     return make_transform(R, t)
+
+
+def _cv_reason(exc: Exception) -> str:
+    """OpenCV's reason from a cv2.error, without its source path and function:
+    "OpenCV(4.14.0) /io/.../calibration_handeye.cpp:549: error: (-7:Iterations do not
+    converge) Rotation normalization issue: determinant(R) is null in function
+    'normalizeRotation'" → "Iterations do not converge: Rotation normalization issue:
+    determinant(R) is null"."""
+    text = " ".join(str(exc).split())
+    m = re.search(r"error: \(-?\d+:([^)]*)\) (.*?)(?: in function '[^']*')?$", text)
+    return f"{m.group(1)}: {m.group(2)}" if m else text
 
 
 def solve_opencv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,

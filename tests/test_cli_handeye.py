@@ -280,7 +280,7 @@ def test_li_home_is_the_zero_pose_and_selectable(tmp_path, capsys):
     assert_bad_input([path, "--home", "3"], ["--home 3: only --method li uses a home"],
                      tmp_path, capsys)
     assert_bad_input([path, "--method", "li", "--home", "9"],
-                     ["home: expected a view index in 0..8, got 9"], tmp_path, capsys,
+                     ["home: expected a position index in 0..8, got 9"], tmp_path, capsys,
                      prefix=f"{path}: ")
 
 

@@ -257,6 +257,15 @@ def test_distortion_is_rendered_and_recovered(tmp_path, capsys):
     assert_recovered(cal, truth)
 
 
+def test_negative_option_value_without_equals_says_how(tmp_path, capsys):
+    code, out, err = run_cli(["render", "--distortion", "-0.2,0.05", "--out", tmp_path / "d"],
+                             capsys)
+    assert code == 2 and out == "" and not (tmp_path / "d").exists()
+    assert err.splitlines() == ["rasc render: error: argument --distortion: expected one "
+                                "argument (a value starting with '-' is written with '=', "
+                                "e.g. --distortion=-0.2) (see rasc render --help)"]
+
+
 def test_distortion_warp_is_rasc_sim_distort():
     """The warp render builds once per eye gives rasc.sim.distort's pixels, image after
     image, grey or colour."""
@@ -413,6 +422,11 @@ CALIBRATE_CASES = {
             for e in m["images"] if e["role"] == "pose"]),
         r"left pose images: the unit's motions turn 0\.017\d× as far as the camera's .*: "
         r"read as rad the angles match \(1×\); set angle_unit to 'rad'"),
+    "no intrinsics images for one eye": (
+        lambda ds: edit_manifest(ds, lambda m: m.__setitem__("images", [
+            e for e in m["images"] if not (e["role"] == "intrinsics" and e["eye"] == "right")])),
+        r"no intrinsics images of the right eye \(role 'intrinsics': views of the board moved "
+        r"in front of the fixed camera\)"),
     "fewer than 3 pose images": (
         lambda ds: edit_manifest(ds, lambda m: m.__setitem__("images", [
             e for e in m["images"] if not (e["role"] == "pose" and e["eye"] == "right"
