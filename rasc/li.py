@@ -87,11 +87,20 @@ def home_index(T_gaze_from_ptu: np.ndarray) -> int:
     """The default home view: the first position whose unit motion is the identity (the
     (0, 0) pose of a pan-tilt unit), else the first position (a robot arm's data)."""
     T = np.asarray(T_gaze_from_ptu, dtype=float)
-    if T.ndim == 3 and T.shape[1:] == (4, 4):
-        at_home = np.flatnonzero(np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL)
-        if at_home.size:
-            return int(at_home[0])
+    if T.ndim == 3 and T.shape[1:] == (4, 4) and has_home_pose(T):
+        return int(np.flatnonzero(np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL)[0])
     return 0
+
+
+#: What a pan-tilt user is told when no position is at pan = tilt = 0.
+NO_HOME_POSE = ("no position at pan = tilt = 0: Li's home is the first position (every "
+                "motion is taken from there)")
+
+
+def has_home_pose(T_gaze_from_ptu: np.ndarray) -> bool:
+    """Whether some position's unit motion is the identity (pan = tilt = 0)."""
+    T = np.asarray(T_gaze_from_ptu, dtype=float)
+    return bool((np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL).any())
 
 
 def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,

@@ -27,6 +27,7 @@ from rasc.errors import InputError, RascError
 from rasc.frames import EYES
 from rasc.head import EyeCalibration, HeadCalibration
 from rasc.kinematics import T_gaze_from_ptu
+from rasc.li import NO_HOME_POSE, has_home_pose, home_index
 from rasc.transforms import rotation_error_deg, validate_rigid_transform
 
 FORMAT = "rasc-calibration/1"
@@ -56,6 +57,7 @@ class EyeResult:
     not_found: dict[str, list[str]]
     handeye: Any                       # rasc.handeye.HandEyeResult
     uncertainty: Any = None            # rasc.handeye.HandEyeUncertainty
+    warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
 
 
 @dataclass
@@ -82,6 +84,9 @@ class Calibration:
                 "T_ptu_from_base": getattr(self.head, eye).T_ptu_from_base.tolist(),
                 "quality": r.handeye.quality,
                 "handeye_method": r.handeye.method,
+                **({"handeye_home_view": r.views[home_index(
+                    T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1]))]}
+                   if r.handeye.method == "li" else {}),
                 "handeye_diagnostics": r.handeye.diagnostics.to_dict(),
                 "handeye_uncertainty": (None if r.uncertainty is None
                                         else r.uncertainty.to_dict()),
@@ -223,11 +228,14 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     except RascError as exc:  # DegenerateDataError, SolverFailure: name the eye
         raise type(exc)(f"{dataset.manifest_path}: {eye} eye: {exc}") from None
     uncertainty = jackknife_uncertainty(options.method, T_cw, T_gp, he)
+    warnings = []
+    if options.method == "li" and not has_home_pose(T_gp):
+        warnings.append(f"{eye} eye: {NO_HOME_POSE}; add a pose view at (0, 0)")
     timer.add("hand-eye", time.perf_counter() - t0)
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
                      not_found={"intrinsics": det_i.not_found, "pose": det_p.not_found},
-                     handeye=he, uncertainty=uncertainty)
+                     handeye=he, uncertainty=uncertainty, warnings=warnings)
 
 
 def _loop_closure(eyes: dict[str, EyeResult]):
@@ -293,7 +301,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
         T_loop, spread = loop
         base["loop_closure"] = {"T_ptuL_from_ptuR": T_loop.tolist(),
                                 "spread": spread.to_dict()}
-    warnings: list[str] = []
+    warnings = [w for eye in EYES for w in eyes[eye].warnings]
     if options.T_ptuL_from_ptuR_measured is not None:
         T_pLpR = validate_rigid_transform(options.T_ptuL_from_ptuR_measured,
                                           name="measured T_ptuL_from_ptuR")

@@ -321,6 +321,19 @@ def test_example_has_a_small_estimated_error_and_no_warning(capsys):
     assert 0.0005 < unc["translation"] < EXAMPLE_TRANS_TOL_M
 
 
+def test_li_without_a_zero_pose_says_which_home_it_took(tmp_path, capsys):
+    doc = example_doc()
+    doc["positions"] = [p for p in doc["positions"] if not p["pan"] == p["tilt"] == 0]
+    path = write_doc(tmp_path / "nozero.json", doc)
+    rc, out, err = run_cli([path, "--method", "li"], capsys)
+    assert rc == 0 and json.loads(out)["home"] == 0
+    assert err.splitlines() == ["rasc handeye: warning: no position at pan = tilt = 0: Li's "
+                                "home is the first position (every motion is taken from "
+                                "there); give --home K or add the (0, 0) position"]
+    rc, _, err = run_cli([path, "--method", "li", "--home", "3"], capsys)
+    assert rc == 0 and err == ""
+
+
 def test_unknown_method_is_argparse_error(capsys):
     with pytest.raises(SystemExit) as info:
         main(["handeye", str(EXAMPLE), "--method", "magic"])

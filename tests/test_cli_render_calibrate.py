@@ -482,6 +482,28 @@ def test_length_unit_from_the_manifest_reaches_the_calibration(copy, capsys):
         "that of the dataset's board.square_size"
 
 
+def test_calibrate_li_names_its_home_view(copy, capsys):
+    """--method li: each eye's output names the home view (the (0, 0) one, "00"); without
+    a (0, 0) view the first is taken, with a warning per eye."""
+    ds = copy / "ds"
+    code, _, err = run_cli(["calibrate", ds, "--method", "li", "--out", copy / "li.json",
+                            "--quiet"], capsys)
+    cal = read_json(copy / "li.json")
+    assert code == 0 and err == ""
+    assert [cal["eyes"][eye]["handeye_home_view"] for eye in EYES] == ["00", "00"]
+    edit_manifest(ds, lambda m: m.__setitem__("images", [
+        e for e in m["images"] if not (e["role"] == "pose" and e["pan"] == e["tilt"] == 0)]))
+    code, _, err = run_cli(["calibrate", ds, "--method", "li", "--out", copy / "li2.json",
+                            "--quiet"], capsys)
+    assert code == 0
+    assert [line.split(": ")[2] for line in err.splitlines()] == ["left eye", "right eye"]
+    assert all("no position at pan = tilt = 0: Li's home is the first position" in line
+               and line.endswith("add a pose view at (0, 0)") for line in err.splitlines())
+    cal = read_json(copy / "li2.json")
+    first = [cal["eyes"][eye]["pose_views"][0]["view"] for eye in EYES]
+    assert [cal["eyes"][eye]["handeye_home_view"] for eye in EYES] == first
+
+
 def test_calibrate_warns_when_pan_turns_the_other_way(copy, capsys):
     """Every pose's pan negated (a unit whose pan turns the other way than eq. 3): the
     calibration is written, and each eye warns that its camera looks backwards."""

@@ -101,7 +101,7 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 def run(args: argparse.Namespace) -> int:
     # imported here, not at module level: building the parser loads no solver
     from rasc.handeye import input_warnings, solution_warnings
-    from rasc.li import home_index
+    from rasc.li import NO_HOME_POSE, has_home_pose, home_index
     from rasc.methods import jackknife_uncertainty
 
     source = args.poses
@@ -120,9 +120,11 @@ def run(args: argparse.Namespace) -> int:
         raise DegenerateDataError(f"{source}: {exc}") from None
     except RascError as exc:
         raise RascError(f"{source}: {exc}") from None
-    home = None
+    home, notes = None, []
     if args.method == "li":
         home = home_index(data.T_gaze_from_ptu) if args.home is None else args.home
+        if args.home is None and data.from_angles and not has_home_pose(data.T_gaze_from_ptu):
+            notes.append(f"{NO_HOME_POSE}; give --home K or add the (0, 0) position")
     doc = result_document(data, result, source=source, method=args.method, home=home)
     uncertainty = jackknife_uncertainty(args.method, data.T_cam_from_world,
                                         data.T_gaze_from_ptu, result, **kwargs)
@@ -131,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
-    for warning in input_warnings(data.T_cam_from_world) + solution_warnings(
+    for warning in notes + input_warnings(data.T_cam_from_world) + solution_warnings(
             result, uncertainty=uncertainty, pan_tilt=data.from_angles):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
