@@ -27,7 +27,6 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import Any
 
 import numpy as np
 
@@ -384,7 +383,7 @@ def _entry_dict(e: ImageEntry, angle_unit: str) -> dict:
     return d
 
 
-def _manifest_dict(board: Board | Any, images: list[dict], angle_unit: str,
+def _manifest_dict(board: Board | dict, images: list[dict], angle_unit: str,
                    ground_truth: str | None, length_unit: str | None = None) -> dict:
     obj = {"format": FORMAT, "board": board.to_dict() if hasattr(board, "to_dict") else board,
            **({} if length_unit is None else {"length_unit": length_unit}),

@@ -83,24 +83,29 @@ class _Problem:
 HOME_ATOL = 1e-9
 
 
-def home_index(T_gaze_from_ptu: np.ndarray) -> int:
-    """The default home view: the first position whose unit motion is the identity (the
-    (0, 0) pose of a pan-tilt unit), else the first position (a robot arm's data)."""
-    T = np.asarray(T_gaze_from_ptu, dtype=float)
-    if T.ndim == 3 and T.shape[1:] == (4, 4) and has_home_pose(T):
-        return int(np.flatnonzero(np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL)[0])
-    return 0
-
-
 #: What a pan-tilt user is told when no position is at pan = tilt = 0.
 NO_HOME_POSE = ("no position at pan = tilt = 0: Li's home is the first position (every "
                 "motion is taken from there)")
 
 
+def _at_home(T_gaze_from_ptu: np.ndarray) -> np.ndarray:
+    """Indices of the positions whose unit motion is the identity (pan = tilt = 0)."""
+    T = np.asarray(T_gaze_from_ptu, dtype=float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        return np.array([], dtype=int)
+    return np.flatnonzero(np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL)
+
+
+def home_index(T_gaze_from_ptu: np.ndarray) -> int:
+    """The default home view: the first position whose unit motion is the identity (the
+    (0, 0) pose of a pan-tilt unit), else the first position (a robot arm's data)."""
+    at_home = _at_home(T_gaze_from_ptu)
+    return int(at_home[0]) if at_home.size else 0
+
+
 def has_home_pose(T_gaze_from_ptu: np.ndarray) -> bool:
     """Whether some position's unit motion is the identity (pan = tilt = 0)."""
-    T = np.asarray(T_gaze_from_ptu, dtype=float)
-    return bool((np.abs(T - np.eye(4)).max(axis=(1, 2)) <= HOME_ATOL).any())
+    return bool(_at_home(T_gaze_from_ptu).size)
 
 
 def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
