@@ -1,28 +1,60 @@
 # Two commands (README "Quick start"): `make reproduce` and `make test`.
-# Each creates .venv and installs the package on first use.
+# Each creates .venv and installs the package with the exact versions of constraints.txt
+# on first use (and again whenever pyproject.toml or constraints.txt changes).
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
+# Test workers: pytest-xdist over the machine's cores ("0" runs in one process).
+JOBS ?= auto
 export MUJOCO_GL ?= egl
 
-.PHONY: reproduce test lint bench clean
+.PHONY: reproduce test test-fast lint bench lock check-latest clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -c constraints.txt -e '.[test,dask]'
 	touch $(STAMP)
 
 reproduce: $(STAMP)
 	$(PY) experiments/reproduce.py --out $(OUT)
 
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(JOBS)
+
+# The quick loop while developing: everything not marked slow.
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -n $(JOBS) -m "not slow"
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check rasc tests experiments
+	$(VENV)/bin/ruff check rasc tests experiments benchmarks examples
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_handeye.py
+	$(PY) benchmarks/bench_pipeline.py
+	$(PY) benchmarks/bench_reproduce.py
+
+# Rewrite constraints.txt from a fresh resolve of pyproject.toml's ranges.
+lock:
+	rm -rf .venv-lock
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/python -m pip install --quiet --upgrade pip
+	.venv-lock/bin/python -m pip install --quiet '.[test,dask]'
+	{ grep "^#" constraints.txt; \
+	  .venv-lock/bin/python -m pip freeze --exclude rasc; } > constraints.txt.new
+	mv constraints.txt.new constraints.txt
+	rm -rf .venv-lock
+
+# Drift check: the newest versions the ranges allow, in their own venv, then the tests.
+check-latest:
+	rm -rf .venv-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --upgrade pip
+	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test,dask]'
+	.venv-latest/bin/python -m pip freeze --exclude rasc | diff constraints.txt - || true
+	.venv-latest/bin/python -m pytest -q -n $(JOBS)
 
 clean:
-	rm -rf $(VENV) $(OUT)
+	rm -rf $(VENV) .venv-latest $(OUT)

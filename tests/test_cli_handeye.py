@@ -185,7 +185,7 @@ def test_output_is_deterministic(tmp_path, capsys):
 def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     """Camera rotations that are the inverses of the unit's: every relative rotation turns
     as far as the unit's (so the motion check passes) but about another axis, so no X
-    fits; with ±60° motions eq. 10 is 1.10 > 1 -> one warning line, exit 0."""
+    fits; with ±60° motions eq. 10 is 1.10 > 1 -> warned, written, exit 0."""
     pan_tilt = [(p, t) for p in (-60.0, 0.0, 60.0) for t in (-60.0, 0.0, 60.0)]
     T_gp = T_gaze_from_ptu(*np.radians(np.array(pan_tilt)).T)
     T_cw = invert_transform(T_gp) @ make_transform(np.eye(3), [0.0, 0.0, 1.0])
@@ -201,8 +201,13 @@ def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     assert lines[0] == (f"rasc handeye: warning: quality {quality:.3g} > 1; "
                         "the paper found such solutions unusable")
     # and the positions disagree with one another: the jackknife sees it too
-    assert len(lines) == 2 and lines[1].startswith("rasc handeye: warning: estimated error "
-                                                   "(jackknife over positions)")
+    assert any(line.startswith("rasc handeye: warning: estimated error (jackknife over "
+                               "positions)") for line in lines[1:])
+    # No X fits these data, so where the returned X points (and hence whether the
+    # "camera looks backwards" warning also fires) is an incidental outcome of an
+    # ill-posed problem that changes with library versions: not asserted. Every line
+    # is still a one-line warning.
+    assert all(line.startswith("rasc handeye: warning: ") for line in lines)
 
 
 def test_weak_axis_spread_warns_but_writes(tmp_path, capsys):
