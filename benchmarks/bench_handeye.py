@@ -33,17 +33,17 @@ sys.path.insert(0, str(REPO))
 
 import cv2  # noqa: E402
 
-from rasc.handeye import solve_rasc, solve_rasc_batch  # noqa: E402
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
-from rasc.li import solve_li  # noqa: E402
-from rasc.noise import perturb_T_cam_from_world  # noqa: E402
-from rasc.opencv_handeye import read_tabb_rwhe  # noqa: E402
-from rasc.transforms import (  # noqa: E402
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
     project_to_rotation,
 )
+from rasc.handeye.li import solve_li  # noqa: E402
+from rasc.handeye.noise import perturb_T_cam_from_world  # noqa: E402
+from rasc.handeye.opencv import read_tabb_rwhe  # noqa: E402
+from rasc.handeye.solver import solve_rasc, solve_rasc_batch  # noqa: E402
 
 TABB = REPO / "tests" / "data" / "tabb-rwhe-dataset1"
 R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])

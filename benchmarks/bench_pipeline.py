@@ -36,14 +36,14 @@ import numpy as np  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from rasc.camera import estimate_extrinsics  # noqa: E402
-from rasc.dataset import load_dataset  # noqa: E402
-from rasc.frames import EYES  # noqa: E402
-from rasc.handeye import solve_rasc  # noqa: E402
-from rasc.kinematics import T_gaze_from_ptu  # noqa: E402
-from rasc.pipeline import calibrate_dataset  # noqa: E402
-from rasc.render import RenderOptions, render_dataset  # noqa: E402
-from rasc.transforms import rotation_error_deg  # noqa: E402
+from rasc.geometry.frames import EYES  # noqa: E402
+from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
+from rasc.handeye.solver import solve_rasc  # noqa: E402
+from rasc.head.pipeline import calibrate_dataset  # noqa: E402
+from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
+from rasc.vision.camera import estimate_extrinsics  # noqa: E402
+from rasc.vision.dataset import load_dataset  # noqa: E402
 
 STAGES = ("detection", "intrinsics", "extrinsics", "hand-eye", "base-to-ptu")
 

@@ -43,9 +43,9 @@ def yardstick_ms(repeat: int = 200) -> float:
     "RASC=" column of bench_handeye.py, timed the same way)."""
     from bench_handeye import TABB, median_time
 
-    from rasc.handeye import solve_rasc
-    from rasc.opencv_handeye import read_tabb_rwhe
-    from rasc.transforms import make_transform, project_to_rotation
+    from rasc.geometry.transforms import make_transform, project_to_rotation
+    from rasc.handeye.opencv import read_tabb_rwhe
+    from rasc.handeye.solver import solve_rasc
 
     T_cw, T_gb, _ = read_tabb_rwhe(TABB)
     T_cw = make_transform(project_to_rotation(T_cw[:, :3, :3]), T_cw[:, :3, 3])

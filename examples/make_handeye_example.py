@@ -3,7 +3,7 @@
 A camera sits on a pan-tilt unit with a known ``T_cam_from_gaze`` (a few centimetres off
 the unit's centre, its axes 1–3° off the ideal "looking along the gaze" mounting). It
 views a chessboard about 1 m ahead at the paper's nine positions
-(:data:`rasc.kinematics.PAPER_POSES_DEG`, ±8°). The document holds the commanded
+(:data:`rasc.geometry.kinematics.PAPER_POSES_DEG`, ±8°). The document holds the commanded
 pan/tilt (round degrees) and each ``T_cam_from_world`` as a camera calibration would
 report it, with realistic noise:
 
@@ -11,7 +11,7 @@ report it, with realistic noise:
   angles carry N(0, 0.01°) errors (a FLIR PTU-46 step is 0.013°);
 - each extrinsic carries the paper's noise model, eq. 13–14 in exponential form, with
   σ_r = 0.0005 rad (0.03°) and σ_t = 0.5 mm, the size of ``solvePnP`` errors for a
-  9×6 board at 1 m (SIM_NOTES: 0.01–0.04° and 0.5–0.8 mm end to end).
+  9×6 board at 1 m (docs/NOTES.md: 0.01–0.04° and 0.5–0.8 mm end to end).
 
 Usage (from the repository root)::
 
@@ -29,14 +29,14 @@ import sys
 
 import numpy as np
 
-from rasc.io import write_text_atomic
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.transforms import (
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
     rotation_angle,
 )
+from rasc.io import write_text_atomic
 
 DEFAULT_OUT = "examples/handeye_nine_poses.json"
 SIGMA_R_RAD = 5e-4

@@ -145,7 +145,7 @@ def stage(label: str):
 
 # ----------------------------------------------------------------------- shared context
 
-#: the paper's eq. 13–14 noise levels (SPEC §8): (σ_r rad, σ_t mm)
+#: the paper's eq. 13–14 noise levels (docs/METHOD.md §8): (σ_r rad, σ_t mm)
 PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
 
 
@@ -154,7 +154,7 @@ class Context:
     calibrated once (``out/data/``) through the real pipeline.
 
     ``ctx.dataset_dir()`` renders the default dataset (seeded by ``--seed``) on first
-    use; ``ctx.calibration()`` runs ``rasc.pipeline.calibrate_dataset`` on it once and
+    use; ``ctx.calibration()`` runs ``rasc.head.pipeline.calibrate_dataset`` on it once and
     writes ``out/data/calibration.json``; ``ctx.truth()`` is its ``ground_truth.json``.
     Experiments write into ``ctx.dir(name)`` and return a :class:`Section` for the report.
     """
@@ -177,7 +177,7 @@ class Context:
         return path
 
     def dataset_dir(self) -> Path:
-        from rasc.render import RenderOptions, render_dataset
+        from rasc.sim.render import RenderOptions, render_dataset
 
         path = self.out / "data" / "dataset"
         if not (path / "manifest.json").is_file():
@@ -189,10 +189,10 @@ class Context:
         return path
 
     def calibration(self):
-        """The pipeline's calibration of the default dataset (rasc.pipeline.Calibration)."""
+        """The pipeline's calibration of the default dataset (rasc.head.pipeline.Calibration)."""
         if self._calibration is None:
-            from rasc.dataset import load_dataset
-            from rasc.pipeline import calibrate_dataset
+            from rasc.head.pipeline import calibrate_dataset
+            from rasc.vision.dataset import load_dataset
 
             ds = load_dataset(self.dataset_dir())
             with stage("calibrate the default dataset (detection, intrinsics, extrinsics, "

@@ -2,8 +2,8 @@
 
     python experiments/e2_home_view.py [--seed S] [--quick] [--out DIR] [--workers N]
 
-Protocol (SPEC §9, E2): the nine pipeline poses of E1, eq. 13–14 noise at (0.030 rad,
-6 mm) added to the HOME view (pan = tilt = 0) only (``rasc.noise.perturb_one_view``),
+Protocol (docs/METHOD.md §9, E2): the nine pipeline poses of E1, eq. 13–14 noise at (0.030 rad,
+6 mm) added to the HOME view (pan = tilt = 0) only (``rasc.handeye.noise.perturb_one_view``),
 30 samples per eye (quick: 8), both noise variants from the same draws; RASC and Li solve
 the same samples. Li takes every motion from the home view, so its error there enters
 every equation; RASC uses all ordered pairs, of which only 16 of 72 contain the home view.
@@ -35,8 +35,8 @@ from _common import (
     write_json,
 )
 
-from rasc.frames import EYES
-from rasc.noise import VARIANTS, perturb_one_view
+from rasc.geometry.frames import EYES
+from rasc.handeye.noise import VARIANTS, perturb_one_view
 
 NAME = "e2"
 E2_KEY = 2

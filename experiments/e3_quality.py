@@ -2,7 +2,7 @@
 
     python experiments/e3_quality.py [--seed S] [--quick] [--out DIR] [--workers N]
 
-Protocol (SPEC §9, E3): RASC's eq. 10 quality (mean over i ≠ j of
+Protocol (docs/METHOD.md §9, E3): RASC's eq. 10 quality (mean over i ≠ j of
 ‖R_X R_B R_Xᵀ − R_A‖_F) against its true rotation and translation errors, over every
 RASC sample of E1 (sets 0–8, both eyes, both noise variants; E1's raw CSV is reused when
 ``<out>/e1/inputs.json`` shows it was made with this protocol and these poses, else E1's
@@ -46,8 +46,8 @@ from _common import (
     write_json,
 )
 
+from rasc.handeye.noise import VARIANTS
 from rasc.io import dumps_json
-from rasc.noise import VARIANTS
 
 NAME = "e3"
 #: extended noise sets: multipliers k of (0.005 rad, 1 mm), numbered after the paper's 8

@@ -1,4 +1,4 @@
-"""E5 — base-to-ptu calibration: loop closure against measured mounts (SPEC §5, §9).
+"""E5 — base-to-ptu calibration: loop closure against measured mounts (docs/METHOD.md §5, §9).
 
 The paper (section 3.3) closes the loop through both units and a target seen by both
 cameras at once (eq. 11–12) and finds the result 2–3° and about 1 cm off; it prefers
@@ -9,16 +9,16 @@ measuring the mounts (< 1°, 2–3 mm). Here:
   ``T_ptuL_from_ptuR``;
 * measured mounts: the truth turned by a seeded rotation error drawn uniformly in
   [0, 1)° about a random axis and moved by a translation error drawn uniformly in
-  [2, 3] mm in a random direction (``rasc.base_to_ptu.perturb_mounts``), several draws;
+  [2, 3] mm in a random direction (``rasc.head.base_to_ptu.perturb_mounts``), several draws;
 * why the paper's loop closure was worse: the paper's eq. 13–14 noise (its eight levels,
-  SPEC §8, exponential variant so every pose stays a rotation) added to both eyes'
+  docs/METHOD.md §8, exponential variant so every pose stays a rotation) added to both eyes'
   ``T_cam_from_world`` of the nine views, Monte-Carlo, then loop closure (a) with the
   hand-eye re-solved by RASC from the same noisy views (what a user of the method gets)
   and (b) with the pipeline's hand-eye held fixed (loop closure's own sensitivity).
 
 Errors: rotation = geodesic angle between estimate and truth (degrees); translation =
 distance between the two baselines' end points (mm); baseline length = signed length
-difference (mm) (``rasc.base_to_ptu.mount_errors``).
+difference (mm) (``rasc.head.base_to_ptu.mount_errors``).
 
 Run::
 
@@ -49,16 +49,16 @@ from _common import (
     write_json,
 )
 
-from rasc.base_to_ptu import mount_errors, perturb_mounts
-from rasc.handeye import solve_rasc_batch
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.noise import perturb_T_cam_from_world
-from rasc.transforms import (
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     project_to_rotation,
     rotation_error_deg,
 )
+from rasc.handeye.noise import perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc_batch
+from rasc.head.base_to_ptu import mount_errors, perturb_mounts
 
 NAME = "e5"
 #: spawn_rngs key of this experiment
@@ -104,7 +104,7 @@ def loop_closure_batch(T_cw_left: np.ndarray, T_cw_right: np.ndarray,
     T_ptuL_from_ptuR : ndarray, shape (S, 4, 4)
         Rotation: the chordal L2 mean of the views' rotations (projection of their
         element-wise mean onto SO(3)), translation: the arithmetic mean — the same
-        average as :func:`rasc.base_to_ptu.T_ptuL_from_ptuR_loop_closure` (tested).
+        average as :func:`rasc.head.base_to_ptu.T_ptuL_from_ptuR_loop_closure` (tested).
     """
     T_cg_left = np.asarray(T_cg_left, float)
     T_cg_right = np.asarray(T_cg_right, float)

@@ -9,11 +9,11 @@ Figure ``e6a/e6a_pixel_noise.png`` (+ .svg); raw results ``e6a/raw.csv`` and
 Protocol. The paper perturbs the extrinsics ``T_cam_from_world`` directly (eq. 13-14);
 here the noise enters where it arises, in the image. The default dataset's nine pose
 renders per eye (``ctx.dataset_dir()``, poses/<eye>_NN.png, pan/tilt from the manifest)
-are detected ONCE with the pipeline's detector (``rasc.camera.detect_corners``, method
+are detected ONCE with the pipeline's detector (``rasc.vision.camera.detect_corners``, method
 "saddle"); for each corner-noise level sigma (px) and seed, independent Gaussian noise
 N(0, sigma^2) is added to both coordinates of every corner, every pose's extrinsics are
 re-estimated with the pipeline's intrinsics fixed (``ctx.calibration().eyes[eye]
-.intrinsics``; ``rasc.camera.estimate_extrinsics``), and RASC and Li solve
+.intrinsics``; ``rasc.vision.camera.estimate_extrinsics``), and RASC and Li solve
 ``T_cam_from_gaze``, compared with the truth ``ctx.truth()[eye]["T_cam_from_gaze"]``
 (rotation: geodesic angle in degrees; translation: Euclidean distance in mm). Every
 (sigma, seed) task draws from its own generator, ``spawn_rngs(seed, n_seeds, 6, 1,
@@ -47,15 +47,15 @@ from _common import (
     write_json,
 )
 
-from rasc.camera import detect_corners, estimate_extrinsics
-from rasc.dataset import load_dataset
 from rasc.errors import InputError, RascError
-from rasc.frames import EYES
-from rasc.handeye import solve_rasc_batch
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.methods import METHODS
-from rasc.noise import perturb_T_cam_from_world
-from rasc.transforms import rotation_error_deg, rotvec_from_matrix
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import rotation_error_deg, rotvec_from_matrix
+from rasc.handeye.methods import METHODS
+from rasc.handeye.noise import perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc_batch
+from rasc.vision.camera import detect_corners, estimate_extrinsics
+from rasc.vision.dataset import load_dataset
 
 NAME = "e6a"
 #: corner-noise levels (px) and seeds per level: full protocol and --quick
@@ -610,7 +610,7 @@ origin of the means). {ranking} The mapping to the paper's levels: for this came
 corresponds to about {_g(lvl['rotation'], 2)} px of corner noise by its rotation part and
 {_g(lvl['translation'], 2)} px by its translation part, so its eight levels span roughly
 {_g(lo, 2)}–{_g(hi, 2)} px: far coarser than sub-pixel detection (the pipeline's saddle
-refinement has about 0.012 px RMS on these renders, rasc.camera). {ratio_text}
+refinement has about 0.012 px RMS on these renders, rasc.vision.camera). {ratio_text}
 {model_text}
 """
 

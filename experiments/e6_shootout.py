@@ -7,14 +7,14 @@ Figure ``e6b/e6b_shootout.png`` (+ .svg); raw results ``e6b/raw.csv``; summaries
 
 Protocol. Three pose sets, each a 3x3 grid like the paper's nine, (pan, tilt) in
 {-a, 0, a}^2 with the home (0, 0) first: a = 8 deg is the default dataset's pose renders
-(``ctx.dataset_dir()``); a = 4 and 2 deg are rendered here with ``rasc.sim.StereoHeadSim``
+(``ctx.dataset_dir()``); a = 4 and 2 deg are rendered here with ``rasc.sim.scene.StereoHeadSim``
 in the same scene (default model, board facing the head at the dataset's distance via
-``T_base_from_world_facing``, as ``rasc.render`` does; checked equal to the dataset's
+``T_base_from_world_facing``, as ``rasc.sim.render`` does; checked equal to the dataset's
 recorded target pose). Corners are detected once per image ("saddle"); then, per set,
 one noise-free run and ``N_SEEDS`` runs with Gaussian corner noise of ``SIGMA_PX`` px
 (one generator per (set, seed): ``spawn_rngs(seed, N_SEEDS, 6, 2, milli-deg)``), each
 re-estimating every pose's extrinsics with the pipeline's intrinsics fixed and giving the
-SAME ``T_cam_from_world`` to every method of ``rasc.methods.METHODS``. A run of a method
+SAME ``T_cam_from_world`` to every method of ``rasc.handeye.methods.METHODS``. A run of a method
 fails when it raises (SolverFailure, DegenerateDataError, ...), returns NaN/inf, or is off
 the truth by more than 10 deg or 100 mm (gross); errors are summarised over the runs that
 did not fail, both eyes pooled.
@@ -48,12 +48,12 @@ from e6_pixel_noise import (
     run_method,
 )
 
-from rasc.camera import detect_corners
-from rasc.dataset import load_dataset
 from rasc.errors import InputError
-from rasc.frames import EYES
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.methods import METHODS
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.handeye.methods import METHODS
+from rasc.vision.camera import detect_corners
+from rasc.vision.dataset import load_dataset
 
 NAME = "e6b"
 #: pose-set amplitudes a (deg): the nine (pan, tilt) in {-a, 0, a}^2; full and --quick
@@ -61,7 +61,7 @@ POSE_SETS_DEG = (8.0, 4.0, 2.0)
 QUICK_POSE_SETS_DEG = (8.0, 2.0)
 #: corner noise (px) of the seeded runs: ~20x the saddle detector's 0.012 px RMS on these
 #: renders, a realistic figure for real images (OpenCV's stereo samples calibrate to
-#: 0.41-0.46 px RMS, shared/data/README.md), large enough that failure rates mean something
+#: 0.41-0.46 px RMS, docs/NOTES.md), large enough that failure rates mean something
 SIGMA_PX = 0.25
 N_SEEDS = 10
 QUICK_N_SEEDS = 2
@@ -102,7 +102,7 @@ def render_pose_set(ctx: Context, amplitude: float, board) -> dict[str, EyeData]
         The scene differs from the dataset's, the dataset was rendered with image
         degradation, or a render has no detectable board (names the image).
     """
-    from rasc.sim import StereoHeadSim, T_base_from_world_facing
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
 
     truth, cal = ctx.truth(), ctx.calibration()
     opts = truth.get("render_options", {})
@@ -129,7 +129,7 @@ def render_pose_set(ctx: Context, amplitude: float, board) -> dict[str, EyeData]
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             for eye in EYES:
-                images[eye].append(sim.render_grey(eye))   # as rasc.render
+                images[eye].append(sim.render_grey(eye))   # as rasc.sim.render
                 T_cw[eye].append(sim.T_cam_from_world(eye))
         X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
     pt = np.radians(np.array(poses))
@@ -441,7 +441,7 @@ NaN/inf result, or an error above {GROSS_ROTATION_DEG:g}° or {GROSS_TRANSLATION
 (gross). Errors against the rendered truth, over the runs that did not fail, eyes pooled.
 The paper compares RASC with Li only (E1, E2); OpenCV's methods and these small motions are
 beyond it: the reference values beside ours are the facts measured with OpenCV in
-SIM_NOTES.md.
+docs/NOTES.md.
 
 {table}
 ![E6b: hand-eye shoot-out](e6b/e6b_shootout.png)
@@ -457,7 +457,7 @@ First failure message per method:
 
 
 def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
-    """SIM_NOTES.md's measured OpenCV facts beside what this run shows (data-driven)."""
+    """docs/NOTES.md's measured OpenCV facts beside what this run shows (data-driven)."""
     def cell(m, a):
         r = by[(a, m)]
         n = int(r["failures"])
@@ -471,7 +471,7 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
                             "5.8 mm",
              "opencv-tsai": "Tsai fails at ±5° (15° / 99 mm)",
              "opencv-andreff": "Andreff returns NaN at ±5° and ±10°"}
-    lines = ["| SIM_NOTES.md (OpenCV 4.x, 4×4 grid, OpenCV's test noise) | here "
+    lines = ["| docs/NOTES.md (OpenCV 4.x, 4×4 grid, OpenCV's test noise) | here "
              f"(3×3 grid, σ = {SIGMA_PX:g} px corners) |", "|---|---|"]
     lines += [f"| {fact} | {'; '.join(cell(m, a) for a in sets)} |"
               for m, fact in facts.items() if m in methods]
@@ -480,7 +480,7 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
         park = [float(by[(a, "opencv-park")]["translation_median_mm"]) for a in sorted(sets)]
         if all(np.isfinite(park)) and all(x > y for x, y in zip(park, park[1:], strict=False)):
             said.append(
-                "Park's error grows as the motions shrink, as in SIM_NOTES; its values are "
+                "Park's error grows as the motions shrink, as in docs/NOTES.md; its values are "
                 f"smaller: {SIGMA_PX:g} px of corner noise perturbed our extrinsics by "
                 f"{eq13['eq13_sigma_r_rad']:.2g} rad and {eq13['eq13_sigma_t_mm']:.2g} mm per "
                 "axis (RMS), against OpenCV's test noise of 0.002 rad and 0.005 length units "
@@ -492,9 +492,9 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
         if failing and working and max(failing) < min(working):
             said.append(f"Tsai works at ±{min(working):g}° and fails at every run from "
                         f"±{max(failing):g}° down, consistent with its failure at ±5° in "
-                        "SIM_NOTES" + (": OpenCV logs 'Not enough informative motions' and "
+                        "docs/NOTES.md" + (": OpenCV logs 'Not enough informative motions' and "
                                        "returns exactly the identity, which "
-                                       "rasc.opencv_handeye turns into a SolverFailure."
+                                       "rasc.handeye.opencv turns into a SolverFailure."
                                        if "identity" in detail else "."))
     if "opencv-andreff" in methods and all(
             int(by[(a, "opencv-andreff")]["failures"]) == n_runs
@@ -504,7 +504,7 @@ def _sim_notes_comparison(sets, methods, by, n_runs, eq13) -> str:
                     "together) has the unit's translations as its only right-hand side, and "
                     "a pan-tilt unit's motions have none, so the system is homogeneous and "
                     "its solution's rotation is zero (OpenCV's 'determinant(R) is null' "
-                    "above). SIM_NOTES saw this as a NaN at ±5° and ±10°; it fails at any "
+                    "above). docs/NOTES.md saw this as a NaN at ±5° and ±10°; it fails at any "
                     "motion range on pan-tilt data.")
     return ("How this compares with the OpenCV behaviour measured earlier on this machine "
             "(different grid and noise, so compare tendencies, not values):\n\n"

@@ -2,10 +2,10 @@
 
     python experiments/fig3_fig4_noise.py [--seed S] [--quick] [--out DIR] [--workers N]
 
-Protocol (SPEC §9, E1; paper section 4): the target poses ``T_cam_from_world`` at the
+Protocol (docs/METHOD.md §9, E1; paper section 4): the target poses ``T_cam_from_world`` at the
 paper's nine pan-tilt positions come from the rendered-image pipeline
 (``ctx.calibration()``), the truth ``T_cam_from_gaze`` from the renderer's
-``ground_truth.json``. Eq. 13–14 noise (``rasc.noise``) is added to all nine poses at
+``ground_truth.json``. Eq. 13–14 noise (``rasc.handeye.noise``) is added to all nine poses at
 the eight paper levels (σ_r rad, σ_t mm), 30 samples per level, and THE SAME noisy
 samples go to RASC (``solve_rasc_batch``) and to Li (``solve_li``), for both eyes and
 both noise variants (literal as printed; exponential = projected onto SO(3)). Level 0
@@ -46,14 +46,13 @@ from _common import (
     write_json,
 )
 
-from rasc.errors import DegenerateDataError
-from rasc.frames import EYES
-from rasc.handeye import solve_rasc, solve_rasc_batch
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.li import solve_li
-from rasc.noise import VARIANTS, perturb_T_cam_from_world
-from rasc.opencv_handeye import SolverFailure
-from rasc.transforms import rotation_error_deg
+from rasc.errors import DegenerateDataError, SolverFailure
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import rotation_error_deg
+from rasc.handeye.li import solve_li
+from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 
 NAME = "e1"
 #: first element of every E1 seed key: (E1_KEY, eye index, level) → one generator
@@ -186,7 +185,7 @@ def noise_task(task: dict) -> list[list]:
     """One eye at one level, every variant: perturb, solve, one row per sample and method.
 
     The generator is spawned from ``(seed, E1_KEY, eye index, level)`` afresh for each
-    variant, so the variants see the same ω and t draws (``rasc.noise``).
+    variant, so the variants see the same ω and t draws (``rasc.handeye.noise``).
     """
     T_cw, T_gp, T_true = task["T_cam_from_world"], task["T_gaze_from_ptu"], task["T_true"]
     rows = []

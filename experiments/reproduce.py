@@ -4,7 +4,7 @@
 
 Renders the default dataset from the MuJoCo head, calibrates it through the real
 pipeline (detection → intrinsics → extrinsics → RASC → loop closure), runs every
-experiment of SPEC §9 (E1–E5) and the extra E6, and writes ``DIR/REPORT.md`` with each
+experiment of docs/METHOD.md §9 (E1–E5) and the extra E6, and writes ``DIR/REPORT.md`` with each
 figure (PNG and SVG) and table beside the paper's values, the protocol parameters, the
 seed, the software versions and the wall time of every stage. Raw results (CSV/JSON)
 are byte-identical for the same seed, whatever ``--workers``.
@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     sections.append(pipeline_section(ctx))
     timings.append(("render + calibrate the default dataset", time.perf_counter() - t0))
-    rig = REPO / "sim" / "models" / "stereo_head.png"
+    rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
     if rig.is_file():
         shutil.copyfile(rig, ctx.out / "rig.png")
     for name, title in EXPERIMENTS:
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         f"Command: `python experiments/reproduce.py{' --quick' if ctx.quick else ''} "
         f"--seed {ctx.seed} --workers {ctx.workers}` — {mode}; seed {ctx.seed}.\n",
         "Everything below was computed from images rendered by the MuJoCo model of the "
-        "head (`sim/models/`) and passed through the real pipeline (OpenCV detection, "
+        "head (`rasc/sim/models/`) and passed through the real pipeline (OpenCV detection, "
         "camera calibration, per-pose extrinsics) into the solvers. Raw results are in "
         "the CSV/JSON files beside this report; figures are PNG and SVG.\n",
         "![The simulated stereo head](rig.png)\n",

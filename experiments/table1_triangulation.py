@@ -1,4 +1,4 @@
-"""E4 — Table 1 of the paper: triangulation with the calibrated stereo head (SPEC §9).
+"""E4 — Table 1 of the paper: triangulation with the calibrated stereo head (docs/METHOD.md §9).
 
 The paper maps pan/tilt angles and both eyes' image points of 2772 features on
 1 m × 1 m planes at 1.622, 1.771 and 1.8615 m to base coordinates with its calibrated
@@ -55,12 +55,12 @@ from _common import (
     write_json,
 )
 
-from rasc.base_to_ptu import cyclopean_base, perturb_mounts
-from rasc.board import Board
 from rasc.errors import DegenerateDataError
-from rasc.frames import EYES
-from rasc.head import EyeCalibration, HeadCalibration
-from rasc.transforms import rotvec_from_matrix
+from rasc.geometry.frames import EYES
+from rasc.geometry.transforms import rotvec_from_matrix
+from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
+from rasc.head.model import EyeCalibration, HeadCalibration
+from rasc.vision.board import Board
 
 NAME = "e4"
 #: spawn_rngs key of this experiment (independent of every other experiment's draws)
@@ -74,7 +74,7 @@ QUICK_DEPTHS_M = (1.771,)
 #: wider on every side, 1.00 × 0.96 m — the paper's 1 m × 1 m plane; 22 + 21 is odd, so
 #: the corner order is fixed by the colours (docs/CONTRACTS.md)
 BOARD = Board((22, 21), 0.04)
-#: nominal half-baseline for aiming (sim/models/README.md: units at base z = ±0.15 m);
+#: nominal half-baseline for aiming (rasc/sim/models/README.md: units at base z = ±0.15 m);
 #: only the commanded angles depend on it
 HALF_BASELINE_AIM_M = 0.15
 #: the second pose at plane k: (Δpan, Δtilt) in degrees added to both eyes' verging pose
@@ -149,7 +149,7 @@ def triangulate_points(head: HeadCalibration, uv_left: np.ndarray, uv_right: np.
     """Base coordinates (N, 3) of matched pixels with each point's own angles.
 
     ``angles_rad`` (N, 4): pan_left, tilt_left, pan_right, tilt_right (the reported
-    angles); SPEC §6 via :meth:`rasc.head.HeadCalibration.triangulate`.
+    angles); docs/METHOD.md §6 via :meth:`rasc.head.model.HeadCalibration.triangulate`.
     """
     a = np.asarray(angles_rad, dtype=float)
     return head.triangulate(uv_left, uv_right, a[:, 0], a[:, 1], a[:, 2], a[:, 3],
@@ -168,9 +168,9 @@ def render_and_detect(depths: Sequence[float], rng: np.random.Generator) -> list
     corner positions, ``corner_rms`` {eye: px} detection error against the projected
     truth. Runs in this process (one OpenGL context).
     """
-    from rasc.camera import detect_corners
-    from rasc.sim import StereoHeadSim, T_base_from_world_facing
-    from rasc.transforms import transform_points
+    from rasc.geometry.transforms import transform_points
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
+    from rasc.vision.camera import detect_corners
 
     sigma = np.radians(ENCODER_SIGMA_ARCSEC / 3600.0)
     views = []

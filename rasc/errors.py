@@ -20,3 +20,8 @@ class DegenerateDataError(RascError, ValueError):
     Raised instead of returning a number; the message says what cannot be determined
     and what data would fix it.
     """
+
+
+class SolverFailure(RascError):
+    """A solver returned no usable number (NaN, infinity, a non-rotation) or did not
+    converge. The message names the solver and suggests another."""

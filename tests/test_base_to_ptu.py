@@ -4,17 +4,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rasc.base_to_ptu import (
-    T_ptuL_from_ptuR_from_mounts,
-    T_ptuL_from_ptuR_loop_closure,
-    T_ptuL_from_ptuR_per_view,
-    cyclopean_base,
-    mount_errors,
-    perturb_mounts,
-)
 from rasc.errors import DegenerateDataError, InputError
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.transforms import (
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
@@ -22,6 +14,14 @@ from rasc.transforms import (
     rotation_angle,
     rotation_error_deg,
     rotvec_from_matrix,
+)
+from rasc.head.base_to_ptu import (
+    T_ptuL_from_ptuR_from_mounts,
+    T_ptuL_from_ptuR_loop_closure,
+    T_ptuL_from_ptuR_per_view,
+    cyclopean_base,
+    mount_errors,
+    perturb_mounts,
 )
 
 #: Nominal camera on a gaze frame (x up, y forward, z left): optical axis (cam z) = gaze y,

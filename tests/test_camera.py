@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rasc.camera import (
+from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.transforms import invert_transform, make_transform, rotation_error_deg
+from rasc.vision.camera import (
     Board,
     calibrate_intrinsics,
     colour_score,
@@ -22,8 +24,6 @@ from rasc.camera import (
     reprojection_rms,
     to_grey,
 )
-from rasc.errors import DegenerateDataError, InputError
-from rasc.transforms import invert_transform, make_transform, rotation_error_deg
 
 BOARD = Board((9, 6), 0.03)
 STEREO_LEFT01 = Path(__file__).parent / "data" / "opencv-stereo-samples" / "left01.jpg"
@@ -440,5 +440,5 @@ def test_detection_speed_classic_vs_sb_1280x960():
         times[method] = time.perf_counter() - t0
         assert np.abs(c - truth).max() < 0.1, method
     print(f"\ndetection at 1280x960: classic {times['classic']:.3f} s, sb {times['sb']:.3f} s")
-    # generous bound: catches a pathological slowdown only (SIM_NOTES: sb 0.5–0.9 s here)
+    # generous bound: catches a pathological slowdown only (docs/NOTES.md: sb 0.5–0.9 s here)
     assert times["classic"] < 5.0 and times["sb"] < 10.0

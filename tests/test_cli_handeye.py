@@ -23,14 +23,14 @@ import pytest
 from rasc.cli import main
 from rasc.commands import handeye as handeye_command
 from rasc.errors import DegenerateDataError
-from rasc.handeye_io import check_angle_unit
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.transforms import (
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
     rotation_error_deg,
 )
+from rasc.handeye.document import check_angle_unit
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
@@ -140,13 +140,13 @@ def test_bad_input_subprocess_one_line_exit_2_no_file(tmp_path):
 
 
 def test_method_names_match_the_solvers():
-    from rasc.methods import METHODS
+    from rasc.handeye.methods import METHODS
 
     assert set(handeye_command.METHOD_NAMES) == set(METHODS)
 
 
 #: Measured on the example (OpenCV 4.14): OpenCV's ANDREFF stops with "Rotation
-#: normalization issue" on these ±8° motions (SIM_NOTES: it returns NaN at ±5° and
+#: normalization issue" on these ±8° motions (docs/NOTES.md: it returns NaN at ±5° and
 #: ±10°); it may either fail cleanly or succeed. Every other method must succeed; they
 #: came within 0.17–0.19° and 1.2–1.9 mm of the truth, inside the RASC tolerances.
 MAY_FAIL = {"opencv-andreff"}
@@ -658,8 +658,8 @@ def test_radians_as_degrees_rule_b(tmp_path, capsys):
 
 def _solver_message(path: Path) -> str:
     """What the solver itself says about the document's data (DegenerateDataError)."""
-    from rasc.handeye import solve_rasc
-    from rasc.handeye_io import load_handeye_input
+    from rasc.handeye.document import load_handeye_input
+    from rasc.handeye.solver import solve_rasc
 
     data = load_handeye_input(path)
     with pytest.raises(DegenerateDataError) as info:

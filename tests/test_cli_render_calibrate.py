@@ -30,11 +30,11 @@ import cv2
 import numpy as np
 import pytest
 
-from rasc.base_to_ptu import cyclopean_base, perturb_mounts
-from rasc.board import DEFAULT_BOARD
 from rasc.cli import main
-from rasc.frames import EYES
-from rasc.sim import HEAD_XML, scene_xml
+from rasc.geometry.frames import EYES
+from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
+from rasc.sim.scene import HEAD_XML, scene_xml
+from rasc.vision.board import DEFAULT_BOARD
 
 #: Same bounds as tests/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
@@ -159,7 +159,7 @@ def test_same_seed_gives_identical_files_and_calibration(default, tmp_path, caps
 def modified_head(folder: Path) -> Path:
     """A copy of the default head with both cameras moved and turned in their housings,
     other focal lengths, a 0.2012 m baseline and another mount rotation; returns a scene
-    that includes it (rasc.sim.scene_xml), written next to it."""
+    that includes it (rasc.sim.scene.scene_xml), written next to it."""
     changes = {
         ("body", "left_ptu_link"): {"pos": "0.01 0.005 0.10", "axisangle": "0.2 1 0.4 -1.5"},
         ("body", "right_ptu_link"): {"pos": "-0.01 -0.005 -0.10",
@@ -267,9 +267,9 @@ def test_negative_option_value_without_equals_says_how(tmp_path, capsys):
 
 
 def test_distortion_warp_is_rasc_sim_distort():
-    """The warp render builds once per eye gives rasc.sim.distort's pixels, image after
+    """The warp render builds once per eye gives rasc.sim.scene.distort's pixels, image after
     image, grey or colour."""
-    from rasc.sim import distort, distortion_warp
+    from rasc.sim.scene import distort, distortion_warp
 
     rng = np.random.default_rng(7)
     images = rng.integers(0, 256, (2, 120, 160), dtype=np.uint8)
@@ -555,7 +555,7 @@ def test_mounts_in_another_unit_or_far_from_loop_closure(default, tmp_path, caps
     line = fails(["calibrate", default / "ds", "--mounts", mounts, "--out",
                   tmp_path / "out" / "cal.json", "--quiet"], capsys, tmp_path / "out",
                  "calibrate")
-    # the model's baseline is 0.300 m (sim/models/README.md), loop closure 0.56 mm off
+    # the model's baseline is 0.300 m (rasc/sim/models/README.md), loop closure 0.56 mm off
     assert line == ("rasc calibrate: error: --mounts: T_ptuL_from_ptuR puts the units 300 "
                     "apart but loop closure measures 0.3 (in the unit of board.square_size): "
                     "give its translation in that unit")

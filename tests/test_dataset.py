@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from test_camera import BOARD, K_TRUE, board_pose, render_board
 
-from rasc.dataset import FORMAT, load_dataset, write_manifest
 from rasc.errors import InputError
+from rasc.vision.dataset import FORMAT, load_dataset, write_manifest
 
 POSES_DEG = [(0.0, 0.0), (8.0, 0.0), (0.0, 8.0), (-8.0, -8.0)]
 INTR_POSES = [(30, [1, 0, 0]), (30, [0, 1, 0]), (35, [1, 1, 0]), (25, [1, -1, 0.2])]

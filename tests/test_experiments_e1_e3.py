@@ -23,11 +23,11 @@ import e3_quality as e3  # noqa: E402
 import fig3_fig4_noise as e1  # noqa: E402
 from _common import Context, read_csv, spawn_rngs  # noqa: E402
 
-from rasc.frames import EYES  # noqa: E402
-from rasc.handeye import solve_rasc  # noqa: E402
-from rasc.li import solve_li  # noqa: E402
-from rasc.noise import VARIANTS, perturb_one_view, perturb_T_cam_from_world  # noqa: E402
-from rasc.transforms import rotation_error_deg  # noqa: E402
+from rasc.geometry.frames import EYES  # noqa: E402
+from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
+from rasc.handeye.li import solve_li  # noqa: E402
+from rasc.handeye.noise import VARIANTS, perturb_one_view, perturb_T_cam_from_world  # noqa: E402
+from rasc.handeye.solver import solve_rasc  # noqa: E402
 
 QUICK_LEVELS = [0, *e1.QUICK_LEVELS]
 

@@ -25,12 +25,12 @@ import e5_base_to_ptu as e5  # noqa: E402
 import table1_triangulation as e4  # noqa: E402
 from _common import Context, read_csv  # noqa: E402
 
-from rasc.base_to_ptu import T_ptuL_from_ptuR_loop_closure, perturb_mounts  # noqa: E402
-from rasc.frames import EYES  # noqa: E402
-from rasc.head import EyeCalibration, HeadCalibration  # noqa: E402
-from rasc.kinematics import T_gaze_from_ptu  # noqa: E402
-from rasc.sim import T_base_from_world_facing  # noqa: E402
-from rasc.transforms import transform_points  # noqa: E402
+from rasc.geometry.frames import EYES  # noqa: E402
+from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.transforms import transform_points  # noqa: E402
+from rasc.head.base_to_ptu import T_ptuL_from_ptuR_loop_closure, perturb_mounts  # noqa: E402
+from rasc.head.model import EyeCalibration, HeadCalibration  # noqa: E402
+from rasc.sim.scene import T_base_from_world_facing  # noqa: E402
 
 RESULT_SUFFIXES = (".csv", ".json")
 

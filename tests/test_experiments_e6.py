@@ -24,12 +24,12 @@ import e6_pixel_noise as e6a  # noqa: E402
 import e6_shootout as e6b  # noqa: E402
 from _common import Context, read_csv  # noqa: E402
 
-from rasc.frames import EYES  # noqa: E402
-from rasc.handeye import solve_rasc  # noqa: E402
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
-from rasc.methods import METHODS  # noqa: E402
-from rasc.opencv_handeye import SolverFailure  # noqa: E402
-from rasc.transforms import make_transform, matrix_from_rotvec  # noqa: E402
+from rasc.errors import SolverFailure  # noqa: E402
+from rasc.geometry.frames import EYES  # noqa: E402
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec  # noqa: E402
+from rasc.handeye.methods import METHODS  # noqa: E402
+from rasc.handeye.solver import solve_rasc  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -143,7 +143,7 @@ def test_e6a_error_grows_with_corner_noise(e6a_runs):
 
 
 def test_e6a_noise_free_row_is_the_pipeline_result(e6a_runs):
-    """σ = 0: same corners, intrinsics, extrinsics and solver as rasc.pipeline, so the
+    """σ = 0: same corners, intrinsics, extrinsics and solver as rasc.head.pipeline, so the
     errors must be the pipeline's own (computed there from its HeadCalibration) to
     round-off (1e-9 deg / 1e-6 mm, far below the 0.006 deg / 0.19 mm being compared)."""
     ctx, _ = e6a_runs["A"]

@@ -1,4 +1,5 @@
-"""RASC gaze-to-camera solver (rasc.handeye, SPEC §3): truth chosen, data generated, truth
+"""RASC gaze-to-camera solver (rasc.handeye.solver, docs/METHOD.md §3): truth chosen, data
+generated, truth
 recovered; the all-ordered-pairs definition; invariances; degeneracy; the batched form."""
 
 import json
@@ -11,29 +12,27 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.handeye import (
-    MIN_AXIS_SPREAD,
-    WEAK_AXIS_SPREAD,
-    HandEyeDiagnostics,
-    HandEyeResult,
-    check_motions_match,
-    diagnose,
-    motion_angle_ratio,
-    pair_rotvecs,
-    quality_eq10,
-    solution_warnings,
-    solve_rasc,
-    solve_rasc_batch,
-)
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.noise import perturb_T_cam_from_world
-from rasc.transforms import (
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
     rotation_angle,
     rotation_error_deg,
     rotvec_from_matrix,
+)
+from rasc.handeye.advice import check_motions_match, motion_angle_ratio, solution_warnings
+from rasc.handeye.noise import perturb_T_cam_from_world
+from rasc.handeye.solver import (
+    MIN_AXIS_SPREAD,
+    WEAK_AXIS_SPREAD,
+    HandEyeDiagnostics,
+    HandEyeResult,
+    diagnose,
+    pair_rotvecs,
+    quality_eq10,
+    solve_rasc,
+    solve_rasc_batch,
 )
 
 # Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
@@ -225,7 +224,7 @@ def test_all_pairs_equal_half_pairs_for_pure_rotation_unit_but_not_for_an_arm():
 
 
 def test_pair_logs_match_rotvec_from_matrix():
-    """Quaternion-product logs equal rasc.transforms.rotvec_from_matrix of R_i R_jᵀ,
+    """Quaternion-product logs equal rasc.geometry.transforms.rotvec_from_matrix of R_i R_jᵀ,
     including relative angles near 0 and exactly/near π. 1e-12: both are accurate to a
     few ulp of the angle."""
     rng = np.random.default_rng(14)
@@ -453,7 +452,7 @@ def test_near_single_axis_sweep_justifies_the_thresholds():
 def _solve_unchecked(T_cw, T_gp):
     """RASC with the axis-spread check off (restored afterwards, so no other test sees
     it)."""
-    import rasc.handeye as he
+    import rasc.handeye.solver as he
 
     saved = he.MIN_AXIS_SPREAD
     he.MIN_AXIS_SPREAD = 0.0
@@ -588,9 +587,8 @@ def test_bad_options():
 
 
 def test_methods_table():
-    from rasc import handeye, methods
+    from rasc.handeye import methods
 
-    assert handeye.METHODS is methods.METHODS
     assert set(methods.METHODS) == {"rasc", "li", "opencv-park", "opencv-tsai",
                                     "opencv-horaud", "opencv-andreff", "opencv-daniilidis"}
     T_cw, T_gp = _data(PAPER_POSES_DEG)

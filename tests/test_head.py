@@ -1,4 +1,4 @@
-"""The calibrated head model (rasc.head): eq. 1–2 chain, projection, triangulation, JSON."""
+"""The calibrated head model (rasc.head.model): eq. 1–2 chain, projection, triangulation, JSON."""
 
 import copy
 import json
@@ -7,11 +7,11 @@ import cv2
 import numpy as np
 import pytest
 
-from rasc.base_to_ptu import T_ptuL_from_ptuR_from_mounts, cyclopean_base
 from rasc.errors import InputError
-from rasc.head import EyeCalibration, HeadCalibration
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.transforms import make_transform, matrix_from_rotvec, rotvec_from_matrix
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotvec_from_matrix
+from rasc.head.base_to_ptu import T_ptuL_from_ptuR_from_mounts, cyclopean_base
+from rasc.head.model import EyeCalibration, HeadCalibration
 
 #: Nominal camera on a gaze frame (x up, y forward, z left): optical axis = gaze +y.
 R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])

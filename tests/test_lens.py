@@ -1,11 +1,11 @@
-"""OpenCV's distortion model in numpy (rasc.lens) against OpenCV itself."""
+"""OpenCV's distortion model in numpy (rasc.geometry.lens) against OpenCV itself."""
 
 import cv2
 import numpy as np
 import pytest
 
-from rasc import lens
 from rasc.errors import InputError
+from rasc.geometry import lens
 
 K = np.array([[1000.0, 0.0, 639.5], [0.0, 1010.0, 479.5], [0.0, 0.0, 1.0]])
 SIZE = (1280, 960)

@@ -1,4 +1,5 @@
-"""Li's baseline (rasc.li, SPEC §4): recovery, its Jacobian, and its defining weakness
+"""Li's baseline (rasc.handeye.li, docs/METHOD.md §4): recovery, its Jacobian, and its
+defining weakness
 (an error in the home view biases every equation: experiment E2)."""
 
 import numpy as np
@@ -6,11 +7,11 @@ import pytest
 from scipy.optimize import approx_fprime
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.handeye import solve_rasc
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.li import _left_jacobian, _Problem, home_index, solve_li
-from rasc.noise import perturb_one_view, perturb_T_cam_from_world
-from rasc.transforms import make_transform, matrix_from_rotvec, rotation_angle
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotation_angle
+from rasc.handeye.li import _left_jacobian, _Problem, home_index, solve_li
+from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc
 
 R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 PAPER = T_gaze_from_ptu(*np.radians(np.array(PAPER_POSES_DEG)).T)
@@ -59,7 +60,7 @@ def test_noise_free_recovery_arm(seed):
 def test_default_home_is_the_zero_pose_wherever_it_stands():
     """home=None takes the position at pan = tilt = 0, not the first: moving the (0, 0)
     view to the end gives the same solution as naming it (bit for bit), and a different
-    one from home=0 under noise (home noise biases every equation, SPEC §4)."""
+    one from home=0 under noise (home noise biases every equation, docs/METHOD.md §4)."""
     X, Y = rig(np.random.default_rng(6))
     order = [*range(1, 9), 0]                      # PAPER[0] is (0, 0): put it last
     T_gp = PAPER[order]

@@ -1,15 +1,16 @@
-"""rasc.methods.jackknife_uncertainty: the estimated error of a solution, checked against
+"""rasc.handeye.methods.jackknife_uncertainty: the estimated error of a solution, checked against
 the real error of many seeded noisy calibrations; and the warnings built on it and on the
-camera's viewing direction (rasc.handeye.solution_warnings)."""
+camera's viewing direction (rasc.handeye.solver.solution_warnings)."""
 
 import numpy as np
 import pytest
 
-from rasc.handeye import input_warnings, solution_warnings, solve_rasc
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.methods import jackknife_uncertainty, solve
-from rasc.noise import perturb_T_cam_from_world
-from rasc.transforms import make_transform, matrix_from_rotvec, rotation_error_deg
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotation_error_deg
+from rasc.handeye.advice import input_warnings, solution_warnings
+from rasc.handeye.methods import jackknife_uncertainty, solve
+from rasc.handeye.noise import perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc
 
 # Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
 # = −gaze x (up), cam z (optical axis) = gaze y (forward): a camera looking forward.

@@ -1,11 +1,11 @@
-"""The paper's noise model, eq. 13–14 (rasc.noise, SPEC §8)."""
+"""The paper's noise model, eq. 13–14 (rasc.handeye.noise, docs/METHOD.md §8)."""
 
 import numpy as np
 import pytest
 
 from rasc.errors import InputError
-from rasc.noise import PAPER_LEVELS_RAD_MM, perturb_one_view, perturb_T_cam_from_world, skew
-from rasc.transforms import make_transform, matrix_from_rotvec, rotvec_from_matrix
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotvec_from_matrix, skew
+from rasc.handeye.noise import PAPER_LEVELS_RAD_MM, perturb_one_view, perturb_T_cam_from_world
 
 N = 40_000
 # Sample standard deviations of N normal draws have relative standard error

@@ -1,4 +1,4 @@
-"""RASC against OpenCV's hand-eye solvers (rasc.opencv_handeye): equality with PARK on
+"""RASC against OpenCV's hand-eye solvers (rasc.handeye.opencv): equality with PARK on
 identical input, OpenCV's own test generator, and Tabb's real robot data."""
 
 from pathlib import Path
@@ -7,21 +7,12 @@ import numpy as np
 import pytest
 
 cv2 = pytest.importorskip("cv2")
-if not hasattr(cv2, "calibrateHandEye"):  # the 5.0 wheels lack it (SIM_NOTES.md)
+if not hasattr(cv2, "calibrateHandEye"):  # the 5.0 wheels lack it (docs/NOTES.md)
     pytest.skip("this OpenCV has no calibrateHandEye", allow_module_level=True)
 
-from rasc.errors import DegenerateDataError, InputError  # noqa: E402
-from rasc.handeye import solve_rasc  # noqa: E402
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
-from rasc.noise import perturb_T_cam_from_world  # noqa: E402
-from rasc.opencv_handeye import (  # noqa: E402
-    CV_METHODS,
-    SolverFailure,
-    calibrate_hand_eye_cv,
-    read_tabb_rwhe,
-    solve_opencv,
-)
-from rasc.transforms import (  # noqa: E402
+from rasc.errors import DegenerateDataError, InputError, SolverFailure  # noqa: E402
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
@@ -29,6 +20,9 @@ from rasc.transforms import (  # noqa: E402
     rotation_error_deg,
     rotvec_from_matrix,
 )
+from rasc.handeye.noise import perturb_T_cam_from_world  # noqa: E402
+from rasc.handeye.opencv import CV_METHODS, calibrate_hand_eye_cv, read_tabb_rwhe, solve_opencv
+from rasc.handeye.solver import solve_rasc  # noqa: E402
 
 TABB = Path(__file__).parent / "data" / "tabb-rwhe-dataset1"
 PAPER = T_gaze_from_ptu(*np.radians(np.array(PAPER_POSES_DEG)).T)
@@ -56,7 +50,7 @@ def generate_pose(rng, min_theta, max_theta, t_min, t_max):
 def simulate(rng, n_poses, noise):
     """(T_gripper_from_cam true, T_base_from_gripper (n,4,4), T_cam_from_target (n,4,4)).
 
-    Noise as SIM_NOTES.md describes OpenCV's test: N(0, 0.002) on the target→camera
+    Noise as docs/NOTES.md describes OpenCV's test: N(0, 0.002) on the target→camera
     rotation vector and N(0, 0.005) on its translation; N(0, 0.001) on both parts of
     gripper→base. (In OpenCV's C++ the gripper noise is written into a local copy that
     is never used; here it is applied, which makes the test slightly harder.)"""
@@ -302,9 +296,10 @@ def test_bad_method_and_bad_files(tmp_path):
 def test_tsai_identity_is_a_failure_not_an_answer():
     # At ±2° motions OpenCV's Tsai logs "not enough informative motions" and returns
     # exactly the identity (measured in E6b); that must be a SolverFailure, not a result.
-    from rasc.kinematics import T_gaze_from_ptu
-    from rasc.opencv_handeye import SolverFailure, solve_opencv
-    from rasc.transforms import invert_transform, make_transform, matrix_from_rotvec
+    from rasc.errors import SolverFailure
+    from rasc.geometry.kinematics import T_gaze_from_ptu
+    from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+    from rasc.handeye.opencv import solve_opencv
 
     deg = np.radians([(0, 0), (2, 2), (2, 0), (2, -2), (0, 2), (0, -2), (-2, 2), (-2, 0),
                       (-2, -2)])

@@ -4,7 +4,7 @@ One dataset of the default model (20 intrinsics views and the paper's nine pan-t
 positions per eye, seed 0) is rendered once for this module and calibrated once with the
 default options. Every expected value is read from ``ground_truth.json`` (written from
 the MuJoCo model, never from the pipeline), and every error is recomputed here from the
-transforms rather than taken from :func:`rasc.pipeline.errors_against_truth`.
+transforms rather than taken from :func:`rasc.head.pipeline.errors_against_truth`.
 """
 
 import os
@@ -14,14 +14,14 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pytest
 
-from rasc.base_to_ptu import cyclopean_base
-from rasc.dataset import load_dataset
 from rasc.errors import InputError
-from rasc.frames import EYES
-from rasc.handeye import solve_rasc
-from rasc.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
-from rasc.render import RenderOptions, render_dataset
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.handeye.solver import solve_rasc
+from rasc.head.base_to_ptu import cyclopean_base
+from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
+from rasc.sim.render import RenderOptions, render_dataset
+from rasc.vision.dataset import load_dataset
 
 #: Issue 3 bounds for T_cam_from_gaze recovered from the nine renders. Measured here:
 #: left 0.015 deg / 0.19 mm, right 0.006 deg / 0.46 mm; a half-pixel principal-point

@@ -1,7 +1,8 @@
 """The camera pipeline on real images, held against independent figures.
 
 * ``tests/data/opencv-stereo-samples`` (OpenCV's samples, Apache-2.0): 13 stereo pairs of a
-  9×6 board, square = 1 unit. Figures from /work/shared/data/README.md, measured by others
+  9×6 board, square = 1 unit. Figures from docs/NOTES.md, "Real data used by the tests",
+  measured by others
   with OpenCV (classic detection + cornerSubPix): calibrateCamera RMS 0.408695 px (left),
   0.458636 px (right); stereoCalibrate with intrinsics fixed RMS 0.447772, baseline 3.3449
   squares, rotation 0.31°; pair 02 an outlier (≈ 1.2 px) in both cameras.
@@ -18,7 +19,10 @@ import cv2
 import numpy as np
 import pytest
 
-from rasc.camera import (
+from rasc.geometry.lens import undistort_pixels
+from rasc.geometry.transforms import invert_transform, make_transform, rotation_error_deg
+from rasc.geometry.triangulation import triangulate
+from rasc.vision.camera import (
     Board,
     calibrate_intrinsics,
     colour_score,
@@ -27,9 +31,6 @@ from rasc.camera import (
     estimate_extrinsics,
     read_image,
 )
-from rasc.lens import undistort_pixels
-from rasc.transforms import invert_transform, make_transform, rotation_error_deg
-from rasc.triangulation import triangulate
 
 STEREO_DIR = Path(__file__).parent / "data" / "opencv-stereo-samples"
 KUKA_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "rwhe-kuka-1"
@@ -204,7 +205,7 @@ def test_kuka_detection_and_intrinsics(kuka):
 
 
 def test_kuka_hand_eye_against_independent_and_opencv_park(kuka):
-    from rasc.handeye import solve_rasc  # here, so that the image tests never depend on it
+    from rasc.handeye.solver import solve_rasc  # here, so that the image tests never depend on it
 
     _, _, _, T_cam_from_world, T_base_from_gripper = kuka
     # 13 of the 30 poses share one orientation (pure translations): no rotation information
@@ -231,7 +232,7 @@ def test_kuka_hand_eye_against_independent_and_opencv_park(kuka):
 def test_kuka_board_labelling_must_be_consistent(kuka):
     """Relabelling every view (a fixed board frame, moved by F) leaves hand-eye unchanged;
     relabelling only some views (no fixed world frame any more) breaks it."""
-    from rasc.handeye import solve_rasc
+    from rasc.handeye.solver import solve_rasc
 
     _, _, _, T_cam_from_world, T_base_from_gripper = kuka
     T_gripper_from_base = invert_transform(T_base_from_gripper)

@@ -1,8 +1,8 @@
-"""The MuJoCo stereo head (sim/models) and rasc.sim's ground truth, without rendering.
+"""The MuJoCo stereo head (rasc/sim/models) and rasc.sim.scene's ground truth, without rendering.
 
 The truth chosen here is the model file itself: these tests read its attributes
 independently (xml.etree) or recompute them from the paper's formulas (eq. 3, the
-cyclopean base of docs/CONTRACTS.md) and compare with what rasc.sim reads from the
+cyclopean base of docs/CONTRACTS.md) and compare with what rasc.sim.scene reads from the
 compiled model.
 """
 
@@ -14,8 +14,15 @@ import numpy as np
 import pytest
 
 from rasc.errors import InputError
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.sim import (
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import (
+    invert_transform,
+    make_transform,
+    matrix_from_rotvec,
+    rotation_angle,
+    rotvec_from_matrix,
+)
+from rasc.sim.scene import (
     DEFAULT_BOARD,
     HEAD_XML,
     MODELS_DIR,
@@ -25,13 +32,6 @@ from rasc.sim import (
     T_base_from_world_facing,
     import_mujoco,
     scene_xml,
-)
-from rasc.transforms import (
-    invert_transform,
-    make_transform,
-    matrix_from_rotvec,
-    rotation_angle,
-    rotvec_from_matrix,
 )
 
 EYES = ("left", "right")
@@ -113,7 +113,7 @@ def test_static_scene_is_the_default_board():
     for name in ("rasc_board_inner_corners", "rasc_board_square_size"):
         np.testing.assert_array_equal(static.numeric(name).data, generated.numeric(name).data)
     assert static.nbody == generated.nbody and static.ncam == generated.ncam
-    # and it is literally the generator's output (regenerate it: sim/models/README.md)
+    # and it is literally the generator's output (regenerate it: rasc/sim/models/README.md)
     assert SCENE_XML.read_text() == scene_xml(head_path="stereo_head.xml", generated=False)
 
 
@@ -156,14 +156,14 @@ def test_gaze_frame_follows_eq3(sim, eye):
 
 
 def _T_cam_from_scene_test(xpos, xmat):
-    # Written here independently of rasc.sim: MuJoCo camera axes → OpenCV (SIM_NOTES).
+    # Written here independently of rasc.sim.scene: MuJoCo camera axes → OpenCV (docs/NOTES.md).
     R = np.diag([1.0, -1.0, -1.0]) @ np.asarray(xmat).reshape(3, 3).T
     return make_transform(R, -R @ np.asarray(xpos))
 
 
 @pytest.mark.parametrize("eye", EYES)
 def test_chain_reproduces_rendered_camera_pose(sim, eye):
-    # Eq. 1–2 with the ground truth read at home and eq. 3 from rasc.kinematics equals the
+    # Eq. 1–2 with the ground truth read at home and eq. 3 from rasc.geometry.kinematics equals the
     # camera pose MuJoCo renders from (data.cam_xpos/xmat), at random angles of both eyes.
     rng = np.random.default_rng(4)
     other = "right" if eye == "left" else "left"
@@ -254,7 +254,7 @@ def _xml_camera(eye, path=HEAD_XML):
 
 @pytest.mark.parametrize("eye", EYES)
 def test_intrinsics_match_the_xml_attributes(sim, eye):
-    # SIM_NOTES: fx = focalpixel_x, cx = W/2 − principalpixel_x − 0.5 (pixel centres at
+    # docs/NOTES.md: fx = focalpixel_x, cx = W/2 − principalpixel_x − 0.5 (pixel centres at
     # integers, note the minus sign). MuJoCo stores the lengths in float32: 1e-3 px.
     a = _xml_camera(eye)
     (w, h), (fx, fy), (px, py) = a["resolution"], a["focalpixel"], a["principalpixel"]

@@ -16,8 +16,9 @@ import pytest
 from scipy.stats import norm
 
 from rasc.errors import InputError
-from rasc.kinematics import PAPER_POSES_DEG
-from rasc.sim import (
+from rasc.geometry.kinematics import PAPER_POSES_DEG
+from rasc.geometry.transforms import make_transform, transform_points
+from rasc.sim.scene import (
     Board,
     StereoHeadSim,
     T_base_from_world_facing,
@@ -26,7 +27,6 @@ from rasc.sim import (
     degrade,
     import_mujoco,
 )
-from rasc.transforms import make_transform, transform_points
 
 EYES = ("left", "right")
 #: Brief: rendered corners within 0.1 px of projection. Measured here 0.02 px RMS
@@ -100,7 +100,7 @@ def test_dense_one_metre_board():
 
 @pytest.mark.parametrize(("square", "distance"), [(0.02, 0.4), (0.05, 3.5)])
 def test_near_and_far_boards_survive_clipping(square, distance):
-    # Clipping planes are visual/map znear, zfar × statistic extent (SIM_NOTES): a board
+    # Clipping planes are visual/map znear, zfar × statistic extent (docs/NOTES.md): a board
     # 0.4 m and 3.5 m away is rendered whole and its corners land where projected.
     board = Board((9, 6), square)
     with StereoHeadSim(board=board) as s:
@@ -166,7 +166,7 @@ def test_head_geometry_stays_out_of_the_cameras_views(sim):
 
 
 def test_render_is_repeatable_and_fast(sim):
-    # SIM_NOTES: ~11 ms a frame at 1280x960 without multisampling (~37 ms with). The
+    # docs/NOTES.md: ~11 ms a frame at 1280x960 without multisampling (~37 ms with). The
     # bound (0.5 s) only catches gross regressions on a loaded 2-core machine.
     assert sim.model.vis.quality.offsamples == 0
     first = sim.render("left")
@@ -221,7 +221,7 @@ def test_blur_matches_a_gaussian_edge_profile():
 
 
 def test_distortion_warp_moves_corners_to_the_lens_model(sim):
-    lens = pytest.importorskip("rasc.lens")
+    lens = pytest.importorskip("rasc.geometry.lens")
     sim.set_target(T_base_from_world_facing(sim.board, 1.0))
     K = sim.K("left")
     dist = np.array([-0.12, 0.05, 4e-4, -3e-4, 0.0])
@@ -262,7 +262,7 @@ import sys
 from rasc.errors import RascError
 {setup}
 try:
-    import rasc.sim as sim
+    import rasc.sim.scene as sim
     {patch}
     with sim.StereoHeadSim() as s:
         print(sim.gl_backend(), s.render("left").mean())
@@ -308,8 +308,9 @@ def test_unset_backend_is_probed_and_renders():
 
 
 def test_importing_rasc_sim_loads_neither_mujoco_nor_cv2():
-    # mujoco must be imported only after the backend is chosen; cv2 never by rasc.sim.
-    proc = _python("import sys, rasc.sim; print('mujoco' in sys.modules, 'cv2' in sys.modules)",
+    # mujoco must be imported only after the backend is chosen; cv2 never by rasc.sim.scene.
+    proc = _python("import sys, rasc.sim.scene; "
+                   "print('mujoco' in sys.modules, 'cv2' in sys.modules)",
                    MUJOCO_GL=None)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["False", "False"]

@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from rasc.errors import InputError
-from rasc.kinematics import R_gaze_from_ptu, T_gaze_from_ptu
-from rasc.transforms import (
+from rasc.geometry.kinematics import R_gaze_from_ptu, T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,

@@ -1,4 +1,4 @@
-"""Linear triangulation, eq. 15–19 with the a34 erratum (rasc.triangulation)."""
+"""Linear triangulation, eq. 15–19 with the a34 erratum (rasc.geometry.triangulation)."""
 
 import cv2
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.triangulation import triangulate
+from rasc.geometry.triangulation import triangulate
 
 
 def _look_at(centre, target, rng):

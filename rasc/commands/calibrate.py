@@ -1,7 +1,7 @@
 """``rasc calibrate DATASET [--out FILE]``: calibrate the whole head from a dataset.
 
 detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → one JSON
-calibration (``rasc-calibration/1``, :mod:`rasc.pipeline`); with ground truth in the
+calibration (``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the
 dataset, also the errors against it. Written atomically; on any error, no file.
 """
 
@@ -54,7 +54,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def _read_mounts(path: str) -> np.ndarray:
     import json
 
-    from rasc.transforms import validate_rigid_transform
+    from rasc.geometry.transforms import validate_rigid_transform
     try:
         with open(path, encoding="utf-8") as f:
             obj = json.load(f)
@@ -77,9 +77,9 @@ def _read_mounts(path: str) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.dataset import load_dataset
-    from rasc.handeye import solution_warnings
-    from rasc.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.handeye.advice import solution_warnings
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.vision.dataset import load_dataset
 
     if args.out:
         check_writable(args.out)

@@ -1,7 +1,7 @@
 """``rasc handeye POSES.json [--method M] [--out FILE]``: gaze→camera calibration.
 
-Reads a ``rasc-handeye/1`` document (:mod:`rasc.handeye_io`), solves ``A X = X B`` for
-``X = T_cam_from_gaze`` with the chosen method (RASC, SPEC §3, by default) and writes the
+Reads a ``rasc-handeye/1`` document (:mod:`rasc.handeye.document`), solves ``A X = X B`` for
+``X = T_cam_from_gaze`` with the chosen method (RASC, docs/METHOD.md §3, by default) and writes the
 result as deterministic JSON to ``--out`` (atomically) or to stdout. The output path is
 checked before anything is read or solved; on any error no output file appears.
 
@@ -9,8 +9,8 @@ Output (``rasc-handeye-result/1``): ``T_cam_from_gaze`` (4×4) and its inverse
 ``T_gaze_from_cam`` (OpenCV's ``cam2gripper``), translations in the input's length unit;
 ``quality`` (eq. 10) with a note; the solver's ``diagnostics``; ``method``,
 ``n_positions``, ``input`` (the path as given), ``angle_unit``, ``length_unit``,
-``uncertainty`` (the estimated error, :func:`rasc.methods.jackknife_uncertainty`), and
-``home`` with ``--method li``. Each of :func:`rasc.handeye.solution_warnings` (a quality
+``uncertainty`` (the estimated error, :func:`rasc.handeye.methods.jackknife_uncertainty`), and
+``home`` with ``--method li``. Each of :func:`rasc.handeye.solver.solution_warnings` (a quality
 above 1, motions mostly about one axis, a large estimated error, a camera looking
 backwards) adds a warning line on stderr; the exit status stays 0.
 """
@@ -24,9 +24,9 @@ import sys
 import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError, RascError
-from rasc.handeye_io import HandEyeInput, load_handeye_input
+from rasc.geometry.transforms import invert_transform
+from rasc.handeye.document import HandEyeInput, load_handeye_input
 from rasc.io import check_writable, dumps_json, write_json_atomic
-from rasc.transforms import invert_transform
 
 RESULT_FORMAT = "rasc-handeye-result/1"
 
@@ -61,7 +61,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def _solver(method: str):
     """The callable(T_cam_from_world, T_gaze_from_ptu) -> HandEyeResult for ``method``."""
-    from rasc.methods import METHODS  # imported when needed; cv2 only by opencv-* calls
+    from rasc.handeye.methods import METHODS  # imported when needed; cv2 only by opencv-* calls
 
     return METHODS[method]
 
@@ -100,9 +100,9 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 def run(args: argparse.Namespace) -> int:
     # imported here, not at module level: building the parser loads no solver
-    from rasc.handeye import input_warnings, solution_warnings
-    from rasc.li import NO_HOME_POSE, has_home_pose, home_index
-    from rasc.methods import jackknife_uncertainty
+    from rasc.handeye.advice import input_warnings, solution_warnings
+    from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
+    from rasc.handeye.methods import jackknife_uncertainty
 
     source = args.poses
     if args.out is not None:

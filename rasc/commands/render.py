@@ -1,9 +1,9 @@
 """``rasc render [--model PATH] [--out DIR] [...]``: render a calibration dataset.
 
-Writes the dataset format of :mod:`rasc.dataset` (``manifest.json``, PNG images) plus
+Writes the dataset format of :mod:`rasc.vision.dataset` (``manifest.json``, PNG images) plus
 ``ground_truth.json`` read from the model: intrinsics views of the board waved in front
 of each fixed camera and the pan-tilt positions (the paper's nine by default) for both
-eyes. See :mod:`rasc.render`. The folder is built under a temporary name and renamed
+eyes. See :mod:`rasc.sim.render`. The folder is built under a temporary name and renamed
 when complete, so an interrupted run leaves no partial dataset.
 """
 
@@ -36,7 +36,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "render", help="render a calibration dataset from the simulated head",
         description="Render intrinsics views and pan-tilt pose views of the chessboard for "
                     "both eyes of the simulated head, with ground truth.")
-    p.add_argument("--model", metavar="PATH", help="MJCF scene (default sim/models/scene.xml)")
+    p.add_argument("--model", metavar="PATH", help="MJCF scene (default rasc/sim/models/scene.xml)")
     p.add_argument("--out", metavar="DIR", default="dataset",
                    help="output folder, must not exist or be empty (default ./dataset)")
     p.add_argument("--poses", default="paper", metavar="LIST",
@@ -60,7 +60,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.render import RenderOptions, parse_poses, render_dataset
+    from rasc.sim.render import RenderOptions, parse_poses, render_dataset
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():

@@ -1,4 +1,4 @@
-"""OpenCV's hand-eye solvers behind the project's interface, for comparison (SPEC §3).
+"""OpenCV's hand-eye solvers behind the project's interface, for comparison (docs/METHOD.md §3).
 
 ``cv2.calibrateHandEye(R_gripper2base, t_gripper2base, R_target2cam, t_target2cam,
 method)`` returns ``cam2gripper``, solving ``Hg_ij X = X Hc_ij`` with
@@ -27,20 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rasc.errors import InputError, RascError
-from rasc.handeye import (
-    MIN_PAIR_ROTATION_RAD,
-    HandEyeResult,
-    diagnose,
-    quality_eq10,
-)
-from rasc.transforms import invert_transform, make_transform
-
-
-class SolverFailure(RascError):
-    """A solver returned no usable number (NaN, infinity, a non-rotation) or did not
-    converge. The message names the solver and suggests another."""
-
+from rasc.errors import InputError, SolverFailure
+from rasc.geometry.transforms import invert_transform, make_transform
+from rasc.handeye.solver import MIN_PAIR_ROTATION_RAD, HandEyeResult, diagnose, quality_eq10
 
 #: method name → the name of OpenCV's constant (looked up when cv2 is imported)
 CV_METHODS = {"park": "CALIB_HAND_EYE_PARK", "tsai": "CALIB_HAND_EYE_TSAI",
@@ -118,7 +107,7 @@ def solve_opencv(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     Parameters
     ----------
     T_cam_from_world, T_gaze_from_ptu : array-like, shape (n, 4, 4)
-        As :func:`rasc.handeye.solve_rasc` (validated and checked for degeneracy the
+        As :func:`rasc.handeye.solver.solve_rasc` (validated and checked for degeneracy the
         same way, on OpenCV's pairs i < j, before OpenCV is called).
     method : {"park", "tsai", "horaud", "andreff", "daniilidis"}
 

@@ -1,13 +1,13 @@
 """Render a calibration dataset from the simulated head (``rasc render``).
 
 Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
-:mod:`rasc.dataset`): a folder of PNG images and ``manifest.json``, plus
+:mod:`rasc.vision.dataset`): a folder of PNG images and ``manifest.json``, plus
 ``ground_truth.json`` read from the model. Two kinds of views per eye:
 
 * ``intrinsics/<eye>_NNN.png`` — the board moved in front of the fixed camera (head at
   home), as a person waves a board: random distance, tilt 20–45° about a random in-plane
   axis, in-plane turn, position anywhere in the image with the whole board and a margin
-  visible (SPEC §7);
+  visible (docs/METHOD.md §7);
 * ``poses/<eye>_NN.png`` — the board fixed in front of the head, both eyes at each
   pan-tilt position (the paper's nine by default); the left and right images of one
   position share a ``view`` id, so they also serve as simultaneous views for loop closure.
@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rasc.board import Board
 from rasc.errors import InputError
-from rasc.frames import EYES
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import PAPER_POSES_DEG
+from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import write_json_atomic
-from rasc.kinematics import PAPER_POSES_DEG
-from rasc.transforms import invert_transform, make_transform, matrix_from_rotvec
+from rasc.vision.board import Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
 INTRINSICS_DISTANCE_M = (0.6, 1.2)
@@ -127,7 +127,7 @@ def _visible(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray,
              size: tuple[int, int], dist=None, P_world: np.ndarray | None = None) -> bool:
     """Points ``P_world`` (N, 3) (default: the board's border with its quiet zone) at
     least MARGIN_PX inside the (distorted) image."""
-    from rasc.lens import project_points
+    from rasc.geometry.lens import project_points
 
     P_world = _outline(board) if P_world is None else P_world
     p = P_world @ T_cam_from_world[:3, :3].T + T_cam_from_world[:3, 3]
@@ -237,9 +237,14 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
 
     Returns the manifest path. Images are written as 8-bit grey PNG.
     """
-    from rasc.camera import write_image
-    from rasc.dataset import write_manifest
-    from rasc.sim import StereoHeadSim, T_base_from_world_facing, degrade, distortion_warp
+    from rasc.sim.scene import (
+        StereoHeadSim,
+        T_base_from_world_facing,
+        degrade,
+        distortion_warp,
+    )
+    from rasc.vision.camera import write_image
+    from rasc.vision.dataset import write_manifest
 
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -251,7 +256,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
-                             "rasc.sim.scene_xml, not the head model alone)")
+                             "rasc.sim.scene.scene_xml, not the head model alone)")
         board = sim.board
         size = sim.image_size
         gt = sim.ground_truth()
@@ -279,7 +284,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
 
         def shoot(eye: str, name: str, entry: dict) -> None:
             image = sim.render_grey(eye)
-            if distorted:  # as rasc.sim.degrade: distortion, then blur, then noise
+            if distorted:  # as rasc.sim.scene.degrade: distortion, then blur, then noise
                 image = warp[eye](image)
             image = degrade(image, rng, blur_sigma=options.blur_sigma,
                             noise_sigma=options.noise_sigma)

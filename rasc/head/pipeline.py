@@ -1,9 +1,9 @@
-"""The whole-head calibration pipeline (``rasc calibrate``), SPEC §3, §5, §7.
+"""The whole-head calibration pipeline (``rasc calibrate``), docs/METHOD.md §3, §5, §7.
 
 dataset → corner detection → intrinsics (dedicated views) → per-pose extrinsics with
 the intrinsics fixed → hand-eye per eye (RASC by default) → base-to-ptu (loop closure
 from simultaneous views, or measured mounts) → cyclopean base → one
-:class:`rasc.head.HeadCalibration`, with every per-view figure and diagnostic.
+:class:`rasc.head.model.HeadCalibration`, with every per-view figure and diagnostic.
 
 Nothing here knows whether the images were rendered; when the dataset names a
 ground-truth file, :func:`errors_against_truth` compares the result with it.
@@ -18,45 +18,41 @@ from typing import Any
 
 import numpy as np
 
-from rasc.base_to_ptu import (
-    T_ptuL_from_ptuR_loop_closure,
-    cyclopean_base,
-    mount_errors,
-)
 from rasc.errors import InputError, RascError
-from rasc.frames import EYES
-from rasc.head import EyeCalibration, HeadCalibration
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.li import NO_HOME_POSE, has_home_pose, home_index
-from rasc.transforms import rotation_error_deg, validate_rigid_transform
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import rotation_error_deg, validate_rigid_transform
+from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
+from rasc.head.base_to_ptu import T_ptuL_from_ptuR_loop_closure, cyclopean_base, mount_errors
+from rasc.head.model import EyeCalibration, HeadCalibration
 
 FORMAT = "rasc-calibration/1"
 
 
 @dataclass
 class CalibrationOptions:
-    method: str = "rasc"               # hand-eye method (rasc.methods.METHODS)
-    detector: str = "saddle"           # "classic" | "saddle" | "sb" (rasc.camera.detect_corners)
+    method: str = "rasc"               # hand-eye method (rasc.handeye.methods.METHODS)
+    detector: str = "saddle"           # "classic" | "saddle" | "sb" (vision.camera.detect_corners)
     # k1 k2 only: with 20 views the full five-term model over-fits (measured on renders:
     # pose extrinsics 0.046° worst with "opencv5" against 0.012° with "k1k2")
-    dist_model: str = "k1k2"           # rasc.camera.DIST_MODELS
+    dist_model: str = "k1k2"           # rasc.vision.camera.DIST_MODELS
     exclude_outliers: bool = True      # drop intrinsics views flagged as outliers
-    T_ptuL_from_ptuR_measured: np.ndarray | None = None   # measured mounts (SPEC §5)
+    T_ptuL_from_ptuR_measured: np.ndarray | None = None   # measured mounts (docs/METHOD.md §5)
 
 
 @dataclass
 class EyeResult:
     """Everything measured for one eye."""
 
-    intrinsics: Any                    # rasc.camera.IntrinsicsResult
+    intrinsics: Any                    # rasc.vision.camera.IntrinsicsResult
     pose_files: list[str]
     pan_tilt: np.ndarray               # (n, 2) radians
     views: list[str]
     T_cam_from_world: np.ndarray       # (n, 4, 4)
     pose_rms: dict[str, float]
     not_found: dict[str, list[str]]
-    handeye: Any                       # rasc.handeye.HandEyeResult
-    uncertainty: Any = None            # rasc.handeye.HandEyeUncertainty
+    handeye: Any                       # rasc.handeye.solver.HandEyeResult
+    uncertainty: Any = None            # rasc.handeye.solver.HandEyeUncertainty
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
 
 
@@ -119,20 +115,20 @@ class _Timer:
 
 
 def detect_pose_views(dataset, eye: str, method: str):
-    """Detect the board in ``eye``'s pose images → :class:`rasc.dataset.Detections`.
+    """Detect the board in ``eye``'s pose images → :class:`rasc.vision.dataset.Detections`.
 
     Called after the intrinsics views have shown the board, so the board's size is right:
-    unlike :meth:`rasc.dataset.Dataset.detect` (which then suspects ``inner_corners``), a
+    unlike :meth:`rasc.vision.dataset.Dataset.detect` (which then suspects ``inner_corners``), a
     board missing from the pose images is reported as a problem of those images.
 
     Raises
     ------
     InputError
         No pose images for ``eye``, or the board found in fewer than
-        :data:`rasc.dataset.MIN_POSE_VIEWS` of them.
+        :data:`rasc.vision.dataset.MIN_POSE_VIEWS` of them.
     """
-    from rasc.camera import detect_corners
-    from rasc.dataset import MIN_POSE_VIEWS, Detections
+    from rasc.vision.camera import detect_corners
+    from rasc.vision.dataset import MIN_POSE_VIEWS, Detections
 
     entries = dataset.select(eye, "pose")
     where = f"{dataset.manifest_path}: {eye} pose images"
@@ -172,9 +168,9 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     (otherwise every image header is read again). Every error names the manifest and the
     eye (and the image, when there is one).
     """
-    from rasc.camera import calibrate_intrinsics, estimate_extrinsics
-    from rasc.handeye import check_motions_match
-    from rasc.methods import jackknife_uncertainty, solve
+    from rasc.handeye.advice import check_motions_match
+    from rasc.handeye.methods import jackknife_uncertainty, solve
+    from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics
 
     timer = timer or _Timer()
     board = dataset.board
@@ -284,7 +280,7 @@ def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
 
 def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                       log: Callable[[str], None] = lambda s: None) -> Calibration:
-    """Calibrate the whole head from a :class:`rasc.dataset.Dataset`."""
+    """Calibrate the whole head from a :class:`rasc.vision.dataset.Dataset`."""
     options = options or CalibrationOptions()
     timer = _Timer()
     sizes = dataset.validate()  # reads every image header once

@@ -1,4 +1,4 @@
-"""The frames of the stereo head, declared once (SPEC §1). The README repeats this table.
+"""The frames of the stereo head, declared once (docs/METHOD.md §1). The README repeats this table.
 
 ``T_a_from_b`` maps coordinates in frame b into frame a (``q_a = T_a_from_b q_b``);
 the paper writes it ``T_ab``. A point in base coordinates reaches camera coordinates

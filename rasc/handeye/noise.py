@@ -1,4 +1,4 @@
-"""The paper's noise model on target poses, eq. 13–14 (SPEC §8).
+"""The paper's noise model on target poses, eq. 13–14 (docs/METHOD.md §8).
 
 Every ``T_cam_from_world`` (``T_cw``) is perturbed on the right, i.e. in the target's
 (world) frame::
@@ -19,23 +19,13 @@ from __future__ import annotations
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.transforms import matrix_from_rotvec
+from rasc.geometry.transforms import matrix_from_rotvec, skew
 
 VARIANTS = ("literal", "exponential")
 
-#: The paper's eight levels (σ_r rad, σ_t mm), SPEC §8; 30 samples each.
+#: The paper's eight levels (σ_r rad, σ_t mm), docs/METHOD.md §8; 30 samples each.
 PAPER_LEVELS_RAD_MM = ((0.005, 1.0), (0.010, 2.0), (0.015, 3.0), (0.020, 4.0),
                        (0.025, 5.0), (0.030, 6.0), (0.035, 7.0), (0.040, 8.0))
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """``[v]×`` for vectors (..., 3) → (..., 3, 3), so that ``[v]× x = v × x``."""
-    v = np.asarray(v, dtype=float)
-    S = np.zeros(v.shape + (3,))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
 
 
 def _check(T: np.ndarray, sigma_r: float, sigma_t: float, rng, variant: str) -> np.ndarray:

@@ -16,7 +16,7 @@ The document, ``rasc-handeye/1``::
 
 Each position gives the target's pose ``T_cam_from_world`` (camera calibration's
 extrinsics, translation in any one length unit) and the unit's motion, either as
-``pan`` and ``tilt`` (converted through eq. 3, :func:`rasc.kinematics.T_gaze_from_ptu`)
+``pan`` and ``tilt`` (converted through eq. 3, :func:`rasc.geometry.kinematics.T_gaze_from_ptu`)
 or as a 4×4 rigid ``T_gaze_from_ptu`` (for a robot arm: the gripper's pose
 ``T_gripper_from_base``). A position may also carry a free-text ``label``. Nothing else
 is accepted: an unknown key is an error, so a misspelt ``angle_units`` cannot silently
@@ -26,9 +26,9 @@ Checks, each an :class:`~rasc.errors.InputError` naming the field (the loader pr
 the file name): JSON syntax (line, column), duplicate keys, shapes (4×4 only; a 3×4
 ``[R|t]`` is refused with a hint), non-numeric entries (``true``, ``"1"``, ``null``),
 NaN and infinity (Python's json accepts ``NaN``/``Infinity`` tokens and ``1e999``;
-they are refused here), rigidity (:func:`rasc.transforms.validate_rigid_transform`),
+they are refused here), rigidity (:func:`rasc.geometry.transforms.validate_rigid_transform`),
 at least 3 positions, the angle unit (:func:`check_angle_unit`), and that the unit's
-motions turn as far as the camera's (:func:`rasc.handeye.check_motions_match`, which
+motions turn as far as the camera's (:func:`rasc.handeye.solver.check_motions_match`, which
 catches a wrong angle unit that the values alone cannot show).
 """
 
@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.kinematics import T_gaze_from_ptu as T_gaze_from_ptu_eq3
-from rasc.transforms import validate_rigid_transform
+from rasc.geometry.kinematics import T_gaze_from_ptu as T_gaze_from_ptu_eq3
+from rasc.geometry.transforms import validate_rigid_transform
 
 FORMAT = "rasc-handeye/1"
 ANGLE_UNITS = ("deg", "rad")
@@ -314,7 +314,7 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
     parsed = [_position(item, k, angle_unit, angles) for k, item in enumerate(positions)]
     check_angle_unit(angles, angle_unit)
     T_cw, T_gp = np.stack([p[0] for p in parsed]), np.stack([p[1] for p in parsed])
-    from rasc.handeye import check_motions_match  # scipy: not needed to build the parser
+    from rasc.handeye.advice import check_motions_match  # scipy: not needed to build the parser
 
     other = "rad" if angle_unit == "deg" else "deg"
     T_other = np.stack([p[1] if p[3] is None else _eq3(*p[3], other) for p in parsed])

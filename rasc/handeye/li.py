@@ -1,4 +1,4 @@
-"""Li's baseline (IEEE T-RA 1998) as the paper compares with it: SPEC §4.
+"""Li's baseline (IEEE T-RA 1998) as the paper compares with it: docs/METHOD.md §4.
 
 Motions are taken from one home view h only (the paper's (0, 0) pose)::
 
@@ -24,15 +24,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from rasc.handeye import (
-    MIN_PAIR_ROTATION_RAD,
-    HandEyeResult,
-    diagnose,
-    quality_eq10,
-)
-from rasc.noise import skew
-from rasc.opencv_handeye import SolverFailure
-from rasc.transforms import make_transform, matrix_from_rotvec
+from rasc.errors import SolverFailure
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec, skew
+from rasc.handeye.solver import MIN_PAIR_ROTATION_RAD, HandEyeResult, diagnose, quality_eq10
 
 #: Stopping tolerances of least_squares (ftol, xtol, gtol). Tight, because the problem
 #: is tiny (6 unknowns) and LM converges quadratically near a zero-residual solution:
@@ -128,7 +122,7 @@ def solve_li(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         Used only by the degeneracy check (≥ 2 motions from home rotating at least
         this much, about different axes); every motion enters the cost.
     check_rigid : bool
-        As :func:`rasc.handeye.solve_rasc`.
+        As :func:`rasc.handeye.solver.solve_rasc`.
 
     Returns
     -------

@@ -130,3 +130,13 @@ def validate_rigid_transform(T: np.ndarray, *, name: str = "transform",
     if abs(det - 1.0) > atol:
         raise InputError(f"{name}: rotation part has determinant {det:.6g}, expected +1")
     return T
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """``[v]×`` for vectors (..., 3) → (..., 3, 3), so that ``[v]× x = v × x``."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros(v.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S

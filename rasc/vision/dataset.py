@@ -30,22 +30,17 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from rasc.camera import (
-    MIN_INTRINSICS_VIEWS,
-    Board,
-    detect_corners,
-    read_image,
-)
-from rasc.camera import image_size as read_image_size
 from rasc.errors import InputError
 from rasc.io import write_json_atomic
+from rasc.vision.camera import MIN_INTRINSICS_VIEWS, Board, detect_corners, read_image
+from rasc.vision.camera import image_size as read_image_size
 
 FORMAT = "rasc-dataset/1"
 MANIFEST = "manifest.json"
 EYES = ("left", "right")
 ROLES = ("intrinsics", "pose")
 ANGLE_UNITS = ("deg", "rad")
-#: hand-eye needs at least three positions (two independent relative rotations, SPEC §3)
+#: hand-eye needs at least three positions (two independent relative rotations, docs/METHOD.md §3)
 MIN_POSE_VIEWS = 3
 #: if the board is found in fewer than this fraction of an eye's images, the board
 #: geometry in the manifest is the likely culprit rather than the images
@@ -143,7 +138,7 @@ class Dataset:
 
         Raises :class:`InputError` when the board is missing from most images (the
         manifest's ``inner_corners`` is the likely error) or when fewer than ``min_found``
-        images show it (default: :data:`~rasc.camera.MIN_INTRINSICS_VIEWS` for intrinsics,
+        images show it (default: :data:`~rasc.vision.camera.MIN_INTRINSICS_VIEWS` for intrinsics,
         :data:`MIN_POSE_VIEWS` for poses).
         """
         entries = self.select(eye, role)
@@ -411,7 +406,7 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     """
     path = Path(path)
     manifest = path if path.suffix == ".json" else path / MANIFEST
-    if hasattr(board, "to_dict"):  # rasc.camera.Board, or rasc.sim.Board (same dict)
+    if hasattr(board, "to_dict"):  # rasc.vision.camera.Board, or rasc.sim.scene.Board (same dict)
         board = board.to_dict()
     obj = _manifest_dict(board, [dict(im) if isinstance(im, dict) else im for im in images],
                          angle_unit, ground_truth, length_unit)

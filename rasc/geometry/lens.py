@@ -1,4 +1,4 @@
-"""OpenCV's lens distortion model in numpy (SPEC §6: undistort before triangulating).
+"""OpenCV's lens distortion model in numpy (docs/METHOD.md §6: undistort before triangulating).
 
 Normalised image coordinates ``(x, y) = (X/Z, Y/Z)`` of a point in the camera frame are
 distorted by (OpenCV's ``projectPoints``; coefficients in OpenCV's order

@@ -1,4 +1,4 @@
-"""Gaze-to-camera ("hand-eye") calibration by RASC: SPEC §3, paper section 3.2, eq. 6–10.
+"""Gaze-to-camera ("hand-eye") calibration by RASC: docs/METHOD.md §3, paper section 3.2, eq. 6–10.
 
 Solves ``A X = X B`` for ``X = T_cam_from_gaze`` (the paper's ``T_cg``) from the target's
 pose ``T_cam_from_world`` (``T_cw``) and the unit's motion ``T_gaze_from_ptu`` (``T_gp``,
@@ -15,7 +15,8 @@ non-singular, also exists when M has rank 2 (two rotation axes fix a rotation) a
 forced to det +1 (``V diag(1, 1, ±1) Uᵀ``) should noise flip the sign of det M.
 
 Translation (eq. 7 generalised to a unit that also translates): ``(I − R_A) t_X =
-t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (SPEC erratum: not ^-1/2). CᵀC and
+t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (erratum,
+docs/METHOD.md §3: not ^-1/2). CᵀC and
 Cᵀd are 3×3 / 3 sums, and because ``R_A = R_i R_jᵀ`` is bilinear in the views every sum
 over pairs is a contraction with the n×n pair-weight matrix (O(n²) scalars; no 3K×3
 matrix, no loop over pairs).
@@ -25,7 +26,7 @@ paper found solutions unusable.
 
 Logarithms: ``log(R_i R_jᵀ)`` is taken as ``log(q_i ⊗ q_j*)`` from each view's quaternion
 (scipy), with the atan2 form of the quaternion log — robust at angle 0 and π, equal to
-:func:`rasc.transforms.rotvec_from_matrix` of the pair matrix for rotations (tested to
+:func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair matrix for rotations (tested to
 1e-12). Calling that helper on each of the 3828 pairs of 88 views costs 2.2 ms per side
 alone, more than the whole solve may take (goal: 20× faster than OpenCV's 28 ms;
 measured 1.05 ms against 26 ms, benchmarks/bench_handeye.py). For the same reason no
@@ -33,7 +34,7 @@ step builds an n²×9 array: temporaries of ~0.5 MB cost ~250 page faults per ca
 
 Literal noise. The paper's eq. 13 noise leaves ``R_cw`` slightly non-orthogonal. Such
 input is accepted with ``check_rigid=False`` (the default ``True`` rejects anything not
-rigid within :data:`rasc.transforms.RIGID_ATOL`): the rotation step then uses each view's
+rigid within :data:`rasc.geometry.transforms.RIGID_ATOL`): the rotation step then uses each view's
 nearest rotation (polar factor), the translation step and eq. 10 use the matrices as
 given (``R_A = R_i R_jᵀ``, ``t_A = t_i − R_A t_j`` exactly as eq. 7 prints them).
 """
@@ -49,7 +50,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.transforms import RIGID_ATOL, make_transform, validate_rigid_transform
+from rasc.geometry.transforms import RIGID_ATOL, make_transform, validate_rigid_transform
 
 #: A relative unit rotation smaller than this (radians) is "unusable": its axis is not
 #: defined to better than the measurement noise (≈1e-3 rad for a good camera
@@ -73,20 +74,13 @@ MIN_PAIR_ROTATION_RAD = 1e-3
 MIN_AXIS_SPREAD = 1e-3
 WEAK_AXIS_SPREAD = 1e-2
 
-#: The paper (section 3.2) found solutions with quality (eq. 10) above 1 unusable.
-QUALITY_UNUSABLE = 1.0
-
-#: Warn when the estimated rotation error (jackknife) exceeds this: at 2 m, 1° moves a
-#: point seen through the calibrated camera by 35 mm; the paper's Table 1 std is 9-54 mm.
-MAX_ROTATION_UNCERTAINTY_DEG = 1.0
-
 #: Translation ill-conditioned: reject when cond(CᵀC) > 1e4, i.e. σ_max/σ_min of C above
 #: 100, so 1 mm of error in the camera translations can move t_X by 0.1 m along the weak
 #: direction. For small angles CᵀC ≈ tr(G) I − G, so this is the same axis-spread
 #: criterion seen from the camera side; the paper's nine poses give 1.99 (measured).
 MAX_COND_CTC = 1e4
 
-#: Which ordered pairs enter the sums: "all" i ≠ j (SPEC §3, the default) or "half",
+#: Which ordered pairs enter the sums: "all" i ≠ j (docs/METHOD.md §3, the default) or "half",
 #: each unordered pair once as A_ij with i > j, which is the pair set and orientation of
 #: OpenCV's calibrateHandEye (its Hg_ij = inv(Hg_j) Hg_i, i < j). For a pure-rotation
 #: unit both give the same solution; for a unit that also translates they differ under
@@ -97,7 +91,7 @@ PAIRS = ("all", "half")
 
 @dataclass(frozen=True)
 class HandEyeDiagnostics:
-    """What the data could determine (SPEC §3).
+    """What the data could determine (docs/METHOD.md §3).
 
     n_positions : number of views n.
     n_pairs : pairs the method's definition uses (``n(n−1)`` ordered pairs for RASC).
@@ -156,7 +150,7 @@ class HandEyeResult:
 
 @dataclass(frozen=True)
 class HandEyeUncertainty:
-    """The estimated error of a solution (:func:`rasc.methods.jackknife_uncertainty`).
+    """The estimated error of a solution (:func:`rasc.handeye.methods.jackknife_uncertainty`).
 
     rotation_deg : jackknife standard error of the rotation, degrees (None: no estimate).
     translation : the same for the translation, in the input's length unit (or None).
@@ -319,7 +313,7 @@ def _pair_logs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
 def pair_rotvecs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """``log(R_i R_jᵀ)`` for index arrays i, j (K,): rotations (..., n, 3, 3) → (..., K, 3).
 
-    Equal to :func:`rasc.transforms.rotvec_from_matrix` of ``R_i R_jᵀ`` for rotations
+    Equal to :func:`rasc.geometry.transforms.rotvec_from_matrix` of ``R_i R_jᵀ`` for rotations
     (the angle in [0, π]); non-orthogonal input is first replaced by its nearest
     rotation, view by view.
     """
@@ -553,130 +547,12 @@ def _diagnostics(out: dict, n: int, pair: tuple) -> HandEyeDiagnostics:
         dominant_axis=_unit_axis(out["dominant_axis"][0]))
 
 
-#: Motions that do not match: the median over pairs of angle(B_ij) / angle(A_ij) must lie
-#: within this factor of 1. The two angles are equal for consistent data whatever X is
-#: (A = X B X⁻¹ is a conjugation), so the test needs no solution. Degrees read as radians
-#: make the ratio 57 (or, wrapped past π, anything above ~10 for motions of a few
-#: degrees); radians read as degrees 1/57. Noise moves it little: at the paper's largest
-#: level (σ_r = 0.04 rad, literal eq. 13, ±8° motions) it stays within 0.69–1.12 over
-#: 200 samples (tests/test_handeye.py); 3 leaves room for smaller motions and worse data
-#: (±2° motions at that noise: 0.37–0.85).
-MAX_MOTION_ANGLE_RATIO = 3.0
-
-
-def motion_angle_ratio(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray) -> float:
-    """Median over pairs i > j of ``angle(B_ij) / angle(A_ij)``: 1 for consistent data.
-
-    Pairs where either rotation is below ``MIN_PAIR_ROTATION_RAD`` are left out; NaN when
-    none is left. Accepts slightly non-orthogonal rotations (nearest rotation taken).
-    """
-    R = np.asarray(T_cam_from_world, dtype=float)[..., :3, :3]
-    Q = np.asarray(T_gaze_from_ptu, dtype=float)[..., :3, :3]
-    i, j = np.tril_indices(R.shape[0], -1)
-    a = np.linalg.norm(pair_rotvecs(R, i, j), axis=-1)
-    b = np.linalg.norm(pair_rotvecs(Q, i, j), axis=-1)
-    ok = (a >= MIN_PAIR_ROTATION_RAD) & (b >= MIN_PAIR_ROTATION_RAD)
-    return float(np.median(b[ok] / a[ok])) if ok.any() else math.nan
-
-
-def check_motions_match(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
-                        other_unit: tuple[str, np.ndarray] | None = None) -> None:
-    """Raise :class:`InputError` when the unit's motions and the camera's do not match.
-
-    ``other_unit``: for motions read from pan/tilt angles, ``(name, T_gaze_from_ptu)``
-    with the same angles read in the other unit ("deg" or "rad"); when those match, the
-    message says to change the unit, otherwise it calls the data inconsistent.
-    """
-    ratio = motion_angle_ratio(T_cam_from_world, T_gaze_from_ptu)
-    if _motions_match(ratio):
-        return
-    what = (f"the unit's motions turn {ratio:.3g}× as far as the camera's (median over "
-            "pairs; the two angles are equal for consistent data)")
-    if other_unit is not None:
-        name, T_other = other_unit
-        alt = motion_angle_ratio(T_cam_from_world, T_other)
-        if _motions_match(alt):
-            raise InputError(f"{what}: read as {name} the angles match ({alt:.3g}×); "
-                             f"set angle_unit to '{name}'")
-    raise InputError(f"{what}: the data are inconsistent; check that each "
-                     "T_cam_from_world is the target's pose in the camera (not its inverse), "
-                     "belongs to the motion beside it, and that the angles' unit is right")
-
-
-def _motions_match(ratio: float) -> bool:
-    return not math.isfinite(ratio) or 1.0 / MAX_MOTION_ANGLE_RATIO <= ratio \
-        <= MAX_MOTION_ANGLE_RATIO
-
-
-def input_warnings(T_cam_from_world: np.ndarray) -> list[str]:
-    """What looks wrong in the target poses themselves, one sentence each: the target's
-    origin (a corner of the board, which the camera sees) behind most cameras, as when
-    T_world_from_cam is given for T_cam_from_world (a solver still returns an answer)."""
-    z = np.asarray(T_cam_from_world, dtype=float)[:, 2, 3]
-    behind = np.flatnonzero(z <= 0)
-    if 2 * behind.size > z.size:
-        return [f"{behind.size} of {z.size} poses put the target's origin behind the camera "
-                f"(T_cam_from_world[{int(behind[0])}] has z = {z[behind[0]]:.3g}); a "
-                "camera sees its target in front (z > 0): are these T_world_from_cam?"]
-    return []
-
-
-def solution_warnings(result: HandEyeResult, *,
-                      uncertainty: HandEyeUncertainty | None = None,
-                      pan_tilt: bool = False) -> list[str]:
-    """What a user should be told about a solution that is returned: one sentence each.
-
-    - quality (eq. 10) above ``QUALITY_UNUSABLE`` (the paper's rule);
-    - motions that turn mostly about one axis (axis spread below ``WEAK_AXIS_SPREAD``);
-    - an estimated rotation error above ``MAX_ROTATION_UNCERTAINTY_DEG``, or none to be
-      had (``uncertainty``, from :func:`rasc.methods.jackknife_uncertainty`);
-    - with ``pan_tilt`` (motions from pan/tilt angles, eq. 3): a camera whose optical axis
-      points backwards in the gaze frame (gaze +y is forward). A pan or tilt turning the
-      other way than eq. 3 assumes, pan and tilt swapped, or T_world_from_cam given for
-      T_cam_from_world all give such a solution, often with a good quality: a reversed
-      pan conjugates every motion by a half-turn, so the data stay consistent and the
-      answer is the truth turned by 180°.
-    """
-    out = []
-    if result.quality > QUALITY_UNUSABLE:
-        out.append(f"quality {result.quality:.3g} > {QUALITY_UNUSABLE:g}; the paper found "
-                   "such solutions unusable")
-    d = result.diagnostics
-    if d.axis_spread < WEAK_AXIS_SPREAD:
-        out.append(f"the motions turn mostly about the unit's axis "
-                   f"{_fmt_axis(d.dominant_axis)} (axis spread {d.axis_spread:.2g} "
-                   f"< {WEAK_AXIS_SPREAD:g}): rotation about it and translation along it "
-                   f"are weakly determined, errors about {1 / math.sqrt(d.axis_spread):.0f}× "
-                   "those of well-spread motions; add positions that move the other joint "
-                   "further")
-    if uncertainty is not None:
-        if uncertainty.rotation_deg is None:
-            out.append(f"no error estimate: {uncertainty.reason}")
-        elif uncertainty.rotation_deg > MAX_ROTATION_UNCERTAINTY_DEG:
-            out.append(f"estimated error (jackknife over positions) "
-                       f"{uncertainty.rotation_deg:.2g}° in rotation and "
-                       f"{uncertainty.translation:.3g} in translation (the input's length "
-                       "unit), "
-                       f"above {MAX_ROTATION_UNCERTAINTY_DEG:g}°: the poses are too noisy "
-                       "for these motions; add positions with larger pan and tilt, or "
-                       "improve the camera calibration")
-    if pan_tilt:
-        forward = float(np.asarray(result.T_cam_from_gaze)[2, 1])  # cam +z · gaze +y
-        if forward < 0:
-            out.append(f"the camera's optical axis points backwards in the gaze frame "
-                       f"(its component along gaze +y, forward, is {forward:.2f}): pan or "
-                       "tilt probably turns the other way than eq. 3 assumes (positive pan "
-                       "looks left, positive tilt up), pan and tilt are swapped, or the "
-                       "poses are T_world_from_cam instead of T_cam_from_world")
-    return out
-
-
 # ------------------------------------------------------------------------ public
 
 def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
                pairs: str = "all", min_rotation_rad: float = MIN_PAIR_ROTATION_RAD,
                check_rigid: bool = True) -> HandEyeResult:
-    """RASC gaze-to-camera calibration (SPEC §3, eq. 6–10).
+    """RASC gaze-to-camera calibration (docs/METHOD.md §3, eq. 6–10).
 
     Parameters
     ----------
@@ -686,7 +562,7 @@ def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
         The unit's motion at each position, ``T_gp`` (eq. 3, pure rotation for a
         pan-tilt unit); for a robot arm ``T_gripper_from_base``.
     pairs : {"all", "half"}
-        "all" ordered pairs i ≠ j (SPEC); "half" = OpenCV's pair set (see ``PAIRS``).
+        "all" ordered pairs i ≠ j (docs/METHOD.md §3); "half" = OpenCV's pair set (see ``PAIRS``).
     min_rotation_rad : float
         Pairs whose unit rotation is smaller are left out (``MIN_PAIR_ROTATION_RAD``).
     check_rigid : bool
@@ -771,12 +647,3 @@ def diagnose(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
     pair = _pairs(n, pairs, None if home is None else int(home))
     out = _solve(T_cw[None], T_gp[None], pair, min_rotation_rad)
     return _diagnostics(out, n, pair), T_cw, T_gp
-
-
-def __getattr__(name: str) -> Any:
-    # CONTRACTS.md lists METHODS with the hand-eye API; it lives in rasc.methods (which
-    # imports this module), so it is resolved lazily here.
-    if name == "METHODS":
-        from rasc.methods import METHODS
-        return METHODS
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

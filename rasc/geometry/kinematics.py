@@ -1,4 +1,4 @@
-"""Pan-tilt kinematics, eq. 3 of the paper (SPEC §2).
+"""Pan-tilt kinematics, eq. 3 of the paper (docs/METHOD.md §2).
 
     R_gaze_from_ptu(φ, τ) = Rz(τ) · Rx(−φ),   t_gaze_from_ptu = 0
 
@@ -39,7 +39,7 @@ def T_gaze_from_ptu(pan: np.ndarray | float, tilt: np.ndarray | float) -> np.nda
     return T
 
 
-#: The paper's nine positions (pan, tilt) in degrees (SPEC §9, E1), home first.
+#: The paper's nine positions (pan, tilt) in degrees (docs/METHOD.md §9, E1), home first.
 PAPER_POSES_DEG = (
     (0.0, 0.0),
     (8.0, 8.0), (8.0, 0.0), (8.0, -8.0),

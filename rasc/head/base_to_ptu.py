@@ -1,4 +1,4 @@
-"""Base-to-ptu calibration, SPEC §5 (paper section 3.3, eq. 11–12).
+"""Base-to-ptu calibration, docs/METHOD.md §5 (paper section 3.3, eq. 11–12).
 
 Loop closure. When both cameras see the same target at the same time (one *view*), the
 target closes a loop through the two units (eq. 12)::
@@ -28,8 +28,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.kinematics import T_gaze_from_ptu as _T_gaze_from_ptu
-from rasc.transforms import (
+from rasc.geometry.kinematics import T_gaze_from_ptu as _T_gaze_from_ptu
+from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
@@ -37,7 +37,7 @@ from rasc.transforms import (
     rotvec_from_matrix,
     validate_rigid_transform,
 )
-from rasc.transforms import rotation_error_deg as _angle_deg
+from rasc.geometry.transforms import rotation_error_deg as _angle_deg
 
 #: A view further than this from the mean rotation is not noise but a mismatched pair of
 #: views: real loop closures agree within a few degrees (the paper: 2–3°), and averaging

@@ -1,4 +1,4 @@
-"""Linear stereo triangulation, SPEC §6 (paper section 5, eq. 15–19).
+"""Linear stereo triangulation, docs/METHOD.md §6 (paper section 5, eq. 15–19).
 
 Each eye's projection ``P = K [I|0] T_cam_from_base`` (3×4, rows ``p1 p2 p3``, last
 column ``p14 p24 p34``) maps base coordinates ``x`` to the image point ``(u, v)`` by

@@ -1,12 +1,13 @@
 """The calibrated stereo head: pan/tilt angles and image points → base coordinates.
 
-One eye (SPEC §1, eq. 1–2)::
+One eye (docs/METHOD.md §1, eq. 1–2)::
 
     T_cam_from_base(pan, tilt) = T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @ T_ptu_from_base
     P(pan, tilt) = K [I|0] T_cam_from_base(pan, tilt)
 
-The head triangulates (SPEC §6): undistort both eyes' pixels (:mod:`rasc.lens`), then
-solve eq. 19 (:mod:`rasc.triangulation`) with each point's own angles. It is stored as a
+The head triangulates (docs/METHOD.md §6): undistort both eyes' pixels
+(:mod:`rasc.geometry.lens`), then
+solve eq. 19 (:mod:`rasc.geometry.triangulation`) with each point's own angles. It is stored as a
 JSON-ready dict (:meth:`HeadCalibration.to_dict`), format ``rasc-head/1``, lengths in the
 unit the calibration used (metres in this project)::
 
@@ -22,10 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rasc import lens, triangulation
 from rasc.errors import InputError
-from rasc.kinematics import T_gaze_from_ptu
-from rasc.transforms import invert_transform, validate_rigid_transform
+from rasc.geometry import lens, triangulation
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import invert_transform, validate_rigid_transform
 
 FORMAT = "rasc-head/1"
 EYE_FIELDS = ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base", "image_size")
@@ -111,7 +112,8 @@ class EyeCalibration:
         return lens.project_points(p_cam, self.K, self.dist)
 
     def undistort(self, uv: np.ndarray) -> np.ndarray:
-        """Distorted pixels (N, 2) → ideal pixels (N, 2) (:func:`rasc.lens.undistort_pixels`)."""
+        """Distorted pixels (N, 2) → ideal pixels (N, 2)
+        (:func:`rasc.geometry.lens.undistort_pixels`)."""
         return lens.undistort_pixels(uv, self.K, self.dist)
 
     def to_dict(self) -> dict:
@@ -144,7 +146,7 @@ class EyeCalibration:
 
 @dataclass(frozen=True, eq=False)
 class HeadCalibration:
-    """Both eyes; maps pan/tilt angles and image points to base coordinates (SPEC §6)."""
+    """Both eyes; maps pan/tilt angles and image points to base coordinates (docs/METHOD.md §6)."""
 
     left: EyeCalibration
     right: EyeCalibration
@@ -176,7 +178,7 @@ class HeadCalibration:
         method : {"ls", "tls"}
         **kwargs
             ``min_parallax_deg``, ``on_degenerate``: see
-            :func:`rasc.triangulation.triangulate`.
+            :func:`rasc.geometry.triangulation.triangulate`.
 
         Returns
         -------

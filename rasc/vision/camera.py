@@ -1,6 +1,6 @@
-"""Camera pipeline: chessboard detection → intrinsics → extrinsics (SPEC §7).
+"""Camera pipeline: chessboard detection → intrinsics → extrinsics (docs/METHOD.md §7).
 
-The only library module besides :mod:`rasc.opencv_handeye` that imports cv2.
+The only library module besides :mod:`rasc.handeye.opencv` that imports cv2.
 
 The board ("world" frame w, docs/CONTRACTS.md): inner corners (nx, ny) with nx + ny odd,
 square size s; corner (i, j), i fastest, sits at (i·s, j·s, 0); +z points into the board.
@@ -26,9 +26,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from rasc.board import Board, _is_integral, _is_number  # noqa: F401  (Board re-exported)
 from rasc.errors import DegenerateDataError, InputError
-from rasc.transforms import make_transform
+from rasc.geometry.transforms import make_transform
+from rasc.vision.board import Board, _is_integral, _is_number  # noqa: F401  (Board re-exported)
 
 # One OpenCV thread: calibrateCamera's multi-threaded sums change the last bits from run
 # to run (measured: three runs, three different results), and the same seed must give
@@ -36,7 +36,8 @@ from rasc.transforms import make_transform
 cv2.setNumThreads(1)
 
 #: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
-#: /work/shared/data/README.md exactly (0.408695 / 0.458636 px on OpenCV's stereo samples);
+#: docs/NOTES.md, "Real data used by the tests" exactly (0.408695 / 0.458636 px on
+#: OpenCV's stereo samples);
 #: 0.01 instead of 0.001 moves them by ~8e-4 px.
 SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.001)
 
@@ -602,7 +603,8 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
                         dist: np.ndarray) -> tuple[np.ndarray, float]:
-    """Board pose with intrinsics fixed (SPEC §7): IPPE, then Levenberg–Marquardt refinement.
+    """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt
+    refinement.
 
     Parameters
     ----------

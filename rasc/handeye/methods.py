@@ -4,7 +4,7 @@ jackknife estimate of a solution's error, :func:`jackknife_uncertainty`.
 Each entry is ``callable(T_cam_from_world, T_gaze_from_ptu, **options) -> HandEyeResult``
 returning ``T_cam_from_gaze``; options are the solver's keywords (``check_rigid`` for all,
 ``pairs`` for "rasc", ``home`` for "li"). The OpenCV entries import cv2 only when called.
-``rasc.handeye.METHODS`` is this same dict.
+``rasc.handeye.solver.METHODS`` is this same dict.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from collections.abc import Callable
 import numpy as np
 
 from rasc.errors import InputError, RascError
-from rasc.handeye import HandEyeResult, HandEyeUncertainty, solve_rasc
-from rasc.li import solve_li
-from rasc.opencv_handeye import CV_METHODS, solve_opencv
-from rasc.transforms import rotvec_from_matrix
+from rasc.geometry.transforms import rotvec_from_matrix
+from rasc.handeye.li import solve_li
+from rasc.handeye.opencv import CV_METHODS, solve_opencv
+from rasc.handeye.solver import HandEyeResult, HandEyeUncertainty, solve_rasc
 
 METHODS: dict[str, Callable[..., HandEyeResult]] = {
     "rasc": solve_rasc,
