@@ -14,6 +14,7 @@ import sys
 
 from rasc import __version__
 from rasc.errors import RascError
+from rasc.interrupt import signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
 COMMANDS = ("handeye", "render", "calibrate")
@@ -49,7 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        with signals_as_interrupt():
+            return int(args.func(args) or 0)
     except RascError as exc:
         msg = str(exc).replace("\n", " ")
         print(f"rasc {args.command}: error: {msg}", file=sys.stderr)
