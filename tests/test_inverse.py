@@ -96,8 +96,9 @@ def test_lower_translation_error_than_rasc_under_the_papers_noise(variant):
 def test_eq7_is_biased_along_the_viewing_direction_and_the_inverse_is_not():
     """The mechanism: the noise of R_A sits in eq. 7's design matrix (I − R_A) and, times
     the board distance, in t_A, so eq. 7's solution is biased by ~2 σ_r² |t| / θ² along
-    the viewing direction (≈ 80 mm at level 8 with the mean θ² of the nine poses' pairs,
-    0.04 rad², and |t| = 1 m). Measured over 300 samples: RASC's mean error vector 89 mm,
+    the viewing direction (≈ 55 mm at level 8 with the mean θ² of the nine poses' 72
+    pairs, 0.058 rad², and |t| = 1 m: an order of magnitude, the pairs are not
+    independent). Measured over 300 samples: RASC's mean error vector 89 mm,
     0.99 of it along the board's direction; rasc-inverse's 4.9 mm, within the sampling
     error of a mean of 300 errors of ~100 mm RMS (≈ 6 mm per component)."""
     err, t_board = _errors(8, 300, "exponential")
