@@ -18,6 +18,7 @@ options give byte-identical files.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import write_json_atomic
+from rasc.progress import progress
 from rasc.vision.board import Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
@@ -214,23 +216,6 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     return poses
 
 
-class _Progress:
-    """Progress on stderr: an updating line on a terminal, else a line every 20 images."""
-
-    def __init__(self, total: int, quiet: bool):
-        self.total, self.done, self.quiet = total, 0, quiet
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, what: str) -> None:
-        self.done += 1
-        last = self.done == self.total
-        if self.quiet or not (self.tty or last or self.done % 20 == 0):
-            return
-        end = "\n" if last or not self.tty else "\r"
-        print(f"render: {self.done}/{self.total} {what:<28}", end=end, file=sys.stderr,
-              flush=True)
-
-
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                    model_path: str | Path | None = None, quiet: bool = False) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
@@ -252,7 +237,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
-    with StereoHeadSim(model_path) as sim:
+    with contextlib.ExitStack() as stack:
+        sim = stack.enter_context(StereoHeadSim(model_path))
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -278,7 +264,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         views: dict[str, dict] = {}
         images: list[dict] = []
         total = 2 * (options.n_intrinsics + len(options.poses_deg))
-        progress = _Progress(total, quiet)
+        bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
+                                           unit="image"))
         (out / "intrinsics").mkdir(parents=True, exist_ok=True)
         (out / "poses").mkdir(exist_ok=True)
 
@@ -293,7 +280,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
                            **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
-            progress(name)
+            bar.set_postfix_str(name, refresh=False)
+            bar.update(1)
 
         for eye in EYES:
             sim.set_angles("left", 0.0, 0.0)
