@@ -302,3 +302,31 @@ def test_calibrate_checks_the_method_before_reading_the_dataset(plugins, tmp_pat
     assert err[0] == ("rasc calibrate: error: method userplug:missing: module userplug has "
                       "no attribute 'missing'")
     assert not out.exists()
+
+
+def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_path, capsys):
+    """rasc calibrate --method package.module:function on a rendered dataset: the
+    calibration names the method and equals RASC's (the plugin returns RASC's answer);
+    a plugin that fails during the solve is one line naming the manifest, the eye and
+    the plugin, exit 2, no file."""
+    from rasc.testing import render_cached
+
+    data = render_cached(tmp_path / "cache", n_intrinsics=6)
+    docs = {}
+    for name in ("userplug:good", "rasc"):
+        out = tmp_path / f"{name.replace(':', '_')}.json"
+        assert main(["calibrate", str(data.path), "--method", name, "--out", str(out),
+                     "--quiet"]) == 0
+        docs[name] = json.loads(out.read_text(encoding="utf-8"))
+    capsys.readouterr()
+    for eye in ("left", "right"):
+        mine, ref = docs["userplug:good"]["eyes"][eye], docs["rasc"]["eyes"][eye]
+        assert mine["handeye_method"] == "userplug:good"
+        np.testing.assert_allclose(mine["T_cam_from_gaze"], ref["T_cam_from_gaze"], atol=1e-15)
+    out = tmp_path / "bad.json"
+    assert main(["calibrate", str(data.path), "--method", "userplug:scaled", "--out",
+                 str(out), "--quiet"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"rasc calibrate: error: {data.path / 'manifest.json'}: left eye: "
+                           "method userplug:scaled returned a matrix that is not a rigid")
+    assert not out.exists()
