@@ -106,3 +106,106 @@ def test_eq7_is_biased_along_the_viewing_direction_and_the_inverse_is_not():
     bias = {m: e.mean(axis=0) for m, e in err.items()}
     assert bias["rasc"] @ view > 60.0
     assert np.linalg.norm(bias["rasc-inverse"]) < 15.0
+
+
+# ------------------------------------------------------------------ rasc-views
+
+@pytest.mark.parametrize("seed", range(5))
+def test_views_exact_without_noise(seed):
+    """Pan-tilt motions and an arm's general motions: the truth to 1e-9 (as above)."""
+    X, Y, T_gp = rig(seed)
+    res = solve("rasc-views", X @ T_gp @ Y, T_gp)
+    np.testing.assert_allclose(res.T_cam_from_gaze, X, atol=1e-9)
+    assert res.method == "rasc-views" and res.quality < 1e-9
+    rng = np.random.default_rng(100 + seed)
+    T_arm = np.array([make_transform(matrix_from_rotvec(rng.normal(0, 0.4, 3)),
+                                     rng.uniform(-0.3, 0.3, 3)) for _ in range(12)])
+    np.testing.assert_allclose(solve("rasc-views", X @ T_arm @ Y, T_arm).T_cam_from_gaze, X,
+                               atol=1e-9)
+
+
+def test_views_translation_recovers_the_target_too():
+    from rasc.handeye.inverse import views_translation
+
+    X, Y, T_gp = rig()
+    tX, tZ, cond = views_translation(X @ T_gp @ Y, T_gp, X[:3, :3])
+    np.testing.assert_allclose(tX, X[:3, 3], atol=1e-12)
+    np.testing.assert_allclose(tZ, Y[:3, 3], atol=1e-12)
+    assert 1.0 <= cond < 1e3
+
+
+def test_views_degenerate_motions_are_refused():
+    X, Y, T_gp = rig()
+    pan_only = [k for k, (_, tilt) in enumerate(PAPER_POSES_DEG) if tilt == 0]
+    with pytest.raises(DegenerateDataError):
+        solve("rasc-views", (X @ T_gp @ Y)[pan_only], T_gp[pan_only])
+
+
+PEERS = ("rasc", "rasc-inverse", "li", "opencv-park", "opencv-tsai", "opencv-horaud")
+
+
+def _mean_translation_errors(make_T_cw, n_samples, setup=None):
+    """Mean translation error (m) per method over samples where every method succeeded;
+    ``setup`` (X, Y, T_gp), default :func:`rig`."""
+    from rasc.errors import RascError
+
+    X, Y, T_gp = rig() if setup is None else setup
+    errors = []
+    for s in range(n_samples):
+        T_cw = make_T_cw(X @ T_gp @ Y, np.random.default_rng(s))
+        row = {}
+        try:
+            for m in (*PEERS, "rasc-views"):
+                T = solve(m, T_cw, T_gp, check_rigid=False).T_cam_from_gaze
+                row[m] = float(np.linalg.norm(T[:3, 3] - X[:3, 3]))
+        except RascError:           # Park's occasional failure: the sample is left out
+            continue
+        errors.append(row)
+    assert len(errors) >= 0.8 * n_samples
+    return {m: float(np.mean([r[m] for r in errors])) for m in errors[0]}
+
+
+@pytest.mark.parametrize("level", [1, 4, 8])
+def test_views_beat_every_method_under_the_papers_noise(level):
+    """Eq. 13-14 noise perturbs each view's translation by σ_t only; every pair equation
+    adds the rotation noise times the board distance (σ_r · 1 m = 5-40 mm). Measured
+    (benchmarks/compare_inverse.py, 200 samples): rasc-views' mean translation error is
+    0.45-0.50× the best other method's at every level. Bound 0.7 on 100 samples."""
+    sigma_r, sigma_t_mm = PAPER_LEVELS_RAD_MM[level - 1]
+    mean = _mean_translation_errors(
+        lambda T, rng: perturb_T_cam_from_world(T, sigma_r, sigma_t_mm / 1000, rng,
+                                                variant="exponential"), 100)
+    assert mean["rasc-views"] < 0.7 * min(mean[m] for m in PEERS), mean
+
+
+def test_views_beat_every_method_under_corner_noise():
+    """Realistic pose errors instead of the paper's model: the board's 54 corners
+    projected by a pinhole camera (f = 1000 px), 0.5 px Gaussian corner noise, the pose
+    re-estimated by OpenCV (rasc.vision.camera.estimate_extrinsics) — rotation and
+    translation errors now correlated, as in a real calibration. Measured here (60
+    samples): rasc-views 3.6 mm, every other method 8.2-9.4 mm (on the rendered head's
+    nine poses, 40 samples per eye: 2.7 mm against 5.2-5.6 mm); bound 0.7× the best
+    other method."""
+    from rasc.geometry.lens import project_points
+    from rasc.vision.board import DEFAULT_BOARD
+    from rasc.vision.camera import estimate_extrinsics
+
+    K = np.array([[1000.0, 0.0, 640.0], [0.0, 1000.0, 480.0], [0.0, 0.0, 1.0]])
+    dist = np.zeros(5)
+    P = DEFAULT_BOARD.object_points()
+    centre = P.mean(axis=0)
+
+    def detect(T_cw_true, rng):
+        out = []
+        for T in T_cw_true:
+            uv = project_points(P @ T[:3, :3].T + T[:3, 3], K, dist)
+            out.append(estimate_extrinsics(uv + rng.normal(0, 0.5, uv.shape), DEFAULT_BOARD,
+                                           K, dist)[0])
+        return np.array(out)
+
+    X, Y, T_gp = rig()
+    # the board's centre, not its corner, 1 m ahead of the camera at home
+    Y = Y.copy()
+    Y[:3, 3] -= Y[:3, :3] @ centre
+    mean = _mean_translation_errors(detect, 60, setup=(X, Y, T_gp))
+    assert mean["rasc-views"] < 0.7 * min(mean[m] for m in PEERS), mean

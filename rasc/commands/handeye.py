@@ -32,8 +32,8 @@ RESULT_FORMAT = "rasc-handeye-result/1"
 
 #: The built-in names of rasc.handeye.methods.METHODS, listed here so that building the
 #: parser imports no solver (and no cv2); a test checks that they match.
-METHOD_NAMES = ("rasc", "li", "rasc-inverse", "opencv-park", "opencv-tsai", "opencv-horaud",
-                "opencv-andreff", "opencv-daniilidis")
+METHOD_NAMES = ("rasc", "li", "rasc-inverse", "rasc-views", "opencv-park", "opencv-tsai",
+                "opencv-horaud", "opencv-andreff", "opencv-daniilidis")
 
 #: --method's help, shared with ``rasc calibrate``.
 METHOD_HELP = ("hand-eye method: a built-in name (" + ", ".join(METHOD_NAMES) + "), "

@@ -6,7 +6,8 @@ Wherever a method is named (``rasc handeye --method``, ``rasc calibrate --method
 experiments, studies) the name is resolved by :func:`get_method`, in this order:
 
 1. a built-in name, a key of :data:`METHODS`: "rasc" (the paper's method), "li",
-   "rasc-inverse" (:mod:`rasc.handeye.inverse`) and OpenCV's five "opencv-<name>";
+   "rasc-inverse" and "rasc-views" (RASC's rotation with other translations,
+   :mod:`rasc.handeye.inverse`) and OpenCV's five "opencv-<name>";
 2. ``package.module:function`` (any importable callable; the module is imported when
    the method is first resolved);
 3. a name registered by an installed package in the entry-point group ``rasc.methods``
@@ -45,7 +46,7 @@ import numpy as np
 
 from rasc.errors import InputError, RascError, SolverFailure
 from rasc.geometry.transforms import RIGID_ATOL, rotvec_from_matrix
-from rasc.handeye.inverse import solve_rasc_inverse
+from rasc.handeye.inverse import solve_rasc_inverse, solve_rasc_views
 from rasc.handeye.li import solve_li
 from rasc.handeye.opencv import CV_METHODS, solve_opencv
 from rasc.handeye.solver import (
@@ -64,6 +65,7 @@ METHODS: dict[str, Callable[..., HandEyeResult]] = {
     "rasc": solve_rasc,
     "li": solve_li,
     "rasc-inverse": solve_rasc_inverse,
+    "rasc-views": solve_rasc_views,
     **{f"opencv-{m}": functools.partial(solve_opencv, method=m) for m in CV_METHODS},
 }
 
