@@ -12,6 +12,12 @@ Two pose sources, nine ±8° positions each, eq. 13–14 noise at the paper's ei
   pipeline, its detected extrinsics per eye perturbed, the truth from the renderer —
   ``--rendered-samples`` per level and eye (E1 uses 30; these are not E1's own draws).
 
+* corner noise (``--corner-samples`` per eye and level; levels in pixels): realistic
+  pose errors instead of the paper's model — the rendered head's true pose views, the
+  board's corners projected with the true intrinsics, Gaussian noise of σ px added, the
+  pose re-estimated by rasc.vision.camera.estimate_extrinsics (IPPE + LM, as the
+  pipeline), so rotation and translation errors are correlated as in a real calibration.
+
 Per level and method: mean translation error (mm) and mean rotation error (degrees,
 angle of R R_trueᵀ) over the solves that succeeded, and the number that failed. Then
 ``inv/rasc`` (ratio of mean translation errors, same samples), ``inv/best`` and
@@ -41,8 +47,17 @@ RASC_FAMILY = ("rasc", "rasc-inverse", "rasc-views")
 
 
 def run_source(label: str, key: int, sets: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-               n_samples: int, variant: str) -> None:
-    """sets: per eye (T_cam_from_world (9, 4, 4), T_gaze_from_ptu, truth)."""
+               n_samples: int, variant: str, levels=None, noisy=None) -> None:
+    """sets: per eye (T_cam_from_world (9, 4, 4), T_gaze_from_ptu, truth); levels:
+    (label, parameter) pairs, default the paper's; noisy(T_cw0, eye, parameter, rng)
+    draws one noisy sample, default eq. 13-14."""
+    if levels is None:
+        levels = list(enumerate(PAPER_LEVELS_RAD_MM, start=1))
+    if noisy is None:
+        def noisy(T_cw0, eye, level, rng):
+            sigma_r, sigma_t_mm = level
+            return perturb_T_cam_from_world(T_cw0, sigma_r, sigma_t_mm / 1000, rng,
+                                            variant=variant)
     methods = list(METHODS)
     print(f"\n### {label}: {len(sets)} pose set(s) × {n_samples} samples per level, "
           f"{variant} noise\n")
@@ -50,14 +65,13 @@ def run_source(label: str, key: int, sets: list[tuple[np.ndarray, np.ndarray, np
             + ["inv/rasc", "inv/best", "views/best"])
     print("| " + " | ".join(head) + " |")
     print("|" + " ---: |" * len(head))
-    for level, (sigma_r, sigma_t_mm) in enumerate(PAPER_LEVELS_RAD_MM, start=1):
+    for k, (level, parameter) in enumerate(levels):
         trans = {m: [] for m in methods}     # NaN where the method failed
         rot = {m: [] for m in methods}
         for eye, (T_cw0, T_gp, X) in enumerate(sets):
             for s in range(n_samples):
-                rng = np.random.default_rng([key, eye, level, s])
-                T_cw = perturb_T_cam_from_world(T_cw0, sigma_r, sigma_t_mm / 1000, rng,
-                                                variant=variant)
+                rng = np.random.default_rng([key, eye, k, s])
+                T_cw = noisy(T_cw0, eye, parameter, rng)
                 for m in methods:
                     try:
                         T = solve(m, T_cw, T_gp, check_rigid=False).T_cam_from_gaze
@@ -88,18 +102,24 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=200)
     ap.add_argument("--rendered-samples", type=int, default=30)
+    ap.add_argument("--corner-samples", type=int, default=40)
+    ap.add_argument("--corner-px", default="0.5,1,2", help="corner noise levels (px)")
     ap.add_argument("--variant", default="exponential", choices=("exponential", "literal"))
     ap.add_argument("--cache", default="/tmp/rasc-bench-cache",
                     help="where the rendered dataset is cached (rasc.testing)")
     args = ap.parse_args()
     p = make_pose_set(0)
-    run_source("synthetic (rasc.testing truth)", 1,
-               [(p.T_cam_from_world, p.T_gaze_from_ptu, p.truth)], args.samples, args.variant)
-    if args.rendered_samples > 0:
-        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    if args.samples > 0:
+        run_source("synthetic (rasc.testing truth)", 1,
+                   [(p.T_cam_from_world, p.T_gaze_from_ptu, p.truth)], args.samples,
+                   args.variant)
+    if args.rendered_samples > 0 or args.corner_samples > 0:
         from rasc.testing import render_cached
 
         data = render_cached(args.cache)
+    if args.rendered_samples > 0:
+        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+
         cal = calibrate_dataset(data.load(), CalibrationOptions())
         sets = []
         for eye in ("left", "right"):
@@ -108,6 +128,39 @@ def main() -> None:
                          data.T_cam_from_gaze(eye)))
         run_source("rendered poses (E1's protocol), both eyes", 2, sets,
                    args.rendered_samples, args.variant)
+    if args.corner_samples > 0:
+        corner_noise(data, args.corner_samples,
+                     [float(x) for x in args.corner_px.split(",")])
+
+
+def corner_noise(data, n_samples: int, sigmas_px: list[float]) -> None:
+    """The rendered head's true pose views; corners projected, noised, pose re-estimated."""
+    from rasc.geometry.lens import project_points
+    from rasc.vision.camera import estimate_extrinsics
+
+    board = data.load().board
+    P = board.object_points()
+    gt = data.ground_truth
+    sets, cams = [], []
+    for eye in ("left", "right"):
+        views = sorted((f, v) for f, v in gt["views"].items() if f.startswith(f"poses/{eye}"))
+        T_true = np.array([v["T_cam_from_world"] for _, v in views])
+        pt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
+        sets.append((T_true, T_gaze_from_ptu(pt[:, 0], pt[:, 1]), data.T_cam_from_gaze(eye)))
+        cams.append((np.array(gt[eye]["K"]), np.array(gt[eye]["dist"])))
+
+    def noisy(T_true, eye, sigma, rng):
+        K, dist = cams[eye]
+        out = []
+        for T in T_true:
+            uv = project_points(P @ T[:3, :3].T + T[:3, 3], K, dist)
+            out.append(estimate_extrinsics(uv + rng.normal(0.0, sigma, uv.shape), board, K,
+                                           dist)[0])
+        return np.array(out)
+
+    run_source("corner noise (px) on the rendered head's true poses, both eyes", 3, sets,
+               n_samples, "corner", levels=[(f"{s:g} px", s) for s in sigmas_px],
+               noisy=noisy)
 
 
 if __name__ == "__main__":

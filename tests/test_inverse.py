@@ -170,7 +170,8 @@ def test_views_beat_every_method_under_the_papers_noise(level):
     """Eq. 13-14 noise perturbs each view's translation by σ_t only; every pair equation
     adds the rotation noise times the board distance (σ_r · 1 m = 5-40 mm). Measured
     (benchmarks/compare_inverse.py, 200 samples): rasc-views' mean translation error is
-    0.45-0.50× the best other method's at every level. Bound 0.7 on 100 samples."""
+    0.45-0.53× the best other method's at every level, on synthetic and rendered poses.
+    Bound 0.7 on 100 samples."""
     sigma_r, sigma_t_mm = PAPER_LEVELS_RAD_MM[level - 1]
     mean = _mean_translation_errors(
         lambda T, rng: perturb_T_cam_from_world(T, sigma_r, sigma_t_mm / 1000, rng,
@@ -184,8 +185,8 @@ def test_views_beat_every_method_under_corner_noise():
     re-estimated by OpenCV (rasc.vision.camera.estimate_extrinsics) — rotation and
     translation errors now correlated, as in a real calibration. Measured here (60
     samples): rasc-views 3.6 mm, every other method 8.2-9.4 mm (on the rendered head's
-    nine poses, 40 samples per eye: 2.7 mm against 5.2-5.6 mm); bound 0.7× the best
-    other method."""
+    nine poses, benchmarks/compare_inverse.py: 3.0 mm against 5.9-6.4 mm); bound 0.7×
+    the best other method."""
     from rasc.geometry.lens import project_points
     from rasc.vision.board import DEFAULT_BOARD
     from rasc.vision.camera import estimate_extrinsics
