@@ -89,7 +89,7 @@ def _as_vector(value, name: str, where: str) -> tuple[float, float, float]:
     if len(value) != 3 or any(isinstance(v, (bool, str, bytes)) for v in value):
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}")
     try:
-        out = tuple(float(v) for v in value)
+        out = tuple(float(v) + 0.0 for v in value)   # + 0.0: no -0.0 in JSON
     except (TypeError, ValueError):
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}") from None
     if not all(np.isfinite(out)):
@@ -100,7 +100,7 @@ def _as_vector(value, name: str, where: str) -> tuple[float, float, float]:
 def _as_scalar(value, name: str, where: str) -> float:
     if isinstance(value, (bool, str, bytes)) or not isinstance(value, (int, float, np.number)):
         raise InputError(f"{where}{name}: expected a number, got {value!r}")
-    out = float(value)
+    out = float(value) + 0.0
     if not np.isfinite(out):
         raise InputError(f"{where}{name}: value must be finite, got {value!r}")
     return out
