@@ -7,9 +7,16 @@ compiled model, never retyped:
 
 * per eye ``T_cam_from_gaze`` (hand-eye, ``T_cg``), ``T_ptu_from_base`` (``T_pb``), ``K``
   (OpenCV pixel convention, centres at integers) and the image size;
+* per eye the pan-tilt unit as the general model :class:`rasc.geometry.kinematics.PanTiltUnit`
+  (eq. 3 for the stock model), read from the joints' anchors and axes, and all three in
+  the canonical gauge (:func:`rasc.geometry.kinematics.canonical_gauge`);
 * at the current state, ``T_cam_from_world`` (the target) and ``T_cam_from_base``, so that
-  eq. 1–2 hold: ``T_cam_from_base = T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @
-  T_ptu_from_base`` with eq. 3 for the middle factor.
+  eq. 1–2 hold: ``T_cam_from_base = T_cam_from_gaze @ unit.T_gaze_from_ptu(pan, tilt) @
+  T_ptu_from_base`` (checked against MuJoCo's camera frame by
+  :meth:`StereoHeadSim.check_ground_truth`, at every pose ``rasc render`` renders).
+
+Imperfect units (tilt-axis offset, axis skew, encoder zeros and scales, camera placement)
+come from :class:`rasc.sim.units.UnitBuild`.
 
 MuJoCo's global frame is called ``scene`` here (z up), to keep ``world`` for the target
 (the chessboard frame w of docs/CONTRACTS.md). Only this module imports ``mujoco``, and
@@ -659,8 +666,8 @@ class StereoHeadSim:
                 f"{self.model_file.name}: the {eye} ground truth disagrees with MuJoCo's "
                 f"{eye}_camera frame{at} (readings pan {np.degrees(pan):.6g}, tilt "
                 f"{np.degrees(tilt):.6g} deg) by {deg:.3g} deg, {mm:.3g} mm (largest element "
-                f"{worst:.2g} > {GROUND_TRUTH_TOL:g}); this model's unit cannot be described, "
-                f"no ground truth written")
+                f"{worst:.2g} > {GROUND_TRUTH_TOL:g}); the model is not the unit read from it, "
+                f"nothing written")
         return worst
 
     def _require_board(self) -> Board:
