@@ -312,3 +312,28 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
         assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, err
         assert message in err
         assert not (tmp_path / "c").exists()
+
+
+def test_readme_unit_file_example(tmp_path, capsys, monkeypatch):
+    """The README's parameter file and command, as a user types them."""
+    import re
+    import shlex
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = readme[readme.index("### `rasc render"):]
+    toml = re.search(r"```toml\n(.*?)```", block, flags=re.S).group(1)
+    command = re.search(r"^    (rasc render --unit unit\.toml .*)$", block, flags=re.M).group(1)
+    (tmp_path / "unit.toml").write_text(toml)
+    monkeypatch.chdir(tmp_path)
+    argv = shlex.split(command)[1:]
+    code, out, err = run_cli(argv + ["--quiet"], capsys)
+    assert code == 0 and out == "" and err == "", err
+    gt = json.loads((tmp_path / "real_head" / "ground_truth.json").read_text())
+    for eye in EYES:   # [both]: 30 mm along y (the common normal), 1° skew
+        unit = PanTiltUnit.from_dict(gt[eye]["unit"])
+        assert unit.axis_distance == pytest.approx(0.030, abs=1e-12)
+        assert unit.axis_angle_deg == pytest.approx(89.0, abs=1e-9)
+    left = read_unit_file(tmp_path / "unit.toml")["left"]
+    assert (left.pan_zero_deg, left.tilt_zero_deg, left.pan_scale) == (0.5, -0.5, 1.002)
+    assert gt["left"]["unit_as_built"]["build"] == left.to_dict()
+    assert PanTiltUnit.from_dict(gt["left"]["unit"]).tilt_scale == 0.998
