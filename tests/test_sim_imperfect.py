@@ -163,6 +163,18 @@ def test_user_model_with_a_moved_tilt_body(tmp_path):
         assert check_chain_against_mujoco(sim, "left", np.random.default_rng(6)) < 1e-12
 
 
+def test_user_model_with_a_joint_reference_angle(tmp_path):
+    # MuJoCo turns a hinge by qpos − ref: the body pose as written is the joint's zero
+    scene = _head_variant(tmp_path, '<joint class="pan" name="left_pan_joint"/>',
+                          '<joint class="pan" name="left_pan_joint" ref="10"/>')
+    with StereoHeadSim(scene) as sim, StereoHeadSim() as stock:
+        assert sim.unit("left") == IDEAL
+        np.testing.assert_array_equal(sim.T_cam_from_gaze("left"), stock.T_cam_from_gaze("left"))
+        assert check_chain_against_mujoco(sim, "left", np.random.default_rng(7)) < 1e-12
+        sim.set_angles("left", 0.3, 0.0)
+        assert sim.joint_angles("left")[0] == pytest.approx(0.3, abs=1e-15)
+
+
 def test_truth_that_disagrees_is_never_written(tmp_path, capsys, monkeypatch):
     """Yesterday's truth for the moved tilt body (the camera in the tilt body's frame, eq. 3
     about the ptu origin: 15 mm off at home) must be refused: one line, exit 2, nothing."""
@@ -192,7 +204,7 @@ def test_truth_that_disagrees_is_never_written(tmp_path, capsys, monkeypatch):
     lines = err.strip().splitlines()
     assert len(lines) == 1
     assert lines[0].startswith("rasc render: error: scene.xml: the left ground truth disagrees "
-                               "with MuJoCo's left_camera frame at --poses item 0")
+                               "with MuJoCo's left_camera frame at home (the intrinsics views)")
     assert " 15 mm" in lines[0], lines[0]
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["head.xml", "scene.xml"]

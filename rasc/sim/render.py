@@ -164,6 +164,10 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
     board, size = sim.board, sim.image_size
     d = options.target_distance
     smallest = math.inf
+    for eye in EYES:  # the intrinsics views are taken at home
+        sim.set_angles(eye, 0.0, 0.0)
+    for eye in EYES:
+        sim.check_ground_truth(eye, "home (the intrinsics views)")
     for k, (pan, tilt) in enumerate(options.poses_deg):
         for eye in EYES:
             try:

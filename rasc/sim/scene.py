@@ -595,7 +595,8 @@ class StereoHeadSim:
         return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
 
     def joint_range(self, eye: str) -> tuple[tuple[float, float], tuple[float, float]]:
-        """((pan_min, pan_max), (tilt_min, tilt_max)) in radians, from the model."""
+        """((pan_min, pan_max), (tilt_min, tilt_max)) in radians, from the model (joint
+        positions ``qpos``: the joint angle plus the joint's ``ref``, 0 in the stock model)."""
         r = self.model.jnt_range
         return tuple(tuple(float(v) for v in r[self._ids[f"{self._eye(eye)}_{j}_joint"]])
                      for j in ("pan", "tilt"))
@@ -611,17 +612,18 @@ class StereoHeadSim:
         unit = self._as_built[self._eye(eye)][0]
         readings = (float(pan), float(tilt))
         angles = tuple(float(a) for a in unit.angles(*readings))
-        for j, reading, angle, (lo, hi) in zip(("pan", "tilt"), readings, angles,
-                                               self.joint_range(eye), strict=True):
-            if not (np.isfinite(angle) and lo - 1e-12 <= angle <= hi + 1e-12):
+        adrs = [self.model.jnt_qposadr[self._ids[f"{eye}_{j}_joint"]] for j in ("pan", "tilt")]
+        qpos = [self.model.qpos0[adr] + angle for adr, angle in zip(adrs, angles, strict=True)]
+        for j, reading, angle, q, (lo, hi) in zip(("pan", "tilt"), readings, angles, qpos,
+                                                  self.joint_range(eye), strict=True):
+            if not (np.isfinite(q) and lo - 1e-12 <= q <= hi + 1e-12):
                 joint = "" if angle == reading else \
                     f" (joint angle {np.degrees(angle):.6g} deg)"
                 raise InputError(
                     f"{eye} {j} = {np.degrees(reading):.6g} deg{joint} is outside the joint "
                     f"range [{np.degrees(lo):.6g}, {np.degrees(hi):.6g}] deg")
-        for j, angle in zip(("pan", "tilt"), angles, strict=True):
-            adr = self.model.jnt_qposadr[self._ids[f"{eye}_{j}_joint"]]
-            self.data.qpos[adr] = self.model.qpos0[adr] + angle
+        for adr, q in zip(adrs, qpos, strict=True):
+            self.data.qpos[adr] = q
         self._readings[eye] = readings
         self._dirty = True
 
