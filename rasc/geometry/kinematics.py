@@ -235,6 +235,29 @@ class PanTiltUnit:
         """True when the unit is exactly the paper's (eq. 3)."""
         return self == IDEAL
 
+    @classmethod
+    def canonical(cls, axis_angle: float = np.pi / 2, axis_offset: float = 0.0,
+                  pan_scale: float = 1.0, tilt_scale: float = 1.0) -> PanTiltUnit:
+        """The unit in the canonical gauge (:func:`canonical_gauge`) from its four
+        observable parameters: ``axis_angle`` α (radians) between the axes, the signed
+        common-normal offset d (``tilt_point = (0, d, 0)``) and the two scales.
+        ``canonical(π/2, 0, 1, 1)`` is :data:`IDEAL` to round-off (cos(π/2) = 6e-17)."""
+        return cls(tilt_axis=(float(np.cos(axis_angle)), 0.0, float(np.sin(axis_angle))),
+                   tilt_point=(0.0, float(axis_offset), 0.0), pan_scale=pan_scale,
+                   tilt_scale=tilt_scale)
+
+    @property
+    def canonical_parameters(self) -> tuple[float, float, float, float]:
+        """(α radians, d, s_φ, s_τ) of a unit in the canonical gauge, the inverse of
+        :meth:`canonical`. Raises InputError for a unit in another gauge."""
+        x, y, z = self.tilt_axis
+        if (self.pan_axis != (1.0, 0.0, 0.0) or y != 0.0 or z <= 0.0
+                or self.tilt_point[0] != 0.0 or self.tilt_point[2] != 0.0
+                or self.pan_offset != 0.0 or self.tilt_offset != 0.0):
+            raise InputError("PanTiltUnit: not in the canonical gauge; use canonical_gauge() "
+                             "first")
+        return float(np.arctan2(z, x)), self.tilt_point[1], self.pan_scale, self.tilt_scale
+
     # ---- serialisation ------------------------------------------------------------------
 
     def to_dict(self) -> dict:
