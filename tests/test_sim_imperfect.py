@@ -316,7 +316,7 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
     assert code == 0, err
     assert files_of(tmp_path / "a") == files_of(tmp_path / "b")
     for argv, message in ((["--tilt-axis-offset", "0,30"], "--tilt-axis-offset: expected X,Y,Z"),
-                          (["--encoder-zero", "nan,0"], "--encoder-zero: expected finite"),
+                          (["--encoder-zero", "nan,0"], "--encoder-zero: expected PAN,TILT in deg"),
                           (["--axis-skew", 90], "--axis-skew: expected a finite angle"),
                           (["--unit", tmp_path / "missing.toml"], "missing.toml: unit parameter "
                                                                    "file not found")):

@@ -27,11 +27,15 @@ def _floats(text: str, flag: str) -> tuple[float, ...]:
     if not text.strip():
         return ()
     try:
-        values = tuple(float(v) for v in text.split(","))
+        return tuple(float(v) for v in text.split(","))
     except ValueError:
         raise InputError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
-    if not all(math.isfinite(v) for v in values):
-        raise InputError(f"{flag}: expected finite numbers, got {text!r}")
+
+
+def _finite_floats(text: str, flag: str, count: int, what: str) -> tuple[float, ...]:
+    values = _floats(text, flag)
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{flag}: expected {what}, {count} finite numbers, got {text!r}")
     return values
 
 
@@ -42,22 +46,16 @@ def _units(args: argparse.Namespace) -> dict | None:
     units = read_unit_file(args.unit) if args.unit else None
     changes: dict = {}
     if args.tilt_axis_offset.strip():
-        offset = _floats(args.tilt_axis_offset, "--tilt-axis-offset")
-        if len(offset) != 3:
-            raise InputError(f"--tilt-axis-offset: expected X,Y,Z in millimetres, got "
-                             f"{args.tilt_axis_offset!r}")
-        changes["tilt_axis_offset_mm"] = offset
+        changes["tilt_axis_offset_mm"] = _finite_floats(
+            args.tilt_axis_offset, "--tilt-axis-offset", 3, "X,Y,Z in millimetres")
     if args.axis_skew is not None:
         if not abs(args.axis_skew) < MAX_SKEW_DEG:
             raise InputError(f"--axis-skew: expected a finite angle within "
                              f"±{MAX_SKEW_DEG:g} degrees, got {args.axis_skew}")
         changes["axis_skew_deg"] = args.axis_skew
     if args.encoder_zero.strip():
-        zero = _floats(args.encoder_zero, "--encoder-zero")
-        if len(zero) != 2:
-            raise InputError(f"--encoder-zero: expected PAN,TILT in degrees, got "
-                             f"{args.encoder_zero!r}")
-        changes["pan_zero_deg"], changes["tilt_zero_deg"] = zero
+        changes["pan_zero_deg"], changes["tilt_zero_deg"] = _finite_floats(
+            args.encoder_zero, "--encoder-zero", 2, "PAN,TILT in degrees")
     if changes:
         units = {eye: merge((units or {}).get(eye, IDEAL_BUILD), **changes)
                  for eye in ("left", "right")}
