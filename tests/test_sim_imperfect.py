@@ -163,6 +163,22 @@ def test_user_model_with_a_moved_tilt_body(tmp_path):
         assert check_chain_against_mujoco(sim, "left", np.random.default_rng(6)) < 1e-12
 
 
+def test_user_model_with_a_moved_and_turned_pan_joint(tmp_path):
+    # pan axis through a = (20, 10, −5) mm along p ∝ (1, 0.02, 0.01); tilt axis the stock
+    # one through the ptu origin along z: distance |a · (p × z)| / |p × z|, angle acos(p·z)
+    scene = _head_variant(tmp_path, '<joint class="pan" name="left_pan_joint"/>',
+                          '<joint class="pan" name="left_pan_joint" pos="0.02 0.01 -0.005" '
+                          'axis="1 0.02 0.01"/>')
+    a, p, z = np.array([0.02, 0.01, -0.005]), np.array([1, 0.02, 0.01]), np.array([0, 0, 1.0])
+    p = p / np.linalg.norm(p)
+    n = np.cross(p, z)
+    with StereoHeadSim(scene) as sim:
+        unit = sim.unit("left")
+        assert unit.axis_distance == pytest.approx(abs(a @ n) / np.linalg.norm(n), abs=1e-15)
+        assert unit.axis_angle_deg == pytest.approx(np.degrees(np.arccos(p @ z)), abs=1e-12)
+        assert check_chain_against_mujoco(sim, "left", np.random.default_rng(8)) < 1e-12
+
+
 def test_user_model_with_a_joint_reference_angle(tmp_path):
     # MuJoCo turns a hinge by qpos − ref: the body pose as written is the joint's zero
     scene = _head_variant(tmp_path, '<joint class="pan" name="left_pan_joint"/>',
