@@ -331,6 +331,13 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
                             "--axis-skew", 1, "--encoder-zero", "0.5,0.5", *common], capsys)
     assert code == 0, err
     assert files_of(tmp_path / "a") == files_of(tmp_path / "b")
+    # without --quiet: one line per imperfect unit says what was built
+    code, _, err = run_cli(["render", "--out", tmp_path / "d", "--axis-skew", 1,
+                            "--tilt-axis-offset", "0,30,0", *common[1:]], capsys)
+    assert code == 0, err
+    for eye in EYES:
+        assert (f"render: {eye} unit: tilt axis 30 mm from the pan axis, 89.0000 deg between "
+                f"the axes, encoder zeros +0/+0 deg and scales 1/1 (pan/tilt)") in err
     for argv, message in ((["--tilt-axis-offset", "0,30"], "--tilt-axis-offset: expected X,Y,Z"),
                           (["--encoder-zero", "nan,0"], "--encoder-zero: expected PAN,TILT in deg"),
                           (["--axis-skew", 90], "--axis-skew: expected a finite angle"),

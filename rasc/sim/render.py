@@ -13,7 +13,10 @@ Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
   position share a ``view`` id, so they also serve as simultaneous views for loop closure.
 
 Every random draw comes from ``numpy.random.default_rng(seed)``; the same seed and
-options give byte-identical files.
+options give byte-identical files. The pan-tilt units may be imperfect
+(:mod:`rasc.sim.units`); the pose views' angles are then encoder readings, and the
+ground truth (per eye ``unit``, ``T_cam_from_gaze``, ``T_ptu_from_base`` in the canonical
+gauge) is checked against MuJoCo's camera frame at every rendered pose.
 """
 
 from __future__ import annotations
@@ -239,6 +242,23 @@ class _Progress:
               flush=True)
 
 
+def unit_summary(sim) -> list[str]:
+    """One line per eye whose pan-tilt unit is not the paper's: what the images will show
+    (axis distance and angle, encoder zeros and scales as built)."""
+    lines = []
+    for eye in EYES:
+        unit, (built, _, _) = sim.unit(eye), sim.unit_as_built(eye)
+        if unit.is_ideal and built.is_ideal:
+            continue
+        lines.append(
+            f"{eye} unit: tilt axis {1e3 * unit.axis_distance:.4g} mm from the pan axis, "
+            f"{unit.axis_angle_deg:.4f} deg between the axes, encoder zeros "
+            f"{math.degrees(built.pan_offset):+.4g}/{math.degrees(built.tilt_offset):+.4g} deg "
+            f"and scales {built.pan_scale:.6g}/{built.tilt_scale:.6g} (pan/tilt); ground truth "
+            f"in the canonical gauge")
+    return lines
+
+
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                    model_path: str | Path | None = None, quiet: bool = False,
                    units: dict | None = None) -> Path:
@@ -286,6 +306,9 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             print(f"render: warning: board squares are only {square_px:.1f} px in the pose "
                   f"views at --distance {options.target_distance:g}; corner detection was "
                   f"measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if not quiet:
+            for line in unit_summary(sim):
+                print(f"render: {line}", file=sys.stderr)
         warp = {eye: distortion_warp(sim.K(eye), dist, size) for eye in EYES} \
             if distorted else {}
         views: dict[str, dict] = {}
