@@ -253,11 +253,10 @@ def test_default_render_is_unchanged_by_the_unit_machinery(tmp_path):
                                        rtol=0, atol=1e-15)
 
 
-def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
-    units = {"left": IMPERFECT, "right": UnitBuild(tilt_axis_offset_mm=(0, -15, 0),
-                                                   axis_skew_deg=-0.5, pan_zero_deg=-0.3)}
-    manifest = render_dataset(tmp_path / "ds", SMALL, quiet=True, units=units)
-    gt = json.loads((tmp_path / "ds" / "ground_truth.json").read_text())
+def assert_views_match_truth(manifest: Path) -> dict:
+    """Every pose view's T_cam_from_world (MuJoCo's, as rendered) equals the ground truth's
+    chain at the manifest's readings; returns the ground truth."""
+    gt = json.loads((manifest.parent / "ground_truth.json").read_text())
     images = json.loads(manifest.read_text())["images"]
     poses = [im for im in images if im["role"] == "pose"]
     # the manifest records the commanded readings
@@ -270,6 +269,23 @@ def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
             T = T_cg @ unit.T_gaze_from_ptu(np.radians(im["pan"]), np.radians(im["tilt"])) @ T_pb
             np.testing.assert_allclose(T @ np.array(view["T_base_from_world"]),
                                        view["T_cam_from_world"], rtol=0, atol=GROUND_TRUTH_TOL)
+    return gt
+
+
+def test_moved_tilt_joint_model_renders_with_correct_truth(tmp_path):
+    scene = _head_variant(tmp_path, '<joint class="tilt" name="right_tilt_joint"/>',
+                          '<joint class="tilt" name="right_tilt_joint" pos="0 0.03 0"/>')
+    gt = assert_views_match_truth(render_dataset(tmp_path / "ds", SMALL, quiet=True,
+                                                 model_path=scene))
+    assert PanTiltUnit.from_dict(gt["right"]["unit"]).axis_distance == pytest.approx(0.03)
+    assert PanTiltUnit.from_dict(gt["left"]["unit"]) == IDEAL
+
+
+def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
+    units = {"left": IMPERFECT, "right": UnitBuild(tilt_axis_offset_mm=(0, -15, 0),
+                                                   axis_skew_deg=-0.5, pan_zero_deg=-0.3)}
+    gt = assert_views_match_truth(render_dataset(tmp_path / "ds", SMALL, quiet=True,
+                                                 units=units))
     assert PanTiltUnit.from_dict(gt["right"]["unit"]).axis_distance == pytest.approx(0.015)
     assert gt["left"]["unit_as_built"]["build"] == IMPERFECT.to_dict()
     assert gt["right"]["unit_as_built"]["build"] == units["right"].to_dict()
