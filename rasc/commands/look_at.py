@@ -99,12 +99,17 @@ def run(args: argparse.Namespace) -> int:
            "length_unit": cal.length_unit or "that of the calibration",
            "recorded_range": recorded, "points": points}
     common.write_result(doc, args.out)
-    for where, eye, fix in outside:
+    for eye in EYES:
+        mine = [(where, fix) for where, e, fix in outside if e == eye]
+        if not mine:
+            continue
         span = cal.joint_range[eye]
         rng = ", ".join(f"{j} {common.angle_out(span[j][0], unit):g} to "
                         f"{common.angle_out(span[j][1], unit):g}" for j in ("pan", "tilt"))
-        common.warn("look-at", f"{where}: {eye} eye: pan {common.angle_out(fix.pan, unit):.4g}, "
-                    f"tilt {common.angle_out(fix.tilt, unit):.4g} {unit} lies outside the "
+        where, fix = mine[0]
+        more = f" ({len(mine)} points; first {where})" if len(mine) > 1 else f" ({where})"
+        common.warn("look-at", f"{eye} eye: pan {common.angle_out(fix.pan, unit):.4g}, tilt "
+                    f"{common.angle_out(fix.tilt, unit):.4g} {unit}{more} lies outside the "
                     f"range the calibration was measured over ({rng} {unit}); the model is "
-                    f"extrapolated there")
+                    "extrapolated there")
     return 0
