@@ -202,6 +202,22 @@ def test_look_at_warns_outside_the_recorded_range(capsys):
     assert json.loads(out)["points"][0]["left"]["within_recorded_range"] is False
 
 
+def test_look_at_many_points_progress_and_quiet(tmp_path, capsys):
+    """From 100 points a progress line appears on stderr; --quiet removes it. Points 2 m
+    ahead within ±5 cm of the centre line: every eye within the recorded ±8°."""
+    rng = np.random.default_rng(8)
+    f = tmp_path / "many.csv"
+    f.write_text("x,y,z\n" + "\n".join(f"{x!r},2.0,{z!r}" for x, z in
+                                       rng.uniform(-0.05, 0.05, (100, 2)).tolist()))
+    rc, out, err = run_cli(["look-at", CAL, "--points", f, "--angle-unit", "deg"], capsys)
+    assert rc == 0 and "look-at" in err and "warning" not in err
+    rc, out2, err2 = run_cli(["look-at", CAL, "--points", f, "--angle-unit", "deg", "--quiet"],
+                             capsys)
+    assert rc == 0 and err2 == "" and out2 == out
+    assert max(p[e]["residual_px"] for p in json.loads(out)["points"]
+               for e in ("left", "right")) < 1e-9
+
+
 def test_look_at_bare_head_records_no_range(tmp_path, capsys):
     f = tmp_path / "head.json"
     f.write_text(json.dumps(gen.make_head().to_dict()))

@@ -28,6 +28,8 @@ from rasc.errors import InputError
 
 RESULT_FORMAT = "rasc-look-at/1"
 EYES = ("left", "right")
+#: from this many points (about 1 s at ~5 ms per point and eye) a progress bar is shown
+PROGRESS_MIN_POINTS = 100
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -45,6 +47,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="base-frame points, CSV with columns x,y,z[,label]")
     common.add_angle_unit(p, "the output pan and tilt")
     common.add_out(p)
+    p.add_argument("--quiet", action="store_true",
+                   help=f"no progress bar (shown on stderr from {PROGRESS_MIN_POINTS} points)")
     p.set_defaults(func=run)
     return p
 
@@ -52,7 +56,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from rasc.head.use import look_at, outside_range
+    from rasc.progress import progress
 
     if not args.point and args.points is None:
         raise InputError("no point: give --point X,Y,Z or --points FILE.csv")
@@ -72,25 +76,11 @@ def run(args: argparse.Namespace) -> int:
                             extra))
     unit = args.angle_unit
     points, outside = [], []
-    for p, where, extra in targets:
-        entry = {"p_base": p, **extra}
-        for eye in EYES:
-            try:
-                fix = look_at(getattr(cal.head, eye), p)
-            except InputError as exc:
-                raise InputError(f"{where}: {eye} eye: {exc}") from None
-            within = None
-            if cal.joint_range is not None:
-                span = cal.joint_range[eye]
-                within = not (outside_range(fix.pan, span["pan"])
-                              or outside_range(fix.tilt, span["tilt"]))
-                if not within:
-                    outside.append((where, eye, fix))
-            entry[eye] = {"pan": common.angle_out(fix.pan, unit),
-                          "tilt": common.angle_out(fix.tilt, unit),
-                          "residual_px": fix.residual_px, "depth": fix.depth,
-                          "within_recorded_range": within}
-        points.append(entry)
+    quiet = args.quiet or len(targets) < PROGRESS_MIN_POINTS
+    with progress(total=len(targets), desc="look-at", unit="point", quiet=quiet) as bar:
+        for p, where, extra in targets:
+            points.append(_fixate(cal, p, where, extra, unit, outside))
+            bar.update(1)
     recorded = None
     if cal.joint_range is not None:
         recorded = {eye: {j: [common.angle_out(a, unit) for a in cal.joint_range[eye][j]]
@@ -113,3 +103,27 @@ def run(args: argparse.Namespace) -> int:
                     f"range the calibration was measured over ({rng} {unit}); the model is "
                     "extrapolated there")
     return 0
+
+
+def _fixate(cal, p, where: str, extra: dict, unit: str, outside: list) -> dict:
+    """One point's entry; appends (where, eye, fixation) to ``outside`` beyond the range."""
+    from rasc.head.use import look_at, outside_range
+
+    entry = {"p_base": p, **extra}
+    for eye in EYES:
+        try:
+            fix = look_at(getattr(cal.head, eye), p)
+        except InputError as exc:
+            raise InputError(f"{where}: {eye} eye: {exc}") from None
+        within = None
+        if cal.joint_range is not None:
+            span = cal.joint_range[eye]
+            within = not (outside_range(fix.pan, span["pan"])
+                          or outside_range(fix.tilt, span["tilt"]))
+            if not within:
+                outside.append((where, eye, fix))
+        entry[eye] = {"pan": common.angle_out(fix.pan, unit),
+                      "tilt": common.angle_out(fix.tilt, unit),
+                      "residual_px": fix.residual_px, "depth": fix.depth,
+                      "within_recorded_range": within}
+    return entry
