@@ -151,6 +151,10 @@ def _head_from_dict(d: Any, where: str) -> HeadCalibration:
             for field in ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base"):
                 if field in d[eye]:
                     _numbers_only(d[eye][field], f"{prefix}{eye}.{field}")
+            dist = d[eye].get("dist")
+            if isinstance(dist, list) and any(isinstance(x, list) for x in dist):
+                raise InputError(f"{prefix}{eye}.dist: expected a flat list of 0, 4, 5 or 8 "
+                                 "numbers (k1 k2 p1 p2 [k3 [k4 k5 k6]])")
     try:
         return HeadCalibration.from_dict(d)
     except InputError as exc:
