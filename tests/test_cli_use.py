@@ -450,3 +450,27 @@ def test_rendered_calibration_triangulates_and_looks_at_like_the_truth(rendered,
         assert abs(fix["pan"] - math.degrees(true.pan)) < 0.05
         assert abs(fix["tilt"] - math.degrees(true.tilt)) < 0.05
         assert fix["within_recorded_range"] is True
+
+
+def test_sigterm_during_look_at_leaves_no_file(tmp_path):
+    """SIGTERM while 3000 points are solved (about 30 s): exit 130, one line saying so, and
+    no output file or temporary left behind."""
+    import signal
+    import time
+
+    rng = np.random.default_rng(9)
+    f = tmp_path / "many.csv"
+    f.write_text("x,y,z\n" + "\n".join(f"{x!r},2.0,{z!r}" for x, z in
+                                     rng.uniform(-0.05, 0.05, (3000, 2)).tolist()))
+    out = tmp_path / "out" / "fix.json"
+    out.parent.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "rasc", "look-at", str(CAL), "--points",
+                             str(f), "--angle-unit", "deg", "--out", str(out), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    time.sleep(3.0)  # imports and the first points
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert stderr == "rasc look-at: interrupted\n" and stdout == ""
+    assert list(out.parent.iterdir()) == []
