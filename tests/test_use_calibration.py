@@ -272,6 +272,22 @@ def test_load_calibration_reads_both_formats(tmp_path):
     assert use.read_calibration(tmp_path / "head.json").joint_range is None
 
 
+def test_import_rasc_stays_cheap():
+    """``import rasc`` loads neither numpy nor the loader; the attribute brings it."""
+    import subprocess
+    import sys
+
+    code = ("import sys, rasc; a = sorted(m for m in ('numpy', 'scipy', 'rasc.head.use') "
+            "if m in sys.modules); f = rasc.load_calibration; "
+            "print(a, f.__module__, 'load_calibration' in dir(rasc))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["[]", "rasc.head.use", "True"]
+    with pytest.raises(AttributeError, match="no attribute 'load_calibraton'"):
+        rasc.load_calibraton  # noqa: B018
+
+
 def test_calibration_format_is_the_pipelines():
     from rasc.head.pipeline import FORMAT
 
