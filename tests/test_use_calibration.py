@@ -191,6 +191,43 @@ def test_look_at_recovers_chosen_angles(eye_name):
         assert fix.depth > 0
 
 
+class _GeneralEye(EyeCalibration):
+    """An eye whose unit is not eq. 3: the tilt axis 30 mm off the pan axis and 1° from
+    orthogonal, encoder zero offsets 0.5° / −0.4° and scales 1.01 / 0.99 (the kind of unit
+    issue 10 describes). Only ``T_cam_from_base`` changes; look-at must still work,
+    because it uses the eye's public methods alone."""
+
+    def T_cam_from_base(self, pan, tilt):
+        from scipy.spatial.transform import Rotation
+
+        pan = 1.01 * np.asarray(pan, float) + np.radians(0.5)
+        tilt = 0.99 * np.asarray(tilt, float) - np.radians(0.4)
+        tilt_axis = np.array([np.sin(np.radians(1.0)), 0.0, np.cos(np.radians(1.0))])
+        q = np.array([0.0, 0.03, 0.0])
+        R_tilt = Rotation.from_rotvec(tilt * tilt_axis).as_matrix()
+        T_tilt = make_transform(R_tilt, q - R_tilt @ q)    # Trans(q) Rot Trans(−q)
+        T_pan = make_transform(Rotation.from_rotvec([-pan, 0.0, 0.0]).as_matrix(), np.zeros(3))
+        return self.T_cam_from_gaze @ T_tilt @ T_pan @ self.T_ptu_from_base
+
+
+def test_look_at_works_for_a_general_unit():
+    """Truth: angles within ±40° and a point 0.5–5 m down the optical axis of the general
+    eye; look-at recovers the angles to 1e-9 rad and fixates to 1e-9 px (eq. 3 is only its
+    first guess, 0.5–1° and a 30 mm lever off here)."""
+    e = make_head(3).left
+    eye = _GeneralEye(e.K, e.dist, e.T_cam_from_gaze, e.T_ptu_from_base, e.image_size)
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        pan, tilt = rng.uniform(np.radians(-40), np.radians(40), 2)
+        T_base_from_cam = invert_transform(eye.T_cam_from_base(pan, tilt))
+        p = T_base_from_cam[:3, :3] @ [0.0, 0.0, rng.uniform(0.5, 5.0)] + T_base_from_cam[:3, 3]
+        fix = use.look_at(eye, p)
+        assert abs(fix.pan - pan) < 1e-9 and abs(fix.tilt - tilt) < 1e-9
+        assert fix.residual_px < 1e-9
+        np.testing.assert_allclose(eye.project(p[None], fix.pan, fix.tilt)[0], eye.K[:2, 2],
+                                   rtol=0, atol=1e-9)
+
+
 def test_look_at_random_points_ahead():
     """Points 1–10 m ahead, up to 30° off straight ahead: each fixated to 1e-9 px."""
     head = make_head(5)
