@@ -298,6 +298,12 @@ def test_parallel_rays_are_refused_naming_the_line(tmp_path, capsys):
     assert f"{f}: line 3: " in err and "parallel" in err
 
 
+def test_points_file_that_is_a_device(tmp_path, capsys):
+    err = fails(["project", CAL, "/dev/zero", "--angle-unit", "deg"], capsys,
+                tmp_path / "o.json", "project")
+    assert "/dev/zero: not a regular file" in err
+
+
 def test_degrees_given_as_radians(tmp_path, capsys):
     err = fails(["triangulate", CAL, PIXELS, "--angle-unit", "rad"], capsys,
                 tmp_path / "o.json", "triangulate")

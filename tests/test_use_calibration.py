@@ -396,6 +396,21 @@ def test_bad_calibration_text(tmp_path, text, message):
         rasc.load_calibration(f)
 
 
+def test_devices_huge_files_and_huge_integers(tmp_path, monkeypatch):
+    with pytest.raises(InputError, match="not a regular file"):
+        rasc.load_calibration("/dev/zero")   # would never end if read
+    f = tmp_path / "cal.json"
+    f.write_text(json.dumps(calibration_document(make_head())))
+    monkeypatch.setattr(use, "MAX_JSON_BYTES", 1000)
+    with pytest.raises(InputError, match="more than a calibration file may have"):
+        rasc.load_calibration(f)
+    monkeypatch.undo()
+    f.write_text('{"format": "rasc-head/1", "left": ' + "9" * 5000 + "}")
+    with pytest.raises(InputError, match="cal.json: ") as exc:
+        rasc.load_calibration(f)
+    assert "\n" not in str(exc.value)
+
+
 def test_missing_file_folder_and_binary(tmp_path):
     with pytest.raises(InputError, match="no such file"):
         rasc.load_calibration(tmp_path / "nope.json")

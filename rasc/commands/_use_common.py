@@ -18,7 +18,6 @@ import math
 import os
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -31,6 +30,8 @@ MAX_ABS_ANGLE = {"deg": 360.0, "rad": 2.0 * math.pi}
 #: largest |coordinate| or |pixel| accepted: far beyond any scene or image, small enough
 #: that squares and products of a few such numbers stay finite and exact to ~1e-16.
 MAX_ABS_VALUE = 1e12
+#: Largest points file read, bytes: about ten million points.
+MAX_CSV_BYTES = 1 << 30
 
 
 def add_angle_unit(parser: argparse.ArgumentParser, what: str) -> None:
@@ -95,17 +96,9 @@ class Table:
 def read_points_csv(path: str, required: tuple[str, ...],
                     optional: tuple[str, ...] = ()) -> Table:
     """Read a CSV points file (module docstring) with these numeric columns."""
-    p = Path(path)
-    if p.is_dir():
-        raise InputError(f"{path}: is a folder, not a CSV file")
-    if not p.exists():
-        raise InputError(f"{path}: no such file")
-    try:
-        text = p.read_bytes().decode("utf-8-sig")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    from rasc.head.use import read_text_file
+
+    text = read_text_file(path, "CSV points file", MAX_CSV_BYTES)
     if "\x00" in text:
         raise InputError(f"{path}: contains a NUL byte; not a text CSV file")
     try:

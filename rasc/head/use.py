@@ -90,23 +90,50 @@ def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict:
     return seen
 
 
-def read_json_document(path: str | os.PathLike) -> Any:
-    """Parse a JSON file; every failure is an :class:`InputError` starting with the path.
+#: Largest calibration file read, bytes (a rasc-calibration/1 file is ~100 kB).
+MAX_JSON_BYTES = 64 * 2**20
 
-    (The one place the use-a-calibration code reads JSON, so that a project-wide reader
-    can replace it.)
-    """
+
+def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of a regular file of at most ``max_bytes`` (a byte-order mark is
+    dropped); every failure is an :class:`InputError` starting with the path. A device,
+    FIFO or socket is refused before anything is read (``/dev/zero`` would never end)."""
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"{path}: is a folder, not a JSON file")
-    if not p.exists():
-        raise InputError(f"{path}: no such file")
     try:
-        text = p.read_bytes().decode("utf-8")
+        st = p.stat()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if p.is_dir():
+        raise InputError(f"{path}: is a folder, not a {what}")
+    if not p.is_file():
+        raise InputError(f"{path}: not a regular file (a device, pipe or socket); "
+                         f"expected a {what}")
+    if st.st_size > max_bytes:
+        raise InputError(f"{path}: {st.st_size} bytes, more than a {what} may have "
+                         f"({max_bytes} bytes)")
+    try:
+        with open(p, "rb") as f:
+            data = f.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise InputError(f"{path}: more than {max_bytes} bytes; not a {what}")
+    try:
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+
+
+def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
+    """Parse a JSON file; every failure is an :class:`InputError` starting with the path.
+
+    The one place the use-a-calibration code reads JSON (same name and arguments as the
+    project-wide reader that may replace it). NaN and Infinity tokens parse to floats
+    and are refused field by field (:func:`calibration_from_document`).
+    """
+    text = read_text_file(path, what, MAX_JSON_BYTES)
     try:
         return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
     except json.JSONDecodeError as exc:
@@ -116,6 +143,8 @@ def read_json_document(path: str | os.PathLike) -> Any:
         raise InputError(f"{path}: JSON nested too deeply") from None
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
+    except ValueError as exc:  # Python's limit on the digits of an integer
+        raise InputError(f"{path}: {str(exc).splitlines()[0]}") from None
 
 
 def _finite_number(value: Any, name: str) -> float:
