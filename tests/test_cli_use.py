@@ -480,3 +480,36 @@ def test_sigterm_during_look_at_leaves_no_file(tmp_path):
     assert proc.returncode == 130, stderr
     assert stderr == "rasc look-at: interrupted\n" and stdout == ""
     assert list(out.parent.iterdir()) == []
+
+
+_value = st.one_of(st.floats(-1e12, 1e12), st.sampled_from([0.0, -0.0, 1e-300, 1e12, -1e12]),
+                   st.floats(-400, 400))
+
+
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(rows=st.lists(st.lists(_value, min_size=8, max_size=8), min_size=1, max_size=4),
+       command=st.sampled_from(["triangulate", "project", "look-at"]),
+       unit=st.sampled_from(["deg", "rad"]))
+def test_any_numbers_give_a_result_or_one_line(rows, command, unit, tmp_path_factory, capsys):
+    """Whatever numbers a file holds (within the reader's limits): exit 0 with finite JSON,
+    or one error line with exit 2 and no file; never a traceback."""
+    folder = tmp_path_factory.mktemp("fuzz")
+    f = folder / "in.csv"
+    if command == "triangulate":
+        header, cells = PIXEL_HEADER, rows
+    elif command == "project":
+        header = "x,y,z,pan_left,tilt_left,pan_right,tilt_right"
+        cells = [r[:7] for r in rows]
+    else:
+        header, cells = "x,y,z", [r[:3] for r in rows]
+    f.write_text(header + "\n" + "\n".join(",".join(repr(x) for x in r) for r in cells))
+    out = folder / "o.json"
+    argv = [command, CAL, *(["--points", f] if command == "look-at" else [f]),
+            "--angle-unit", unit, "--out", out]
+    rc, stdout, err = run_cli(argv, capsys)
+    if rc == 0:
+        json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(c))
+    else:
+        assert rc == 2 and not out.exists() and err.count("\n") == 1, err
+        assert err.startswith(f"rasc {command}: error: ")
