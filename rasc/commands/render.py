@@ -87,16 +87,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
     p.add_argument("--unit", metavar="FILE",
                    help="TOML file of pan-tilt unit imperfections, tables [both], [left], "
-                        "[right] (README 'rasc render'); default: the model's ideal units")
+                        "[right] (README 'rasc render'); default: the model as written "
+                        "(ideal units)")
     p.add_argument("--tilt-axis-offset", default="", metavar="X,Y,Z",
                    help="both units: a point of the tilt axis in the tilt link's frame (x up, "
-                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit)")
+                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit; with '=' "
+                        "when it starts with '-')")
     p.add_argument("--axis-skew", type=float, default=None, metavar="DEG",
                    help="both units: tilt axis turned towards the pan axis, degrees (the "
                         "axes meet at 90 - DEG degrees; overrides --unit)")
     p.add_argument("--encoder-zero", default="", metavar="PAN,TILT",
                    help="both units: encoder zero offsets in degrees, joint angle = reading + "
-                        "offset (overrides --unit)")
+                        "offset (overrides --unit; --encoder-zero=-0.5,0.2 when it starts "
+                        "with '-')")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
