@@ -2,8 +2,9 @@
 
 A *method* turns the target's poses ``T_cam_from_world`` (n, 4, 4) and the unit's
 motions ``T_gaze_from_ptu`` (n, 4, 4) into ``T_cam_from_gaze`` (the paper's ``T_cg``).
-Wherever a method is named (``rasc handeye --method``, ``rasc calibrate --method``,
-experiments, studies) the name is resolved by :func:`get_method`, in this order:
+Wherever a method is named (``rasc handeye --method``, ``rasc calibrate --method``, and
+any code that calls :func:`solve` or :func:`get_method` — the one entry point for
+experiments and studies) the name is resolved by :func:`get_method`, in this order:
 
 1. a built-in name, a key of :data:`METHODS`: "rasc" (the paper's method), "li",
    "rasc-inverse" and "rasc-views" (RASC's rotation with other translations,
