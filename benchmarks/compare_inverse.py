@@ -143,10 +143,8 @@ def corner_noise(data, n_samples: int, sigmas_px: list[float]) -> None:
     gt = data.ground_truth
     sets, cams = [], []
     for eye in ("left", "right"):
-        views = sorted((f, v) for f, v in gt["views"].items() if f.startswith(f"poses/{eye}"))
-        T_true = np.array([v["T_cam_from_world"] for _, v in views])
-        pt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
-        sets.append((T_true, T_gaze_from_ptu(pt[:, 0], pt[:, 1]), data.T_cam_from_gaze(eye)))
+        T_true, T_gp = data.pose_views(eye)
+        sets.append((T_true, T_gp, data.T_cam_from_gaze(eye)))
         cams.append((np.array(gt[eye]["K"]), np.array(gt[eye]["dist"])))
 
     def noisy(T_true, eye, sigma, rng):

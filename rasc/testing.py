@@ -225,6 +225,19 @@ class RenderedDataset:
         """The true hand-eye transform of ``eye`` ("left" or "right"), (4, 4), metres."""
         return np.array(self.ground_truth[eye]["T_cam_from_gaze"], dtype=float)
 
+    def pose_views(self, eye: str) -> tuple[np.ndarray, np.ndarray]:
+        """The pose views' TRUE poses of ``eye``, in view order: ``T_cam_from_world``
+        (n, 4, 4) from the renderer and ``T_gaze_from_ptu`` (n, 4, 4) from the recorded
+        pan/tilt by eq. 3 — hand-eye input without detection error (add your own noise,
+        e.g. :func:`rasc.handeye.noise.perturb_T_cam_from_world`)."""
+        from rasc.geometry.kinematics import T_gaze_from_ptu
+
+        views = sorted((name, v) for name, v in self.ground_truth["views"].items()
+                       if name.startswith(f"poses/{eye}_"))
+        T_cw = np.array([v["T_cam_from_world"] for _, v in views], dtype=float)
+        pan_tilt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
+        return T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
+
     def load(self):
         """The dataset as :func:`rasc.vision.dataset.load_dataset` reads it."""
         from rasc.vision.dataset import load_dataset

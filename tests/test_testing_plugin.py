@@ -115,6 +115,14 @@ def test_rendered_dataset_is_cached_by_its_parameters(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([first.key, other.key])
     X = first.T_cam_from_gaze("left")
     assert X.shape == (4, 4) and is_rigid_transform(X)
+    # the true pose views are exact hand-eye data: RASC recovers the model's transform
+    # (1e-9: round-off of the renderer's float64 chain, far below any calibration error)
+    for eye in ("left", "right"):
+        T_cw, T_gp = first.pose_views(eye)
+        assert T_cw.shape == T_gp.shape == (4, 4, 4)
+        result = solve("rasc", T_cw, T_gp)
+        assert_handeye_close(result, first.T_cam_from_gaze(eye), rotation_deg=1e-9,
+                             translation=1e-9)
     assert len(first.load().images) == 2 * (4 + 4)
     # the key covers every option, the model files and the version
     assert dataset_key(first.options) == first.key
