@@ -330,3 +330,14 @@ def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_pa
     assert line.startswith(f"rasc calibrate: error: {data.path / 'manifest.json'}: left eye: "
                            "method userplug:scaled returned a matrix that is not a rigid")
     assert not out.exists()
+
+
+def test_methods_pickle_for_process_pools(plugins):
+    """A resolved method crosses a process boundary (process pool, dask) by reference."""
+    import pickle
+
+    T_cw, T_gp, _ = rig()
+    for name in ("rasc", "opencv-park", "rasc-views", "userplug:good", "user-good"):
+        m = pickle.loads(pickle.dumps(get_method(name)))
+        assert m.name == name
+        assert m(T_cw, T_gp).method == name
