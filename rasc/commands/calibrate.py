@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, read_json_document, write_json_atomic, write_stdout
 
 #: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
 #: right unit's frame in the left one, translation in the unit of board.square_size),
@@ -52,19 +52,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _read_mounts(path: str) -> np.ndarray:
-    import json
-
     from rasc.geometry.transforms import validate_rigid_transform
-    try:
-        with open(path, encoding="utf-8") as f:
-            obj = json.load(f)
-    except FileNotFoundError:
-        raise InputError(f"{path}: mounts file does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: "
-                         f"{exc.msg}") from None
+
+    obj = read_json_document(path, "mounts file")
     if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
         raise InputError(f"{path}: expected an object with field T_ptuL_from_ptuR (4x4)")
     unknown = [key for key in obj if key not in MOUNTS_KEYS]
@@ -81,10 +71,14 @@ def run(args: argparse.Namespace) -> int:
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    if args.out:
-        check_writable(args.out)
+    if args.out is not None:            # the output rule, before any long work
+        check_output(args.out, inputs=[args.dataset, args.mounts])
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
+    if args.out is not None:
+        check_output(args.out, inputs=[dataset.manifest_path, dataset.ground_truth,
+                                       args.mounts, *(e.path for e in dataset.images)],
+                     input_folders=[dataset.root])
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
@@ -97,10 +91,10 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate_dataset(dataset, options, log=log)
     doc = cal.to_dict()
     doc["dataset"] = str(args.dataset)
-    if args.out:
+    if args.out is not None:
         write_json_atomic(args.out, doc)
     else:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):

@@ -31,7 +31,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.io import write_json_atomic
+from rasc.io import read_json_document, write_json_atomic
 from rasc.vision.camera import MIN_INTRINSICS_VIEWS, Board, detect_corners, read_image
 from rasc.vision.camera import image_size as read_image_size
 
@@ -181,7 +181,7 @@ class Dataset:
         """The optional ground-truth JSON (written by the simulation), as a dict."""
         if self.ground_truth is None:
             raise InputError(f"{self.manifest_path}: no ground_truth file named in the manifest")
-        return _read_json(self.ground_truth)
+        return _read_json(self.ground_truth, "ground truth")
 
     def to_manifest(self) -> dict:
         """The manifest dict this dataset was read from (angles in its own unit)."""
@@ -201,22 +201,10 @@ def _problem(exc: Exception, path: Path) -> str:
     return msg[len(prefix):] if msg.startswith(prefix) else msg
 
 
-def _read_json(path: Path) -> dict:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON: {exc.msg} at line {exc.lineno} "
-                         f"column {exc.colno}") from None
-    if not isinstance(obj, dict):
-        raise InputError(f"{path}: expected a JSON object at the top level, "
-                         f"got {type(obj).__name__}")
-    return obj
+def _read_json(path: Path, what: str = "manifest") -> dict:
+    """A JSON object by :func:`rasc.io.read_json_document`'s rules (one reader for every
+    input document: duplicate keys, depth, number sizes, NaN, non-regular files)."""
+    return read_json_document(path, what)
 
 
 def _number(value, where: str, field: str) -> float:
