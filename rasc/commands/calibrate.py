@@ -67,7 +67,8 @@ def _read_mounts(path: str) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.handeye.advice import solution_warnings
+    from rasc.geometry.kinematics import T_gaze_from_ptu
+    from rasc.handeye.advice import solution_warnings, translation_warnings
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
@@ -99,7 +100,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):
         r = cal.eyes[eye]
-        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True):
+        T_gp = T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1])        # eq. 3
+        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True) \
+                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye.T_cam_from_gaze,
+                                       names=list(r.pose_files)):
             print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):

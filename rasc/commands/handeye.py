@@ -94,7 +94,7 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 def run(args: argparse.Namespace) -> int:
     # imported here, not at module level: building the parser loads no solver
-    from rasc.handeye.advice import input_warnings, solution_warnings
+    from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
     from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
     from rasc.handeye.methods import jackknife_uncertainty
 
@@ -126,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         write_json_atomic(args.out, doc)
     for warning in notes + input_warnings(data.T_cam_from_world) + solution_warnings(
-            result, uncertainty=uncertainty, pan_tilt=data.from_angles):
+            result, uncertainty=uncertainty, pan_tilt=data.from_angles) + translation_warnings(
+            data.T_cam_from_world, data.T_gaze_from_ptu, result.T_cam_from_gaze):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 
