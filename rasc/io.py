@@ -142,10 +142,12 @@ MAX_DEPTH = 32
 #: than 4300 digits, and numbers beyond 10**308 cannot become floats.
 MAX_INT_DIGITS = 20
 
-#: Largest magnitude of any number accepted. No length (in any unit: 1e12 mm is 1e9 m),
-#: angle or pixel count comes near it, and products of a few such numbers (as in a 4x4
-#: transform applied to a point, or a jackknife's squared deviations) stay far below
-#: float overflow (1.8e308), so no later arithmetic turns a valid input into infinity.
+#: Largest magnitude of any non-integer number accepted (integers are exact and bounded
+#: by MAX_INT_DIGITS instead, so that seeds up to 2**64 pass). No length (in any unit:
+#: 1e12 mm is 1e9 m), angle or pixel count comes near it, and products of a few such
+#: numbers (as in a 4x4 transform applied to a point, or a jackknife's squared
+#: deviations) stay far below float overflow (1.8e308), so no later arithmetic turns a
+#: valid input into infinity.
 MAX_MAGNITUDE = 1e12
 
 
@@ -203,8 +205,7 @@ def _validated(node, path: tuple, depth: int, where: str):
         return out
     if isinstance(node, list):
         return [_validated(v, (*path, k), depth + 1, where) for k, v in enumerate(node)]
-    if isinstance(node, float | int) and not isinstance(node, bool) \
-            and abs(node) > MAX_MAGNITUDE:
+    if isinstance(node, float) and abs(node) > MAX_MAGNITUDE:
         raise InputError(f"{where}: {_pointer(path)}: {node:.6g} is larger in size than "
                          f"{MAX_MAGNITUDE:g}, beyond any length, angle or count rasc reads")
     return node

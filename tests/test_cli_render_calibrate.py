@@ -583,8 +583,8 @@ def _rigid_but_scaled() -> dict:
 
 
 @pytest.mark.parametrize("content, fragment", [
-    (None, "mounts file does not exist"),
-    ("{not json", "malformed JSON at line 1 column 2"),
+    (None, "no such file (the mounts file)"),
+    ("{not json", "malformed JSON at line 1, column 2"),
     (json.dumps({"T": np.eye(4).tolist()}), "expected an object with field T_ptuL_from_ptuR"),
     (json.dumps(_rigid_but_scaled()), "T_ptuL_from_ptuR"),
     (json.dumps({"T_ptuL_from_ptuR": [[1, 0], [0, 1]]}), "T_ptuL_from_ptuR"),
@@ -642,8 +642,8 @@ RENDER_CASES = {
                         "--distance 0.6: at pan, tilt = (0, 0) deg the corners"),
     "distance not finite": (["--distance", "inf"], "--distance must be a positive number"),
     "negative seed": (["--seed", "-1"], "--seed must be a non-negative integer, got -1"),
-    "negative noise": (["--noise", "-1"], "--noise must be a finite number >= 0"),
-    "blur not finite": (["--blur", "nan"], "--blur must be a finite number >= 0"),
+    "negative noise": (["--noise", "-1"], "--noise must be a number from 0 to 255"),
+    "blur not finite": (["--blur", "nan"], "--blur must be a number from 0 to 50"),
     "too few intrinsics views": (["--intrinsics-views", "2"],
                                  "--intrinsics-views: need an integer of at least 3"),
     "missing model": (["--model", "{tmp}/nowhere.xml"], "--model {tmp}/nowhere.xml: file not"),

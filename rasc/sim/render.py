@@ -45,6 +45,13 @@ MIN_SQUARE_PX = 14.0
 #: below this many pixels per square, ``rasc render`` refuses the --distance: no pose view
 #: would show a board the detector finds (between the measured 12.5 px and 13.4 px)
 MIN_DETECTABLE_SQUARE_PX = 13.0
+#: the largest --seed (stored in ground_truth.json, read back by rasc.io's reader)
+MAX_SEED = 2**63 - 1
+#: the largest --noise: the whole grey range; more is noise alone
+MAX_NOISE = 255.0
+#: the largest --blur: a Gaussian of 50 px wipes out every corner of the board (squares
+#: of 14-60 px at the default distances); more only takes minutes to compute
+MAX_BLUR_PX = 50.0
 #: lens distortion coefficients ``--distortion`` accepts (OpenCV order k1 k2 p1 p2 k3)
 MAX_DIST_COEFFS = 5
 
@@ -75,12 +82,13 @@ class RenderOptions:
         if not (_finite(self.target_distance) and self.target_distance > 0):
             raise InputError(f"--distance must be a positive number of metres, got "
                              f"{self.target_distance}")
-        if not _integer(self.seed) or self.seed < 0:
-            raise InputError(f"--seed must be a non-negative integer, got {self.seed!r}")
-        for flag, value, unit in (("--noise", self.noise_sigma, "grey levels"),
-                                  ("--blur", self.blur_sigma, "pixels")):
-            if not (_finite(value) and value >= 0):
-                raise InputError(f"{flag} must be a finite number >= 0 ({unit}), got {value}")
+        if not _integer(self.seed) or not 0 <= self.seed <= MAX_SEED:
+            raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {self.seed!r}")
+        for flag, value, unit, top in (("--noise", self.noise_sigma, "grey levels", MAX_NOISE),
+                                       ("--blur", self.blur_sigma, "pixels", MAX_BLUR_PX)):
+            if not (_finite(value) and 0 <= value <= top):
+                raise InputError(f"{flag} must be a number from 0 to {top:g} ({unit}), "
+                                 f"got {value:g}")
         if len(self.dist) > MAX_DIST_COEFFS:
             raise InputError(f"--distortion: at most {MAX_DIST_COEFFS} coefficients "
                              f"(k1,k2,p1,p2,k3), got {len(self.dist)}")

@@ -351,7 +351,10 @@ def load_dataset(path: str | os.PathLike) -> Dataset:
     if not manifest.is_file():
         raise InputError(f"{manifest}: no manifest (a rasc dataset is a folder with "
                          f"{MANIFEST} and its images)")
-    return parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
+    dataset = parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
+    if dataset.ground_truth is not None:   # a broken ground truth is found now, not at the end
+        _read_json(dataset.ground_truth, "ground truth")
+    return dataset
 
 
 # ------------------------------------------------------------------------- writing
