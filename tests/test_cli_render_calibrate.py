@@ -636,12 +636,12 @@ RENDER_CASES = {
                               "--distortion: coefficients must be finite numbers"),
     "distortion pushes the board out": (
         ["--distortion", "0.3"],
-        "--distance 1: at pan, tilt = (8, 8) deg the corners of the 9x6 board do not all "
-        "fit inside the left image"),
+        "--distortion 0.3,0,0,0,0: at pan, tilt = (8, 8) deg the distortion moves corners "
+        "of the board outside the left image"),
     "board too close": (["--distance", "0.6"],
                         "--distance 0.6: at pan, tilt = (0, 0) deg the corners"),
     "distance not finite": (["--distance", "inf"], "--distance must be a positive number"),
-    "negative seed": (["--seed", "-1"], "--seed must be a non-negative integer, got -1"),
+    "negative seed": (["--seed", "-1"], "--seed must be an integer from 0 to 2**63-1, got -1"),
     "negative noise": (["--noise", "-1"], "--noise must be a number from 0 to 255"),
     "blur not finite": (["--blur", "nan"], "--blur must be a number from 0 to 50"),
     "too few intrinsics views": (["--intrinsics-views", "2"],
@@ -669,11 +669,14 @@ def test_render_out_folder_problems(tmp_path, capsys):
     (parent / "full" / "keep.txt").write_text("mine")
     (parent / "file").write_text("mine")
     before = files_of(parent)
-    for out, fragment in ((parent / "full", "output folder exists and is not empty"),
-                          (parent / "file", "output folder exists as a file"),
-                          (parent / "no" / "ds", f"parent folder {parent / 'no'} does not "
-                                                 "exist")):
+    for out, message in (
+            (parent / "full", f"--out {parent / 'full'}: exists and is not empty; rasc render "
+                              "never replaces files: name a new folder, or remove this one "
+                              "first"),
+            (parent / "file", f"--out {parent / 'file'}: exists as a file; name a new folder"),
+            (parent / "no" / "ds", f"{parent / 'no' / 'ds'}: cannot write: folder "
+                                   f"{parent / 'no'} does not exist")):
         code, stdout, err = run_cli(["render", "--out", out, "--quiet"], capsys)
         assert code == 2 and stdout == ""
-        assert err.splitlines() == [f"rasc render: error: {out}: {fragment}"]
+        assert err.splitlines() == [f"rasc render: error: {message}"]
     assert files_of(parent) == before and sorted(os.listdir(parent)) == ["file", "full"]
