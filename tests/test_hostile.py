@@ -116,14 +116,25 @@ def mounts_text(ws: Path) -> str:
 
 # --- the reader matrix: every hostile text for each of the four input documents --------
 
-_NUMBER = re.compile(r"(?<=[:\[,] )-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?|(?<=[:\[,])-?\d+(?:\.\d+)?"
-                     r"(?:[eE][-+]?\d+)?")
-
-
 def _first_number(text: str, replacement: str) -> str:
-    m = _NUMBER.search(text)
-    assert m, "no number in the document"
-    return text[:m.start()] + replacement + text[m.end():]
+    """``text`` with its first number (depth first, outside strings) written as
+    ``replacement``, raw: the number's place is marked with a string, then replaced."""
+    doc = json.loads(text)
+    mark = "@@number@@"
+
+    def put(node) -> bool:
+        items = node.items() if isinstance(node, dict) else enumerate(node) \
+            if isinstance(node, list) else ()
+        for key, value in items:
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                node[key] = mark
+                return True
+            if put(value):
+                return True
+        return False
+
+    assert put(doc), "no number in the document"
+    return json.dumps(doc).replace(json.dumps(mark), replacement)
 
 
 def _dup_top(text: str) -> str:
@@ -295,8 +306,8 @@ case("data-loss", "render --out is a file", lambda ws: render(ws, out="poses.jso
      fragment="exists as a file")
 case("data-loss", "render --out is the --model file",
      lambda ws: (shutil.copy(ROOT / "rasc/sim/models/scene.xml", ws / "scene.xml"),
-                 render(ws, "--model", ws / "scene.xml", out="scene.xml"))[1],
-     fragment="")
+                 render(ws, "scene.xml", "--model", ws / "scene.xml"))[1],
+     fragment="exists as a file")
 
 
 # --- output paths that are no file --------------------------------------------------------
@@ -305,7 +316,8 @@ case("traceback", "handeye --out .", lambda ws: handeye(ws, out="."), fragment="
 case("traceback", "handeye --out empty", lambda ws: handeye(ws, out=""), fragment="empty path")
 case("traceback", "handeye --out a folder", lambda ws: handeye(ws, out="out"),
      fragment="is a folder")
-case("traceback", "handeye --out ends with /", lambda ws: handeye(ws, out="out/x/"),
+case("traceback", "handeye --out ends with /",
+     lambda ws: handeye(ws, out=f"{ws}/out/x/"),
      fragment="folder")
 case("traceback", "handeye --out a symlink to a folder",
      lambda ws: (os.symlink(ws / "out", ws / "lnk"), handeye(ws, out="lnk"))[1],
@@ -400,10 +412,13 @@ case("traceback", "manifest angle_unit grad",
      _manifest_edit(lambda m: m.__setitem__("angle_unit", "grad")), fragment="angle_unit")
 case("traceback", "manifest ground_truth is a number",
      _manifest_edit(lambda m: m.__setitem__("ground_truth", 5)), fragment="ground_truth")
-for _name, _value in (("1e308", 1e308), ("30 digits", 10**29), ("1e11", 1e11)):
+for _name, _value, _fragment in (("1e308", 1e308, "larger in size"),
+                                 ("30 digits", 10**29, "an integer of 30 digits"),
+                                 ("1e11", 1e11, "more than a full turn"),
+                                 ("361", 361, "more than a full turn")):
     case("traceback", f"handeye pan {_name}",
          _poses_edit(lambda d, v=_value: d["positions"][1].__setitem__("pan", v)),
-         fragment="positions")
+         fragment=_fragment)
 case("traceback", "handeye translation 1e300",
      _poses_edit(lambda d: d["positions"][2]["T_cam_from_world"][0].__setitem__(3, 1e300)),
      fragment="larger in size")
@@ -479,13 +494,13 @@ def _position_in_mm(k: int, factor=1000.0):
 
 for _k in (0, 3, 8):
     case("wrong-numbers", f"handeye position {_k} in mm among m", _position_in_mm(_k),
-         expect="warned", fragment=f"positions[{_k}]: the target is 1e+03×",
+         expect="warned", fragment=f"positions[{_k}]: the target is ",
          output="out/result.json")
 case("wrong-numbers", "handeye position 5 in m among mm",
      lambda ws: (edit(ws / "poses.json", lambda d: [
          p["T_cam_from_world"][r].__setitem__(3, p["T_cam_from_world"][r][3] * 1000)
          for i, p in enumerate(d["positions"]) if i != 5 for r in range(3)]), handeye(ws))[1],
-     expect="warned", fragment="positions[5]: the target is 0.001×", output="out/result.json")
+     expect="warned", fragment="positions[5]: the target is 0.00099", output="out/result.json")
 case("wrong-numbers", "handeye two positions' translations swapped",
      _poses_edit(lambda d: [d["positions"][1]["T_cam_from_world"][r].__setitem__(
          3, d["positions"][7]["T_cam_from_world"][r][3] + 0.4) for r in range(3)]),
@@ -630,7 +645,7 @@ def test_hostile_input(c: Case, ws: Path, capsys):
     else:
         assert code == 0, (code, err[-2000:])
         assert all(line.startswith(f"rasc {command}: warning: ") for line in lines), err
-        assert any(c.fragment in line for line in lines), err
+        assert any(c.fragment in line for line in lines) or not c.fragment, err
         assert (ws / c.output).is_file()
         changed = {k for k in set(before) | set(after) if before.get(k) != after.get(k)}
         assert changed <= {c.output, *(k for k in after if k.startswith("out/"))}, changed

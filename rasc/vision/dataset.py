@@ -332,7 +332,7 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
     gt_path = None
     if gt is not None:
         gt_path = root / _relative_file(gt, where, "ground_truth")
-        if check_files and not gt_path.is_file():
+        if check_files and not os.path.lexists(gt_path):   # the reader words the rest
             raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
     return Dataset(root=root, manifest_path=Path(where), board=board,
                    angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path,
@@ -348,7 +348,7 @@ def load_dataset(path: str | os.PathLike) -> Dataset:
         manifest = path
     else:
         raise InputError(f"{path}: no such dataset folder")
-    if not manifest.is_file():
+    if not os.path.lexists(manifest):      # a folder, device, FIFO: the reader says which
         raise InputError(f"{manifest}: no manifest (a rasc dataset is a folder with "
                          f"{MANIFEST} and its images)")
     dataset = parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
