@@ -186,12 +186,14 @@ def _pointer(path: tuple) -> str:
     """RFC 6901 JSON pointer of ``path`` (keys and indices); "" (the whole document) as "/"."""
     if not path:
         return "/"
-    return "".join("/" + str(p).replace("~", "~0").replace("/", "~1") for p in path)
+    # control characters (a newline in a key) escaped as JSON writes them: one line
+    return "".join("/" + json.dumps(str(p))[1:-1].replace("~", "~0").replace("/", "~1")
+                   for p in path)
 
 
 def _validated(node, path: tuple, depth: int, where: str):
     """Pairs → dicts (duplicate keys refused), bad numbers refused, depth bounded."""
-    if depth > MAX_DEPTH:
+    if depth >= MAX_DEPTH and isinstance(node, list):    # _Pairs is a list too
         raise InputError(f"{where}: {_pointer(path)}: nested deeper than {MAX_DEPTH} levels")
     if isinstance(node, _Bad):
         raise InputError(f"{where}: {_pointer(path)}: {node.problem}")
