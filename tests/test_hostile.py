@@ -324,10 +324,15 @@ case("traceback", "handeye --out a symlink to a folder",
      fragment="symbolic link to a folder")
 case("traceback", "handeye --out in a missing folder",
      lambda ws: handeye(ws, out="nowhere/r.json"), fragment="does not exist")
-case("traceback", "handeye --out /dev/null", lambda ws: handeye(ws, out="/dev/null"),
+# Not /dev/null itself: a reader without this rule, run as root, REPLACES the device by a
+# regular file (measured on main's code: /dev/null and /dev/full became files, and had to
+# be re-created). A FIFO inside the case's folder is a non-regular file as good.
+case("traceback", "handeye --out a FIFO (as /dev/null)",
+     lambda ws: (os.mkfifo(ws / "out/fifo"), handeye(ws, out="out/fifo"))[1],
      fragment="not a regular file")
-case("traceback", "handeye --out /dev/full", lambda ws: handeye(ws, out="/dev/full"),
-     fragment="not a regular file")
+case("traceback", "calibrate --out a symlink to a FIFO",
+     lambda ws: (os.mkfifo(ws / "fifo"), os.symlink(ws / "fifo", ws / "out/link"),
+                 calibrate(ws, out="out/link"))[2], fragment="not a regular file")
 case("traceback", "calibrate --out .", lambda ws: calibrate(ws, out="."), fragment="folder")
 case("traceback", "calibrate --out empty", lambda ws: calibrate(ws, out=""),
      fragment="empty path")
@@ -784,3 +789,40 @@ def test_numpy_warnings_never_print_beside_the_error_line(ws, capsys, monkeypatc
     assert err.splitlines() == ["rasc handeye: warning: numerical trouble during the "
                                 "computation (overflow encountered in scalar multiply); "
                                 "check the result"], err
+
+
+# ------------------------------------------------------------------------- the README
+
+def readme_session() -> list[tuple[str, list[str]]]:
+    """The README's console example under "What rasc refuses and what it warns":
+    [(command, expected output lines)]; a line ending in "..." matches as a prefix."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text.split("## What rasc refuses and what it warns", 1)[1].split("\n## ", 1)[0]
+    block = section.split("```console\n", 1)[1].split("```", 1)[0]
+    session: list[tuple[str, list[str]]] = []
+    for line in block.splitlines():
+        if line.startswith("$ "):
+            session.append((line[2:], []))
+        else:
+            session[-1][1].append(line)
+    return session
+
+
+def test_readme_refusal_examples_are_true(ws):
+    """Each command of the README's example, run by bash in a folder as the README
+    describes; its output must be what the README shows, and an error exits 2."""
+    shutil.copytree(ws / "ds", ws / "run" / "ds")
+    shutil.copy(EXAMPLE, ws / "run" / "poses.json")
+    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}:{os.environ['PATH']}")
+    session = readme_session()
+    assert len(session) >= 10
+    for command, expected in session:
+        proc = subprocess.run(["bash", "-c", command], cwd=ws / "run", env=env, text=True,
+                              capture_output=True, timeout=120, check=False)
+        got = (proc.stdout + proc.stderr).splitlines()
+        assert len(got) == len(expected), (command, got)
+        for g, e in zip(got, expected, strict=True):
+            assert g.startswith(e[:-3]) if e.endswith("...") else g == e, (command, g)
+        if any(": error: " in e for e in expected):
+            assert proc.returncode == 2, (command, proc.returncode)
+    assert sorted(p.name for p in (ws / "run").iterdir() if p.name.startswith(".")) == []
