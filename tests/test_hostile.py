@@ -52,6 +52,10 @@ ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
 #: a case that takes longer than this in-process is a hang (a FIFO read, an endless loop)
 ALARM_S = 20
+#: RASC_HOSTILE_PROMISE_ONLY=1: check the promise (exit status, one line, nothing
+#: written, a warning where one is due) but not the wording, to measure code whose
+#: messages differ (the before/after table of issue 7 ran this sweep on main's code)
+PROMISE_ONLY = os.environ.get("RASC_HOSTILE_PROMISE_ONLY") == "1"
 
 
 # ------------------------------------------------------------------------------ cases
@@ -644,13 +648,14 @@ def test_hostile_input(c: Case, ws: Path, capsys):
         assert code == 2 and out == "", (code, err[-2000:])
         assert len(lines) == 1, err[-2000:]
         assert lines[0].startswith(f"rasc {command}: error: "), lines[0]
-        assert c.fragment in lines[0], lines[0]
+        assert PROMISE_ONLY or c.fragment in lines[0], lines[0]
         assert after == before, "files changed: " + ", ".join(
             sorted(set(after.items()) ^ set(before.items()), key=str)[:5].__repr__())
     else:
         assert code == 0, (code, err[-2000:])
         assert all(line.startswith(f"rasc {command}: warning: ") for line in lines), err
-        assert any(c.fragment in line for line in lines) or not c.fragment, err
+        assert any(c.fragment in line for line in lines) or not c.fragment \
+            or (PROMISE_ONLY and lines), err
         assert (ws / c.output).is_file()
         changed = {k for k in set(before) | set(after) if before.get(k) != after.get(k)}
         assert changed <= {c.output, *(k for k in after if k.startswith("out/"))}, changed

@@ -229,11 +229,9 @@ def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]
                 raise InputError(f"{where}: {other!r} given without {key!r}")
         pan = _number(item["pan"], f"{where}.pan")
         tilt = _number(item["tilt"], f"{where}.tilt")
-        full_turn = 360.0 if angle_unit == "deg" else 2 * math.pi
-        for key, value in (("pan", pan), ("tilt", tilt)):
-            if abs(value) > full_turn:
-                raise InputError(f"{where}.{key} = {value:g} {angle_unit} is more than a full "
-                                 "turn: is angle_unit right?")
+        for key, value in (("pan", pan), ("tilt", tilt)):   # radians: check_angle_unit
+            if angle_unit == "deg" and abs(value) > 360.0:
+                raise InputError(f"{where}.{key} = {value:g} deg is more than a full turn")
         angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
         written = (pan, tilt)
         T_gp = _eq3(pan, tilt, angle_unit)
