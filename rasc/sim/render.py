@@ -13,7 +13,10 @@ Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
   position share a ``view`` id, so they also serve as simultaneous views for loop closure.
 
 Every random draw comes from ``numpy.random.default_rng(seed)``; the same seed and
-options give byte-identical files.
+options give byte-identical files. The pan-tilt units may be imperfect
+(:mod:`rasc.sim.units`); the pose views' angles are then encoder readings, and the
+ground truth (per eye ``unit``, ``T_cam_from_gaze``, ``T_ptu_from_base`` in the canonical
+gauge) is checked against MuJoCo's camera frame at every rendered pose.
 """
 
 from __future__ import annotations
@@ -162,16 +165,23 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
-    board is still found). Returns the smallest square (px).
+    board is still found), and the ground truth agreeing with MuJoCo's camera frames at
+    each (:meth:`rasc.sim.scene.StereoHeadSim.check_ground_truth`). Returns the smallest
+    square (px).
 
     Raises
     ------
     InputError
-        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully.
+        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully,
+        or the eye and pose where the ground truth disagrees with the model.
     """
     board, size = sim.board, sim.image_size
     d = options.target_distance
     smallest = math.inf
+    for eye in EYES:  # the intrinsics views are taken at home
+        sim.set_angles(eye, 0.0, 0.0)
+    for eye in EYES:
+        sim.check_ground_truth(eye, "home (the intrinsics views)")
     for k, (pan, tilt) in enumerate(options.poses_deg):
         for eye in EYES:
             try:
@@ -179,6 +189,7 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
             except InputError as exc:
                 raise InputError(f"--poses: item {k} ({pan:g},{tilt:g}): {exc}") from None
         for eye in EYES:
+            sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
                 if dist is not None and _visible(T, board, sim.K(eye), size, None,
@@ -249,10 +260,32 @@ class _Progress:
               flush=True)
 
 
+def unit_summary(sim) -> list[str]:
+    """One line per eye whose pan-tilt unit is not the paper's: what the images will show
+    (axis distance and angle, encoder zeros and scales as built)."""
+    lines = []
+    for eye in EYES:
+        unit, (built, _, _) = sim.unit(eye), sim.unit_as_built(eye)
+        if unit.is_ideal and built.is_ideal:
+            continue
+        lines.append(
+            f"{eye} unit: tilt axis {1e3 * unit.axis_distance:.4g} mm from the pan axis, "
+            f"{unit.axis_angle_deg:.4f} deg between the axes, encoder zeros "
+            f"{math.degrees(built.pan_offset):+.4g}/{math.degrees(built.tilt_offset):+.4g} deg "
+            f"and scales {built.pan_scale:.6g}/{built.tilt_scale:.6g} (pan/tilt); ground truth "
+            f"in the canonical gauge")
+    return lines
+
+
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
-                   model_path: str | Path | None = None, quiet: bool = False) -> Path:
+                   model_path: str | Path | None = None, quiet: bool = False,
+                   units: dict | None = None) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
 
+    ``units`` ({eye: :class:`rasc.sim.units.UnitBuild`}) makes the pan-tilt units
+    imperfect; the pose views' ``pan``/``tilt`` are then encoder readings. At every
+    rendered pose the ground truth is checked against MuJoCo's camera frame; a
+    disagreement raises :class:`InputError` before ``ground_truth.json`` is written.
     Returns the manifest path. Images are written as 8-bit grey PNG.
     """
     from rasc.sim.scene import (
@@ -270,7 +303,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
-    with StereoHeadSim(model_path) as sim:
+    with StereoHeadSim(model_path, units=units) as sim:
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -296,6 +329,9 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             print(f"rasc render: warning: board squares are only {square_px:.1f} px in the "
                   f"pose views at --distance {options.target_distance:g}; corner detection "
                   f"was measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if not quiet:
+            for line in unit_summary(sim):
+                print(f"render: {line}", file=sys.stderr)
         warp = {eye: distortion_warp(sim.K(eye), dist, size) for eye in EYES} \
             if distorted else {}
         views: dict[str, dict] = {}
@@ -306,6 +342,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         (out / "poses").mkdir(exist_ok=True)
 
         def shoot(eye: str, name: str, entry: dict) -> None:
+            sim.check_ground_truth(eye, name)
             image = sim.render_grey(eye)
             if distorted:  # as rasc.sim.scene.degrade: distortion, then blur, then noise
                 image = warp[eye](image)
