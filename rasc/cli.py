@@ -64,7 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _command_name(argv: list[str]) -> str:
     """The sub-command named in ``argv`` (for messages before the parser exists)."""
-    return next((a for a in argv if a in COMMANDS), "")
+    names = {name.replace("_", "-") for name in COMMANDS}
+    return next((a for a in argv if a in names), "")
 
 
 def main(argv: list[str] | None = None) -> int:

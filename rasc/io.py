@@ -270,8 +270,8 @@ def read_json_document(path: str | os.PathLike, what: str = "document", *,
         raise InputError(f"{where}: not a regular file (a device, pipe or socket); the "
                          f"{what} must be a file")
     if st.st_size > MAX_DOCUMENT_BYTES:
-        raise InputError(f"{where}: {st.st_size} bytes, larger than the "
-                         f"{MAX_DOCUMENT_BYTES // 2**20} MiB a {what} may have")
+        raise InputError(f"{where}: {st.st_size} bytes, more than the {MAX_DOCUMENT_BYTES} "
+                         f"bytes a {what} may have")
     try:
         # O_NONBLOCK: a FIFO swapped in after the check cannot block the open
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
@@ -282,8 +282,8 @@ def read_json_document(path: str | os.PathLike, what: str = "document", *,
     except OSError as exc:
         raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
     if len(data) > MAX_DOCUMENT_BYTES:
-        raise InputError(f"{where}: larger than the {MAX_DOCUMENT_BYTES // 2**20} MiB a "
-                         f"{what} may have")
+        raise InputError(f"{where}: more than the {MAX_DOCUMENT_BYTES} bytes a {what} may "
+                         "have")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -258,7 +258,7 @@ for _reader in READERS:
          _replace_by(_reader, lambda p: p.symlink_to("/dev/zero")),
          fragment="not a regular file", subprocess=True)
     case("reader", f"{_reader}: 65 MiB", _replace_by(_reader, _sparse_65_mib),
-         fragment="larger than the 64 MiB")
+         fragment="more than the 67108864 bytes")
     case("reader", f"{_reader}: dangling link",
          _replace_by(_reader, lambda p: p.symlink_to(p.parent / "nowhere.json")),
          fragment="no such file")
