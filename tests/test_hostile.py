@@ -831,3 +831,29 @@ def test_readme_refusal_examples_are_true(ws):
         if any(": error: " in e for e in expected):
             assert proc.returncode == 2, (command, proc.returncode)
     assert sorted(p.name for p in (ws / "run").iterdir() if p.name.startswith(".")) == []
+
+
+@pytest.mark.parametrize("method, suggested", [("rasc", "li"), ("li", "rasc"),
+                                               ("opencv-park", "rasc")])
+def test_a_non_finite_result_never_suggests_the_same_method(method, suggested, ws, capsys,
+                                                            monkeypatch):
+    """A method that returns NaN: one error line that suggests ANOTHER method."""
+    import rasc.commands.handeye as cmd
+    from rasc.handeye.methods import METHODS
+
+    real = METHODS[method]
+
+    def broken(*args, **kwargs):
+        result = real(*args, **kwargs)
+        T = np.array(result.T_cam_from_gaze, dtype=float)
+        T[0, 3] = np.nan
+        return type("Broken", (), {"T_cam_from_gaze": T, "quality": result.quality,
+                                   "to_dict": result.to_dict})()
+
+    monkeypatch.setattr(cmd, "_solver", lambda name: broken)
+    code, out, err = run_in_process(handeye(ws, "poses.json", "out/result.json",
+                                            "--method", method), capsys)
+    assert code == 2 and out == "" and os.listdir(ws / "out") == []
+    (line,) = err.splitlines()
+    assert f"method {method} returned a non-finite result" in line, line
+    assert line.endswith(f"or try --method {suggested}"), line
