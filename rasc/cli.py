@@ -82,6 +82,13 @@ def main(argv: list[str] | None = None) -> int:
         msg = str(exc).replace("\n", " ")
         print(f"{prog}: error: {msg}", file=sys.stderr)
         return 2
+    except Exception as exc:
+        if type(exc).__module__ != "cv2" or type(exc).__name__ != "error":
+            raise
+        # OpenCV's assertion on data no validation caught: still one line, no traceback
+        why = str(exc).strip().splitlines()[-1] if str(exc).strip() else "failed"
+        print(f"{prog}: error: OpenCV could not process the input ({why})", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as exc:
         note = exc.note if isinstance(exc, Interrupted) else "nothing written"
         print(f"{prog}: interrupted: {note}", file=sys.stderr)

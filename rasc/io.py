@@ -143,12 +143,14 @@ MAX_DEPTH = 32
 MAX_INT_DIGITS = 20
 
 #: Largest magnitude of any non-integer number accepted (integers are exact and bounded
-#: by MAX_INT_DIGITS instead, so that seeds up to 2**64 pass). No length (in any unit:
-#: 1e12 mm is 1e9 m), angle or pixel count comes near it, and products of a few such
-#: numbers (as in a 4x4 transform applied to a point, or a jackknife's squared
-#: deviations) stay far below float overflow (1.8e308), so no later arithmetic turns a
-#: valid input into infinity.
-MAX_MAGNITUDE = 1e12
+#: by MAX_INT_DIGITS instead, so that seeds up to 2**64 pass). Products of up to three
+#: such numbers (a 3x3 determinant, a transform applied to a point, a jackknife's squared
+#: deviations) stay below float overflow (1.8e308), so no later arithmetic turns an
+#: accepted input into infinity; and no value a rasc document holds comes near it (a
+#: solver's condition number, the largest, stays below 1e17 in double precision).
+#: Whether a value is plausible (an angle within a full turn, a positive square size)
+#: is the business of each field's validation.
+MAX_MAGNITUDE = 1e100
 
 
 class _Bad:
@@ -209,7 +211,7 @@ def _validated(node, path: tuple, depth: int, where: str):
         return [_validated(v, (*path, k), depth + 1, where) for k, v in enumerate(node)]
     if isinstance(node, float) and abs(node) > MAX_MAGNITUDE:
         raise InputError(f"{where}: {_pointer(path)}: {node:.6g} is larger in size than "
-                         f"{MAX_MAGNITUDE:g}, beyond any length, angle or count rasc reads")
+                         f"{MAX_MAGNITUDE:g}, too large to compute with")
     return node
 
 

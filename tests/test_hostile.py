@@ -387,6 +387,12 @@ for _name, _value, _fragment in (("1e308", 1e308, "larger in size"),
 case("traceback", "manifest square_size 1e308",
      _manifest_edit(lambda m: m["board"].__setitem__("square_size", 1e308)),
      fragment="larger in size")
+case("traceback", "manifest square_size 1e50",
+     _manifest_edit(lambda m: m["board"].__setitem__("square_size", 1e50)),
+     fragment="square_size 1e+50 is outside")
+case("traceback", "handeye one translation 1e50",
+     _poses_edit(lambda d: d["positions"][4]["T_cam_from_world"][1].__setitem__(3, 1e50)),
+     expect="warned", fragment="positions[4]: the target is", output="out/result.json")
 case("traceback", "manifest inner_corners of 25 digits",
      lambda ws: ((ws / "ds/manifest.json").write_text(
          (ws / "ds/manifest.json").read_text().replace('"inner_corners": [9, 6]',
@@ -857,3 +863,21 @@ def test_a_non_finite_result_never_suggests_the_same_method(method, suggested, w
     (line,) = err.splitlines()
     assert f"method {method} returned a non-finite result" in line, line
     assert line.endswith(f"or try --method {suggested}"), line
+
+
+def test_an_opencv_assertion_no_validation_caught_is_one_line(ws, capsys, monkeypatch):
+    """The last net: cv2.error (an OpenCV assertion on data that passed every check)
+    is one error line, exit 2, no traceback, no output."""
+    import cv2
+
+    import rasc.commands.handeye as cmd
+
+    def fails(path):
+        raise cv2.error("OpenCV(4.x) x.cpp:1: error: (-215:Assertion failed) fabs(sc) > 0")
+
+    monkeypatch.setattr(cmd, "load_handeye_input", fails)
+    code, out, err = run_in_process(handeye(ws), capsys)
+    assert code == 2 and out == "" and os.listdir(ws / "out") == []
+    assert err.splitlines() == ["rasc handeye: error: OpenCV could not process the input "
+                                "(OpenCV(4.x) x.cpp:1: error: (-215:Assertion failed) fabs(sc) "
+                                "> 0)"], err

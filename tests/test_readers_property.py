@@ -35,7 +35,7 @@ SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,
                                            HealthCheck.too_slow])
 
 #: tokens a careless or hostile writer puts where a number belongs
-HOSTILE_TOKENS = ["NaN", "Infinity", "-Infinity", "1e400", "-1e999", "1e308", "1e13",
+HOSTILE_TOKENS = ["NaN", "Infinity", "-Infinity", "1e400", "-1e999", "1e308", "1e101",
                   "9" * 25, "-" + "9" * 5000, "[" * 60 + "]" * 60, "[" * 5000 + "]" * 5000,
                   "0x10", "01", "+1", ".5", "1.", "true", "null", '"1"', "{}", "[]"]
 
@@ -178,8 +178,8 @@ def test_reader_limits_are_exact(tmp_path):
         ("[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1), "nested deeper than"),
         ('{"a": [' + "9" * MAX_INT_DIGITS + "]}", None),
         ('{"a": [' + "9" * (MAX_INT_DIGITS + 1) + "]}", "/a/0: an integer of 21 digits"),
-        ('{"a": 1e12}', None),
-        ('{"a": {"b": -1.0000001e12}}', "/a/b: -1e+12 is larger in size than 1e+12"),
+        ('{"a": 1e100}', None),
+        ('{"a": {"b": -1.0000001e100}}', "/a/b: -1e+100 is larger in size than 1e+100"),
         ('{"a~/b": NaN}', "/a~0~1b: NaN is not a finite number"),
         ('{"x": 1, "y": {"x": 2, "x": 3}}', "/y: duplicate key 'x'"),
     ]
