@@ -588,11 +588,13 @@ def _with_token(token):
 
 
 BAD_TEXTS.update({
-    "NaN token": (_with_token("NaN"), ["positions[1].tilt is NaN"]),
-    "Infinity token": (_with_token("-Infinity"), ["positions[1].tilt is infinite"]),
-    "overflowing number": (_with_token("1e999"), ["positions[1].tilt is infinite"]),
+    # refused by the reader (rasc.io.read_json_document), naming the JSON pointer
+    "NaN token": (_with_token("NaN"), ["/positions/1/tilt: NaN is not a finite number"]),
+    "Infinity token": (_with_token("-Infinity"),
+                       ["/positions/1/tilt: -Infinity is not a finite number"]),
+    "overflowing number": (_with_token("1e999"), ["/positions/1/tilt: 1e999 overflows"]),
     "NaN in matrix": (json.dumps(example_doc()).replace("1.0]]", "NaN]]", 1),
-                      ["positions[0].T_cam_from_world[3][3] is NaN"]),
+                      ["/positions/0/T_cam_from_world/3/3: NaN is not a finite number"]),
 })
 
 
@@ -634,14 +636,14 @@ def test_unreadable_input_file(tmp_path, capsys):
 def test_unreadable_input_file_as_root(tmp_path, capsys, monkeypatch):
     """Root reads anything: make reading this one file fail as it would without permission."""
     path = write_doc(tmp_path / "poses.json", example_doc())
-    real_read_bytes = Path.read_bytes
+    real_open = os.open
 
-    def read_bytes(self):
-        if self == path:
-            raise PermissionError(13, "Permission denied", str(self))
-        return real_read_bytes(self)
+    def deny(file, *args, **kwargs):
+        if Path(file) == path:
+            raise PermissionError(13, "Permission denied", str(file))
+        return real_open(file, *args, **kwargs)
 
-    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    monkeypatch.setattr(os, "open", deny)
     assert_bad_input([path], ["cannot read: Permission denied"], tmp_path, capsys,
                      prefix=f"{path}: ")
 
@@ -708,7 +710,8 @@ def test_out_in_missing_folder(tmp_path, capsys):
 def test_out_is_a_folder(tmp_path, capsys):
     rc, stdout, stderr = run_cli([EXAMPLE, "--out", tmp_path], capsys)
     assert rc == 2 and stdout == ""
-    assert stderr.splitlines() == [f"rasc handeye: error: {tmp_path}: cannot write: it is a folder"]
+    assert stderr.splitlines() == [
+        f"rasc handeye: error: {tmp_path}: cannot write: it is a folder; give --out a file name"]
     assert list(tmp_path.iterdir()) == []
 
 

@@ -478,7 +478,7 @@ def test_sigterm_during_look_at_leaves_no_file(tmp_path):
     proc.send_signal(signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
-    assert stderr == "rasc look-at: interrupted\n" and stdout == ""
+    assert stderr == "rasc look-at: interrupted: nothing written\n" and stdout == ""
     assert list(out.parent.iterdir()) == []
 
 

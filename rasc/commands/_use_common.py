@@ -15,14 +15,13 @@ import argparse
 import csv
 import io
 import math
-import os
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
 
 ANGLE_UNITS = ("deg", "rad")
 #: largest |angle| in each unit: one full turn (rasc.head.model.MAX_ABS_ANGLE_RAD)
@@ -44,26 +43,15 @@ def add_out(parser: argparse.ArgumentParser) -> None:
                         help="write the result JSON here (atomically) instead of stdout")
 
 
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
 def check_out(out: str | None, inputs: list[str]) -> None:
-    """Before any work: ``--out`` must be writable and none of the inputs."""
-    if out is None:
-        return
-    check_writable(out)
-    for path in inputs:
-        if _same_file(out, path):
-            raise InputError(f"--out {out} is the input file {path}; choose another path")
+    """Before any work: ``--out`` obeys the output rule (:func:`rasc.io.check_output`)."""
+    if out is not None:
+        check_output(out, inputs=inputs)
 
 
 def write_result(doc: dict, out: str | None) -> None:
     if out is None:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     else:
         write_json_atomic(out, doc)
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, read_json_document, write_json_atomic, write_stdout
 
 #: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
 #: right unit's frame in the left one, translation in the unit of board.square_size),
@@ -50,19 +50,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _read_mounts(path: str) -> np.ndarray:
-    import json
-
     from rasc.geometry.transforms import validate_rigid_transform
-    try:
-        with open(path, encoding="utf-8") as f:
-            obj = json.load(f)
-    except FileNotFoundError:
-        raise InputError(f"{path}: mounts file does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: "
-                         f"{exc.msg}") from None
+
+    obj = read_json_document(path, "mounts file")
     if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
         raise InputError(f"{path}: expected an object with field T_ptuL_from_ptuR (4x4)")
     unknown = [key for key in obj if key not in MOUNTS_KEYS]
@@ -75,16 +65,21 @@ def _read_mounts(path: str) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.handeye.advice import solution_warnings
+    from rasc.geometry.kinematics import T_gaze_from_ptu
+    from rasc.handeye.advice import solution_warnings, translation_warnings
     from rasc.handeye.methods import get_method
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    if args.out:
-        check_writable(args.out)
+    if args.out is not None:            # the output rule, before any long work
+        check_output(args.out, inputs=[args.dataset, args.mounts])
     get_method(args.method)  # an unknown name or a broken plugin, before any image is read
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
+    if args.out is not None:
+        check_output(args.out, inputs=[dataset.manifest_path, dataset.ground_truth,
+                                       args.mounts, *(e.path for e in dataset.images)],
+                     input_folders=[dataset.root])
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
@@ -97,15 +92,18 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate_dataset(dataset, options, log=log)
     doc = cal.to_dict()
     doc["dataset"] = str(args.dataset)
-    if args.out:
+    if args.out is not None:
         write_json_atomic(args.out, doc)
     else:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):
         r = cal.eyes[eye]
-        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True):
+        T_gp = T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1])        # eq. 3
+        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True) \
+                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye.T_cam_from_gaze,
+                                       names=list(r.pose_files)):
             print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):

@@ -18,15 +18,14 @@ backwards) adds a warning line on stderr; the exit status stays 0.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 import numpy as np
 
-from rasc.errors import DegenerateDataError, InputError, RascError
+from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
 from rasc.geometry.transforms import invert_transform
 from rasc.handeye.document import HandEyeInput, load_handeye_input
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
 
 RESULT_FORMAT = "rasc-handeye-result/1"
 
@@ -71,21 +70,16 @@ def _solver(method: str):
     return get_method(method)
 
 
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
 def result_document(data: HandEyeInput, result, *, source: str, method: str,
                     home: int | None = None) -> dict:
     """The output JSON object (``rasc-handeye-result/1``); ``home``: Li's home position."""
     T = np.asarray(result.T_cam_from_gaze, dtype=float)
     quality = float(result.quality)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)) or not np.isfinite(quality):
-        raise RascError(f"{source}: method {method} returned a non-finite result; "
-                        "try --method rasc")
+        other = "li" if method == "rasc" else "rasc"
+        raise SolverFailure(f"{source}: method {method} returned a non-finite result (NaN or "
+                            f"infinity); check the positions' translations (one length "
+                            f"unit for all), or try --method {other}")
     diagnostics = result.to_dict().get("diagnostics")
     return {
         "format": RESULT_FORMAT,
@@ -105,15 +99,13 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 def run(args: argparse.Namespace) -> int:
     # imported here, not at module level: building the parser loads no solver
-    from rasc.handeye.advice import input_warnings, solution_warnings
+    from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
     from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
     from rasc.handeye.methods import PluginError, jackknife_uncertainty
 
     source = args.poses
     if args.out is not None:
-        check_writable(args.out)  # before reading or solving
-        if _same_file(args.out, source):
-            raise InputError(f"--out {args.out} is the input file; choose another path")
+        check_output(args.out, inputs=[source])  # the output rule, before reading or solving
     if args.home is not None and args.method != "li":
         raise InputError(f"--home {args.home}: only --method li uses a home position")
     solve = _solver(args.method)  # an unknown name or a broken plugin: before reading
@@ -137,11 +129,12 @@ def run(args: argparse.Namespace) -> int:
                                         data.T_gaze_from_ptu, result, **kwargs)
     doc["uncertainty"] = uncertainty.to_dict()
     if args.out is None:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
     for warning in notes + input_warnings(data.T_cam_from_world) + solution_warnings(
-            result, uncertainty=uncertainty, pan_tilt=data.from_angles):
+            result, uncertainty=uncertainty, pan_tilt=data.from_angles) + translation_warnings(
+            data.T_cam_from_world, data.T_gaze_from_ptu, result.T_cam_from_gaze):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 

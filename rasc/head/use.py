@@ -35,6 +35,7 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import invert_transform
 from rasc.head.model import FORMAT as HEAD_FORMAT
 from rasc.head.model import EyeCalibration, HeadCalibration
+from rasc.io import read_json_document as _read_json_document
 
 #: The document ``rasc calibrate`` writes (rasc.head.pipeline.FORMAT; a test checks).
 CALIBRATION_FORMAT = "rasc-calibration/1"
@@ -81,19 +82,6 @@ class CalibrationFile:
     source: str
 
 
-def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict:
-    seen: dict = {}
-    for key, value in pairs:
-        if key in seen:
-            raise InputError(f"duplicate key {key!r} in one JSON object")
-        seen[key] = value
-    return seen
-
-
-#: Largest calibration file read, bytes (a rasc-calibration/1 file is ~100 kB).
-MAX_JSON_BYTES = 64 * 2**20
-
-
 def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
     """The UTF-8 text of a regular file of at most ``max_bytes`` (a byte-order mark is
     dropped); every failure is an :class:`InputError` starting with the path. A device,
@@ -127,24 +115,10 @@ def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
 
 
 def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
-    """Parse a JSON file; every failure is an :class:`InputError` starting with the path.
-
-    The one place the use-a-calibration code reads JSON (same name and arguments as the
-    project-wide reader that may replace it). NaN and Infinity tokens parse to floats
-    and are refused field by field (:func:`calibration_from_document`).
-    """
-    text = read_text_file(path, what, MAX_JSON_BYTES)
-    try:
-        return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON at line {exc.lineno}, column {exc.colno}: "
-                         f"{exc.msg}") from None
-    except RecursionError:
-        raise InputError(f"{path}: JSON nested too deeply") from None
-    except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
-    except ValueError as exc:  # Python's limit on the digits of an integer
-        raise InputError(f"{path}: {str(exc).splitlines()[0]}") from None
+    """Parse a JSON file by the project-wide reader's rules
+    (:func:`rasc.io.read_json_document`: regular files, size, UTF-8, duplicate keys,
+    depth, number sizes, NaN and Infinity, each error one line starting with the path)."""
+    return _read_json_document(path, what, top=None)
 
 
 def _finite_number(value: Any, name: str) -> float:

@@ -47,6 +47,16 @@ MARGIN_PX = 12.0
 #: the default board and cameras (1280x960), the classic detector found all 18 pose views
 #: with squares of 13.4 px (4.3 m) and none at 12.5 px (4.6 m)
 MIN_SQUARE_PX = 14.0
+#: below this many pixels per square, ``rasc render`` refuses the --distance: no pose view
+#: would show a board the detector finds (between the measured 12.5 px and 13.4 px)
+MIN_DETECTABLE_SQUARE_PX = 13.0
+#: the largest --seed (stored in ground_truth.json, read back by rasc.io's reader)
+MAX_SEED = 2**63 - 1
+#: the largest --noise: the whole grey range; more is noise alone
+MAX_NOISE = 255.0
+#: the largest --blur: a Gaussian of 50 px wipes out every corner of the board (squares
+#: of 14-60 px at the default distances); more only takes minutes to compute
+MAX_BLUR_PX = 50.0
 #: lens distortion coefficients ``--distortion`` accepts (OpenCV order k1 k2 p1 p2 k3)
 MAX_DIST_COEFFS = 5
 
@@ -77,12 +87,13 @@ class RenderOptions:
         if not (_finite(self.target_distance) and self.target_distance > 0):
             raise InputError(f"--distance must be a positive number of metres, got "
                              f"{self.target_distance}")
-        if not _integer(self.seed) or self.seed < 0:
-            raise InputError(f"--seed must be a non-negative integer, got {self.seed!r}")
-        for flag, value, unit in (("--noise", self.noise_sigma, "grey levels"),
-                                  ("--blur", self.blur_sigma, "pixels")):
-            if not (_finite(value) and value >= 0):
-                raise InputError(f"{flag} must be a finite number >= 0 ({unit}), got {value}")
+        if not _integer(self.seed) or not 0 <= self.seed <= MAX_SEED:
+            raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {self.seed!r}")
+        for flag, value, unit, top in (("--noise", self.noise_sigma, "grey levels", MAX_NOISE),
+                                       ("--blur", self.blur_sigma, "pixels", MAX_BLUR_PX)):
+            if not (_finite(value) and 0 <= value <= top):
+                raise InputError(f"{flag} must be a number from 0 to {top:g} ({unit}), "
+                                 f"got {value:g}")
         if len(self.dist) > MAX_DIST_COEFFS:
             raise InputError(f"--distortion: at most {MAX_DIST_COEFFS} coefficients "
                              f"(k1,k2,p1,p2,k3), got {len(self.dist)}")
@@ -183,6 +194,13 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
             sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
+                if dist is not None and _visible(T, board, sim.K(eye), size, None,
+                                                 board.object_points()):
+                    raise InputError(
+                        f"--distortion {','.join(f'{v:g}' for v in dist)}: at pan, tilt = "
+                        f"({pan:g}, {tilt:g}) deg the distortion moves corners of the board "
+                        f"outside the {eye} image ({size[0]}x{size[1]}, {MARGIN_PX:g} px "
+                        "margin), which fits without it; use smaller coefficients")
                 raise InputError(
                     f"--distance {d:g}: at pan, tilt = ({pan:g}, {tilt:g}) deg the corners of "
                     f"the {board.nx}x{board.ny} board do not all fit inside the {eye} image "
@@ -288,10 +306,15 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         # fail on bad positions or distances before rendering anything
         sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
         square_px = check_pose_views(sim, options, dist if distorted else None)
-        if square_px < MIN_SQUARE_PX and not quiet:
-            print(f"render: warning: board squares are only {square_px:.1f} px in the pose "
-                  f"views at --distance {options.target_distance:g}; corner detection was "
-                  f"measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if square_px < MIN_DETECTABLE_SQUARE_PX:
+            raise InputError(f"--distance {options.target_distance:g}: board squares would be "
+                             f"only {square_px:.1f} px in the pose views, where corner "
+                             f"detection fails (measured: none found at 12.5 px); bring the "
+                             f"board closer")
+        if square_px < MIN_SQUARE_PX:     # a warning, not progress: printed even with --quiet
+            print(f"rasc render: warning: board squares are only {square_px:.1f} px in the "
+                  f"pose views at --distance {options.target_distance:g}; corner detection "
+                  f"was measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
         if not quiet:
             for line in unit_summary(sim):
                 print(f"render: {line}", file=sys.stderr)

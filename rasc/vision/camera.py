@@ -73,7 +73,13 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: image file does not exist")
-    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    except cv2.error as exc:   # e.g. more pixels than CV_IO_MAX_IMAGE_PIXELS (2**30)
+        why = ("more pixels than OpenCV reads (CV_IO_MAX_IMAGE_PIXELS, 2**30 by default)"
+               if "CV_IO_MAX_IMAGE_PIXELS" in str(exc) else
+               str(exc).strip().splitlines()[-1] if str(exc).strip() else "OpenCV error")
+        raise InputError(f"{path}: cannot read image: {why}") from None
     if image is None or image.size == 0:
         raise InputError(f"{path}: cannot read image (not a format OpenCV reads, or corrupt)")
     return image
