@@ -33,10 +33,10 @@ QUICK_LEVELS = [0, *e1.QUICK_LEVELS]
 
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("base")
-    return Context.from_argv(e1.__doc__, ["--quick", "--out", str(out), "--workers", "1"]
-                             ).dataset_dir()
+def dataset(default_dataset) -> Path:
+    """The default dataset (seed 0, as ``Context.dataset_dir`` renders it): conftest's,
+    rendered once per test run."""
+    return default_dataset
 
 
 def make_ctx(root: Path, dataset: Path, workers: int = 1, seed: int = 0) -> Context:

@@ -35,9 +35,7 @@ from rasc.handeye.solver import (
     solve_rasc_batch,
 )
 
-# Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
-# = −gaze x (up), cam z (optical axis) = gaze y (forward).
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import PAPER, pan_tilt, random_rigid, rig
 
 # Noise-free tolerance, 1e-9 (the brief's): every result is a few hundred double
 # operations from exact data; measured errors are 1e-15..1e-14, and the worst
@@ -46,35 +44,9 @@ R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.
 EXACT = 1e-9
 
 
-def rig(rng):
-    """A realistic eye: camera a few cm from the unit's centre, board ~1 m ahead.
-
-    Returns (T_cam_from_gaze, T_ptu_from_world)."""
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)])
-    return X, Y
-
-
-def random_rigid(rng, n, max_angle=np.pi, t_scale=1.0):
-    axis = rng.normal(size=(n, 3))
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    angle = rng.uniform(0, max_angle, (n, 1))
-    return make_transform(matrix_from_rotvec(axis * angle), rng.normal(0, t_scale, (n, 3)))
-
-
-def pan_tilt(poses_deg):
-    p = np.radians(np.asarray(poses_deg, dtype=float))
-    return T_gaze_from_ptu(p[:, 0], p[:, 1])
-
-
 def grid(half_deg, k):
     a = np.linspace(-half_deg, half_deg, k)
     return [(p, t) for p in a for t in a]
-
-
-PAPER = pan_tilt(PAPER_POSES_DEG)
 
 
 def reference_solve(T_cw, T_gp, pairs="all", RX=None):

@@ -12,9 +12,7 @@ from rasc.handeye.methods import jackknife_uncertainty, solve
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-# Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
-# = −gaze x (up), cam z (optical axis) = gaze y (forward): a camera looking forward.
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import R_CAM_FROM_GAZE_NOMINAL
 
 
 def rig(seed=3):
