@@ -1,5 +1,7 @@
 """Camera pipeline on synthetic truth: rendered boards, projected corners, known poses."""
 
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from rasc.vision.camera import (
     detect_views,
     estimate_extrinsics,
     image_size,
+    opencv_threads,
     order_corners,
     project_board,
     read_image,
@@ -275,6 +278,38 @@ def test_read_image_and_header_size(tmp_path):
 
 
 # ----------------------------------------------------------------------- intrinsics
+
+def test_opencv_thread_count_is_set_only_inside_rasc_calls(monkeypatch):
+    """Importing rasc.vision.camera leaves OpenCV's thread count alone (it used to set it
+    to 1 for the whole process); rasc's own calls run single-threaded and restore the
+    caller's setting, also when they raise."""
+    seen = []
+    real = cv2.calibrateCamera
+
+    def spy(*args, **kwargs):
+        seen.append(cv2.getNumThreads())
+        return real(*args, **kwargs)
+
+    code = ("import cv2; cv2.setNumThreads(3); import rasc.vision.camera; "
+            "print(cv2.getNumThreads())")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert proc.stdout.split() == ["3"]
+    rng = np.random.default_rng(10)
+    views = projected_views(spread_poses(6, rng), rng, sigma=0.0)
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(3)
+        monkeypatch.setattr(cv2, "calibrateCamera", spy)
+        calibrate_intrinsics(views, BOARD, (640, 480))
+        assert seen == [1] and cv2.getNumThreads() == 3
+        with pytest.raises(ZeroDivisionError), opencv_threads(1):
+            assert cv2.getNumThreads() == 1
+            _ = 1 / 0
+        assert cv2.getNumThreads() == 3
+    finally:
+        cv2.setNumThreads(before)
+
 
 def test_intrinsics_exact_without_noise():
     rng = np.random.default_rng(10)

@@ -18,8 +18,10 @@ Extrinsics are returned as ``T_cam_from_world`` (4, 4), the paper's ``T_cw``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,10 +32,27 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import make_transform
 from rasc.vision.board import Board, _is_integral, _is_number  # noqa: F401  (Board re-exported)
 
-# One OpenCV thread: calibrateCamera's multi-threaded sums change the last bits from run
-# to run (measured: three runs, three different results), and the same seed must give
-# the same bytes. Parallelism comes from processes instead (experiments' --workers).
-cv2.setNumThreads(1)
+
+@contextlib.contextmanager
+def opencv_threads(n: int = 1) -> Iterator[None]:
+    """Run OpenCV with ``n`` threads inside the block; the caller's setting is restored.
+
+    rasc's own OpenCV work (:func:`detect_corners`, :func:`calibrate_intrinsics`,
+    :func:`estimate_extrinsics`) runs under ``opencv_threads(1)``: calibrateCamera's
+    multi-threaded sums change the last bits from run to run (measured: three runs, three
+    different results), and the same seed must give the same bytes; parallelism comes
+    from processes instead (the experiments' ``--workers``). Only the duration of the call
+    is affected, not the rest of the user's program (the setting is process-wide while
+    the block runs: do not run rasc's OpenCV work beside multi-threaded OpenCV work of
+    your own that relies on its thread count).
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(int(n))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
 
 #: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
 #: docs/NOTES.md, "Real data used by the tests" exactly (0.408695 / 0.458636 px on
@@ -166,6 +185,7 @@ def to_grey(image: np.ndarray, order: str = "bgr") -> np.ndarray:
 
 # ------------------------------------------------------------------ corner detection
 
+@opencv_threads(1)
 def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
                    order_by: str | None = "colour", *, fast_check: bool = False,
                    subpix_window: tuple[int, int] = (11, 11)) -> np.ndarray | None:
@@ -530,6 +550,7 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
     return float(rms), K, dist, T, per_view
 
 
+@opencv_threads(1)
 def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
                          image_size: tuple[int, int], dist_model: str = "opencv5",
                          outlier_rms: float | None = None,
@@ -601,6 +622,7 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 # ------------------------------------------------------------------------ extrinsics
 
+@opencv_threads(1)
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
                         dist: np.ndarray) -> tuple[np.ndarray, float]:
     """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt
