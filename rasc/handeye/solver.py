@@ -15,22 +15,29 @@ non-singular, also exists when M has rank 2 (two rotation axes fix a rotation) a
 forced to det +1 (``V diag(1, 1, ±1) Uᵀ``) should noise flip the sign of det M.
 
 Translation (eq. 7 generalised to a unit that also translates): ``(I − R_A) t_X =
-t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (erratum,
-docs/METHOD.md §3: not ^-1/2). CᵀC and
-Cᵀd are 3×3 / 3 sums, and because ``R_A = R_i R_jᵀ`` is bilinear in the views every sum
-over pairs is a contraction with the n×n pair-weight matrix (O(n²) scalars; no 3K×3
+t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (erratum, docs/METHOD.md §3: not
+^-1/2). CᵀC and Cᵀd are 3×3 / 3 sums, and because ``R_A = R_i R_jᵀ`` is bilinear in the
+views every sum over pairs is a contraction with the n×n pair-weight matrix (no 3K×3
 matrix, no loop over pairs).
 
 Quality (eq. 10): the mean over all i ≠ j of ``‖R_X R_B R_Xᵀ − R_A‖_F``; above 1 the
 paper found solutions unusable.
 
 Logarithms: ``log(R_i R_jᵀ)`` is taken as ``log(q_i ⊗ q_j*)`` from each view's quaternion
-(scipy), with the atan2 form of the quaternion log — robust at angle 0 and π, equal to
-:func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair matrix for rotations (tested to
-1e-12). Calling that helper on each of the 3828 pairs of 88 views costs 2.2 ms per side
-alone, more than the whole solve may take (goal: 20× faster than OpenCV's 28 ms;
-measured 1.05 ms against 26 ms, benchmarks/bench_handeye.py). For the same reason no
-step builds an n²×9 array: temporaries of ~0.5 MB cost ~250 page faults per call here.
+(Shepperd's, as scipy's), with the atan2 form of the quaternion log — robust at angle 0
+and π, equal to :func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair matrix
+for rotations (tested to 1e-12). A half turn's log has no sign of its own; the sign of
+each half-turn α is taken to agree with the other pairs' R_X (:func:`_align_half_turns`).
+
+Speed. For nine views the solve is a few hundred numpy calls on arrays of a few dozen
+numbers, so it is their count that costs: both inputs are validated in one pass and their
+logs taken in one pass, no scipy Rotation objects are made, the sums over views are
+matrix products in a component-major layout (:func:`_stacked`), one eigen-decomposition
+serves the axis-spread check and cond(CᵀC), whose eigenvectors also solve for t_X. For
+many views and for the batched form, every n²-sized step is one matrix product or a
+reduction over a leading axis, and batches go through in blocks of ``_CHUNK_FLOATS``.
+Timings, against OpenCV's PARK in the same run: ``benchmarks/bench_handeye.py`` (figures
+in the README).
 
 Literal noise. The paper's eq. 13 noise leaves ``R_cw`` slightly non-orthogonal. Such
 input is accepted with ``check_rigid=False`` (the default ``True`` rejects anything not
