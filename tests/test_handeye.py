@@ -17,6 +17,7 @@ from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
+    project_to_rotation,
     rotation_angle,
     rotation_error_deg,
     rotvec_from_matrix,
@@ -28,6 +29,8 @@ from rasc.handeye.solver import (
     WEAK_AXIS_SPREAD,
     HandEyeDiagnostics,
     HandEyeResult,
+    _polar_rotation,
+    _polar_rotation_many,
     diagnose,
     pair_rotvecs,
     quality_eq10,
@@ -216,6 +219,35 @@ def test_pair_logs_match_rotvec_from_matrix():
     np.testing.assert_allclose(matrix_from_rotvec(got), matrix_from_rotvec(want), atol=1e-12)
     away = np.linalg.norm(want, axis=1) < np.pi - 1e-3
     np.testing.assert_allclose(got[away], want[away], atol=1e-12)
+
+
+def test_pair_logs_of_non_orthogonal_matrices_are_those_of_their_nearest_rotations():
+    """Literal eq. 13 noise leaves R_cw non-orthogonal: each view stands for its nearest
+    rotation (SVD polar factor, computed here by rasc.geometry.transforms), up to
+    max |RᵀR − I| = 1/3. 1e-12: both sides are exact to a few ulp of the angle."""
+    rng = np.random.default_rng(24)
+    for sigma in (1e-7, 1e-3, 2e-2, 5e-2):
+        R = matrix_from_rotvec(rng.normal(size=(12, 3))) + rng.normal(0, sigma, (12, 3, 3))
+        err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+        R = R[err < 1 / 3]
+        P = project_to_rotation(R)
+        i, j = np.nonzero(~np.eye(len(R), dtype=bool))
+        want = rotvec_from_matrix(P[i] @ np.swapaxes(P[j], 1, 2))
+        np.testing.assert_allclose(pair_rotvecs(R, i, j), want, atol=1e-12)
+
+
+def test_batched_polar_factor_equals_the_svd_one():
+    """The batched solve's Newton iteration for eq. 9 gives the SVD's V diag(1, 1, ±1) Uᵀ,
+    also where it must hand over to the SVD (det M < 0, M of rank 2). 1e-12: both are
+    accurate to cond(M)·1e-16 (cond up to 1e3 here)."""
+    rng = np.random.default_rng(25)
+    M = rng.normal(size=(200, 3, 3)) * np.geomspace(1, 1e-3, 3)   # cond up to ~1e3
+    M[:20] *= -1.0                                                 # det M < 0
+    M[20:25, 2] = M[20:25, 0] + M[20:25, 1]                        # rank 2
+    want, _ = _polar_rotation(M)
+    got = _polar_rotation_many(M)
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(got), 1.0, atol=1e-12)
 
 
 def test_quality_is_eq10():
