@@ -23,8 +23,10 @@ Under pytest-xdist the rendered files are made once per run, not once per worker
 first worker to need them builds them under a file lock in the run's shared temporary
 folder; the others wait for the lock and reuse them.
 
-Marker ``slow`` (registered in pyproject.toml): tests that take seconds each (renders,
-experiments, real images); ``make test-fast`` leaves them out.
+Marker ``slow`` (registered in pyproject.toml): tests that take a second or more each
+(renders, experiments, subprocesses, large property tests); every test that uses one of
+the fixtures above gets it automatically. ``make test-fast`` (``-m "not slow"``) leaves
+them out.
 """
 
 from __future__ import annotations
@@ -154,3 +156,13 @@ def default_calibration(default_dataset):
     from rasc.vision.dataset import load_dataset
 
     return calibrate_dataset(load_dataset(default_dataset))
+
+
+#: A test using any of these needs the rendered default dataset: it is ``slow``.
+DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_calibration"})
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if DATASET_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)

@@ -204,6 +204,7 @@ def test_colour_rule_undecidable_gives_none():
     assert order_corners(truth, flat, BOARD, order_by=None) is not None
 
 
+@pytest.mark.slow
 def test_not_found_is_reported_not_raised():
     rng = np.random.default_rng(3)
     T = board_pose(20, [1, 0, 0], 0.5)
@@ -279,6 +280,7 @@ def test_read_image_and_header_size(tmp_path):
 
 # ----------------------------------------------------------------------- intrinsics
 
+@pytest.mark.slow
 def test_opencv_thread_count_is_set_only_inside_rasc_calls(monkeypatch):
     """Importing rasc.vision.camera leaves OpenCV's thread count alone (it used to set it
     to 1 for the whole process); rasc's own calls run single-threaded and restore the
@@ -463,6 +465,7 @@ def test_extrinsics_match_calibration_and_invert():
         np.testing.assert_allclose(invert_transform(T) @ T, np.eye(4), atol=1e-12)
 
 
+@pytest.mark.slow
 def test_detection_speed_classic_vs_sb_1280x960():
     """Measured, not asserted tightly: prints the per-image times (run with -s)."""
     K = np.array([[1600.0, 0, 639.5], [0, 1600.0, 479.5], [0, 0, 1]])

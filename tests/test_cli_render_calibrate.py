@@ -227,6 +227,7 @@ def test_noise_and_blur_still_calibrate(default, tmp_path, capsys):
         assert cal["eyes"][eye]["intrinsics_rms"] > clean_cal["eyes"][eye]["intrinsics_rms"]
 
 
+@pytest.mark.slow
 def test_distortion_is_rendered_and_recovered(tmp_path, capsys):
     """--distortion=-0.2,0.05 (barrel), calibrated with the default k1k2 model: measured
     k1 within 0.0005 and k2 within 0.002 of the truth (bounds 0.005, 0.01: a corner at the
@@ -302,6 +303,7 @@ def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
     assert base["loop_closure"]["T_ptuL_from_ptuR"] == loop_cal["base_to_ptu"]["T_ptuL_from_ptuR"]
 
 
+@pytest.mark.slow
 def test_small_board_warns_at_render_and_calibrate_says_which_images(tmp_path, capsys):
     """At 4.6 m the default board's squares are 12.5 px: render warns (measured: the
     detector misses squares that small) and calibrate names the pose images, not the

@@ -29,6 +29,8 @@ from rasc.handeye.li import solve_li  # noqa: E402
 from rasc.handeye.noise import VARIANTS, perturb_one_view, perturb_T_cam_from_world  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 QUICK_LEVELS = [0, *e1.QUICK_LEVELS]
 
 

@@ -31,6 +31,8 @@ from rasc.geometry.transforms import make_transform, matrix_from_rotvec  # noqa:
 from rasc.handeye.methods import METHODS  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 
 @pytest.fixture(scope="module")
 def dataset(default_dataset) -> Path:

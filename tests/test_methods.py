@@ -30,6 +30,7 @@ def grid(half_deg):
     return T_gaze_from_ptu(p[:, 0], p[:, 1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("half_deg, sigma_r, sigma_t", [(8.0, 0.005, 0.001),
                                                         (2.0, 0.0005, 0.0005),
                                                         (20.0, 0.0005, 0.0005)])

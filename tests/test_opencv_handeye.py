@@ -79,6 +79,7 @@ def cv_errors(T_gripper_from_cam_est, T_gripper_from_cam_true):
             np.linalg.norm(T_gripper_from_cam_est[:3, 3] - T_gripper_from_cam_true[:3, 3]))
 
 
+@pytest.mark.slow
 def test_opencv_generator_ported():
     """OpenCV's own accuracy test, 100 trials × 10 poses, on RASC (natural orientation:
     T_cam_from_gripper from all ordered pairs, inverted for the metric) and, as the
