@@ -14,13 +14,13 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import invert_transform, make_transform, rotation_error_deg
 from rasc.vision.camera import (
     Board,
+    _opencv_threads,
     calibrate_intrinsics,
     colour_score,
     detect_corners,
     detect_views,
     estimate_extrinsics,
     image_size,
-    opencv_threads,
     order_corners,
     project_board,
     read_image,
@@ -305,7 +305,7 @@ def test_opencv_thread_count_is_set_only_inside_rasc_calls(monkeypatch):
         monkeypatch.setattr(cv2, "calibrateCamera", spy)
         calibrate_intrinsics(views, BOARD, (640, 480))
         assert seen == [1] and cv2.getNumThreads() == 3
-        with pytest.raises(ZeroDivisionError), opencv_threads(1):
+        with pytest.raises(ZeroDivisionError), _opencv_threads(1):
             assert cv2.getNumThreads() == 1
             _ = 1 / 0
         assert cv2.getNumThreads() == 3

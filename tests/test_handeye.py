@@ -375,6 +375,11 @@ def test_batch_equals_single_solves(shared):
         assert abs(out.quality[s] - one.quality) < 1e-12
 
 
+def test_batch_of_no_samples_is_an_input_error():
+    with pytest.raises(InputError, match=r"T_cam_from_world: no samples"):
+        solve_rasc_batch(np.zeros((0, 9, 4, 4)), PAPER)
+
+
 def test_batch_names_the_degenerate_sample():
     rng = np.random.default_rng(20)
     X, Y = rig(rng)

@@ -897,8 +897,8 @@ def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
         ``T_cam_from_gaze`` (4, 4) (for a robot arm: ``T_cam_from_gripper``), method
         "rasc". Raises :class:`DegenerateDataError` when the data cannot determine it.
     """
-    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu, batch=False,
-                                              check_rigid=check_rigid)
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=False, check_rigid=check_rigid)
     n = T_cw.shape[1]
     _check_positions(n, T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
@@ -930,8 +930,10 @@ def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, 
         :func:`solve_rasc` returns for that sample. Any degenerate sample raises
         :class:`DegenerateDataError` naming it.
     """
-    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu, batch=True,
-                                              check_rigid=check_rigid)
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=True, check_rigid=check_rigid)
+    if T_cw.shape[0] == 0:
+        raise InputError(f"T_cam_from_world: no samples (shape {T_cw.shape})")
     _check_positions(T_cw.shape[1], T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
     out = _solve(T_cw, T_gp, T_all, _pairs(T_cw.shape[1], pairs, None), min_rotation_rad, checked)
@@ -956,8 +958,8 @@ def diagnose(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
     ``cond_*`` values are those of RASC's equations on the selected pairs. Raises
     :class:`DegenerateDataError` / :class:`InputError` like :func:`solve_rasc`.
     """
-    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu, batch=False,
-                                              check_rigid=check_rigid)
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=False, check_rigid=check_rigid)
     n = T_cw.shape[1]
     _check_positions(n, T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)

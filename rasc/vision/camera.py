@@ -34,11 +34,11 @@ from rasc.vision.board import Board, _is_integral, _is_number  # noqa: F401  (Bo
 
 
 @contextlib.contextmanager
-def opencv_threads(n: int = 1) -> Iterator[None]:
+def _opencv_threads(n: int = 1) -> Iterator[None]:
     """Run OpenCV with ``n`` threads inside the block; the caller's setting is restored.
 
     rasc's own OpenCV work (:func:`detect_corners`, :func:`calibrate_intrinsics`,
-    :func:`estimate_extrinsics`) runs under ``opencv_threads(1)``: calibrateCamera's
+    :func:`estimate_extrinsics`) runs under ``_opencv_threads(1)``: calibrateCamera's
     multi-threaded sums change the last bits from run to run (measured: three runs, three
     different results), and the same seed must give the same bytes; parallelism comes
     from processes instead (the experiments' ``--workers``). Only the duration of the call
@@ -185,7 +185,7 @@ def to_grey(image: np.ndarray, order: str = "bgr") -> np.ndarray:
 
 # ------------------------------------------------------------------ corner detection
 
-@opencv_threads(1)
+@_opencv_threads(1)
 def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
                    order_by: str | None = "colour", *, fast_check: bool = False,
                    subpix_window: tuple[int, int] = (11, 11)) -> np.ndarray | None:
@@ -550,7 +550,7 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
     return float(rms), K, dist, T, per_view
 
 
-@opencv_threads(1)
+@_opencv_threads(1)
 def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
                          image_size: tuple[int, int], dist_model: str = "opencv5",
                          outlier_rms: float | None = None,
@@ -622,7 +622,7 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 # ------------------------------------------------------------------------ extrinsics
 
-@opencv_threads(1)
+@_opencv_threads(1)
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
                         dist: np.ndarray) -> tuple[np.ndarray, float]:
     """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt
