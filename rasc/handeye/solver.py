@@ -495,7 +495,7 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 def _unit_axis(v: np.ndarray) -> tuple[float, float, float]:
     """An axis as a unit vector, its largest component positive (an eigenvector's sign
     is arbitrary)."""
-    x, y, z = (float(c) for c in v)
+    x, y, z = np.asarray(v, dtype=float).tolist()
     norm = math.sqrt(x * x + y * y + z * z)
     big = max((x, y, z), key=abs)
     sign = -1.0 if big < 0 else 1.0
@@ -546,7 +546,11 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
             "least 2 motions about different axes; move the unit between views (e.g. "
             "positions that combine pan and tilt)")
     lam, vec = eig
-    spread = lam[:, 1] / lam[:, 2]
+    if Su == 1:                                   # one sample: plain floats are cheaper
+        _, l1, l2 = lam[0].tolist()
+        spread = np.array([l1 / l2])
+    else:
+        spread = lam[:, 1] / lam[:, 2]
     if not spread.min() >= MIN_AXIS_SPREAD:
         s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
         raise DegenerateDataError(
@@ -563,7 +567,12 @@ def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
     """cond(CᵀC) (Sc,) from its eigenvalues (inf when singular); raises above
     ``MAX_COND_CTC`` naming the weak direction (the smallest eigenvalue's vector)."""
     lam, vec = eig
-    cond = np.divide(lam[:, 2], lam[:, 0], out=np.full(len(lam), np.inf), where=lam[:, 0] > 0)
+    if len(lam) == 1:                             # one sample: plain floats are cheaper
+        l0, _, l2 = lam[0].tolist()
+        cond = np.array([l2 / l0 if l0 > 0 else math.inf])
+    else:
+        cond = np.divide(lam[:, 2], lam[:, 0], out=np.full(len(lam), np.inf),
+                         where=lam[:, 0] > 0)
     if not cond.max() <= MAX_COND_CTC:
         s = int(np.argmax(~(cond <= MAX_COND_CTC)))
         raise DegenerateDataError(
@@ -760,9 +769,9 @@ def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
     is flipped where it points away from ``R_X0 β``, with R_X0 from the other pairs (all
     pairs if fewer than two others are usable). Without half turns α is returned as is.
     """
-    near = (theta_A > np.pi - HALF_TURN_TOL) | (theta_B > np.pi - HALF_TURN_TOL)
-    if not near.any():
+    if max(theta_A.max(), theta_B.max()) <= np.pi - HALF_TURN_TOL:
         return alpha
+    near = (theta_A > np.pi - HALF_TURN_TOL) | (theta_B > np.pi - HALF_TURN_TOL)
     others = bw * ~near[:, None, :]
     enough = ((others != 0).any(axis=1).sum(axis=1) >= 2)[:, None, None]
     RX0, _ = _polar_rotation(np.where(enough, others, bw) @ _swap(alpha))
@@ -860,7 +869,8 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
 
 def _diagnostics(out: dict, n: int, pair: _Pairs) -> HandEyeDiagnostics:
     s1, _, s3 = out["sv"][0].tolist()
-    theta = out["theta"][0][pair.used]                           # the method's motions
+    theta = out["theta"][0]
+    theta = theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]   # the method's
     deg = 180.0 / math.pi
     return HandEyeDiagnostics(
         n_positions=n, n_pairs=pair.n_pairs, n_pairs_used=int(out["wk"][0].sum()),
