@@ -756,7 +756,7 @@ def _polar_rotation_many(M: np.ndarray) -> np.ndarray:
 
 #: A relative rotation within this of π (radians) is a half turn: the sign of its log is
 #: not determined by the rotation (log R and −log R are both valid).
-HALF_TURN_TOL = 1e-6
+_HALF_TURN_TOL = 1e-6
 
 
 def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
@@ -764,14 +764,14 @@ def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
     """Choose the signs of half-turn logs so that ``α = R_X β`` holds for them too.
 
     alpha (S, 3, K), beta and bw = w β (Su, 3, K), angles (S or Su, K). A pair whose
-    motion is a half turn (within ``HALF_TURN_TOL`` of π) has α and β each defined up to
+    motion is a half turn (within ``_HALF_TURN_TOL`` of π) has α and β each defined up to
     sign only; with mismatched signs its term of eq. 9 enters M as ``−β βᵀ R_Xᵀ``. Its α
     is flipped where it points away from ``R_X0 β``, with R_X0 from the other pairs (all
     pairs if fewer than two others are usable). Without half turns α is returned as is.
     """
-    if max(theta_A.max(), theta_B.max()) <= np.pi - HALF_TURN_TOL:
+    if max(theta_A.max(), theta_B.max()) <= np.pi - _HALF_TURN_TOL:
         return alpha
-    near = (theta_A > np.pi - HALF_TURN_TOL) | (theta_B > np.pi - HALF_TURN_TOL)
+    near = (theta_A > np.pi - _HALF_TURN_TOL) | (theta_B > np.pi - _HALF_TURN_TOL)
     others = bw * ~near[:, None, :]
     enough = ((others != 0).any(axis=1).sum(axis=1) >= 2)[:, None, None]
     RX0, _ = _polar_rotation(np.where(enough, others, bw) @ _swap(alpha))
