@@ -261,7 +261,8 @@ def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
 
     Measured on rendered 1280×960 boards against the projected truth: 0.012–0.015 px RMS,
     against 0.06–0.08 px for cornerSubPix (any window) and 0.033 px for
-    findChessboardCornersSB with CALIB_CB_ACCURACY, at 7 ms an image (SB: 0.34 s).
+    findChessboardCornersSB with CALIB_CB_ACCURACY, and far faster than SB (per-image
+    times: ``benchmarks/bench_pipeline.py``, figures in the README).
 
     Returns ``None`` when a corner is not a saddle (the fitted Hessian is not indefinite)
     or moves more than r in total: no reliable corner there.
