@@ -86,6 +86,7 @@ def test_example_file_is_what_the_generator_writes():
     assert gen.format_document(gen.make_document(0)) == EXAMPLE.read_text(encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_example_subprocess_recovers_the_truth():
     """The README's command, as a user types it; stdout is the result, stderr is empty."""
     proc = subprocess.run([sys.executable, "-m", "rasc", "handeye", str(EXAMPLE)],
@@ -107,6 +108,7 @@ def test_example_subprocess_recovers_the_truth():
                                atol=1e-12)
 
 
+@pytest.mark.slow
 def test_console_script_writes_out_file_identical_to_stdout(tmp_path):
     """The installed ``rasc`` script with --out writes the same bytes as stdout would."""
     script = Path(sys.executable).parent / "rasc"

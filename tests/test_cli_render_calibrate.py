@@ -1,13 +1,14 @@
 """``rasc render`` and ``rasc calibrate`` end to end, through the command line.
 
-The default dataset is rendered and calibrated once per module by the real command line
-in subprocesses (``python -m rasc``); the other datasets (same seed again, a modified
-head model, image noise, lens distortion) and the many bad inputs go through
-:func:`rasc.cli.main` in-process to keep the module fast. Expected values come from each
-dataset's ``ground_truth.json`` (read from the MuJoCo model) or from the inputs the test
-chose, never from the code under test. Every bad input must give exit status 2, exactly
-one line on stderr naming the file and the problem, nothing on stdout, no output file and
-no temporary file.
+The default dataset is rendered and calibrated once per test run by the real command line
+in subprocesses (``python -m rasc``; the session fixture ``default_cli_run`` of
+tests/conftest.py, shared with the other modules that need that dataset); the other
+datasets (same seed again, a modified head model, image noise, lens distortion) and the
+many bad inputs go through :func:`rasc.cli.main` in-process to keep the module fast.
+Expected values come from each dataset's ``ground_truth.json`` (read from the MuJoCo
+model) or from the inputs the test chose, never from the code under test. Every bad input
+must give exit status 2, exactly one line on stderr naming the file and the problem,
+nothing on stdout, no output file and no temporary file.
 """
 
 from __future__ import annotations
@@ -21,8 +22,6 @@ import json
 import math
 import re
 import shutil
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -36,6 +35,8 @@ from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
 from rasc.sim.scene import HEAD_XML, scene_xml
 from rasc.vision.board import DEFAULT_BOARD
 
+from conftest import python_rasc
+
 #: Same bounds as tests/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
 HANDEYE_ROT_DEG = 0.05
@@ -43,12 +44,6 @@ HANDEYE_TRANS_M = 1.5e-3
 LOOP_ROT_DEG = 0.1
 LOOP_TRANS_M = 3.0e-3
 K_PX = 0.25
-
-
-def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
-    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    return subprocess.run([sys.executable, "-m", "rasc", *map(str, argv)], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=300, check=False)
 
 
 def run_cli(argv, capsys) -> tuple[int, str, str]:
@@ -97,15 +92,11 @@ def files_of(folder: Path) -> dict[str, bytes]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-@pytest.fixture(scope="module")
-def default(tmp_path_factory):
-    """The default dataset and its calibration, both by the real command line."""
-    root = tmp_path_factory.mktemp("cli")
-    proc = python_rasc("render", "--out", root / "ds", "--quiet")
-    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
-    proc = python_rasc("calibrate", root / "ds", "--out", root / "cal.json", "--quiet")
-    assert proc.returncode == 0 and proc.stderr == "" and proc.stdout == "", proc.stderr
-    return root
+@pytest.fixture
+def default(default_cli_run):
+    """The default dataset and its calibration, both by the real command line (conftest:
+    rendered with stderr empty, calibrated with stdout and stderr empty). Read-only."""
+    return default_cli_run
 
 
 # ------------------------------------------------------------------- happy paths
@@ -236,6 +227,7 @@ def test_noise_and_blur_still_calibrate(default, tmp_path, capsys):
         assert cal["eyes"][eye]["intrinsics_rms"] > clean_cal["eyes"][eye]["intrinsics_rms"]
 
 
+@pytest.mark.slow
 def test_distortion_is_rendered_and_recovered(tmp_path, capsys):
     """--distortion=-0.2,0.05 (barrel), calibrated with the default k1k2 model: measured
     k1 within 0.0005 and k2 within 0.002 of the truth (bounds 0.005, 0.01: a corner at the
@@ -311,6 +303,7 @@ def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
     assert base["loop_closure"]["T_ptuL_from_ptuR"] == loop_cal["base_to_ptu"]["T_ptuL_from_ptuR"]
 
 
+@pytest.mark.slow
 def test_small_board_is_refused_or_warned_at_render(tmp_path, capsys):
     """At 4.6 m the default board's squares are 12.5 px, where the detector was measured
     to find none: an error before anything is rendered. At 4.3 m (13.4 px, all found

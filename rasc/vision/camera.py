@@ -18,8 +18,10 @@ Extrinsics are returned as ``T_cam_from_world`` (4, 4), the paper's ``T_cw``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,10 +32,27 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import make_transform
 from rasc.vision.board import Board, _is_integral, _is_number  # noqa: F401  (Board re-exported)
 
-# One OpenCV thread: calibrateCamera's multi-threaded sums change the last bits from run
-# to run (measured: three runs, three different results), and the same seed must give
-# the same bytes. Parallelism comes from processes instead (experiments' --workers).
-cv2.setNumThreads(1)
+
+@contextlib.contextmanager
+def _opencv_threads(n: int = 1) -> Iterator[None]:
+    """Run OpenCV with ``n`` threads inside the block; the caller's setting is restored.
+
+    rasc's own OpenCV work (:func:`detect_corners`, :func:`calibrate_intrinsics`,
+    :func:`estimate_extrinsics`) runs under ``_opencv_threads(1)``: calibrateCamera's
+    multi-threaded sums change the last bits from run to run (measured: three runs, three
+    different results), and the same seed must give the same bytes; parallelism comes
+    from processes instead (the experiments' ``--workers``). Only the duration of the call
+    is affected, not the rest of the user's program (the setting is process-wide while
+    the block runs: do not run rasc's OpenCV work beside multi-threaded OpenCV work of
+    your own that relies on its thread count).
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(int(n))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
 
 #: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
 #: docs/NOTES.md, "Real data used by the tests" exactly (0.408695 / 0.458636 px on
@@ -172,6 +191,7 @@ def to_grey(image: np.ndarray, order: str = "bgr") -> np.ndarray:
 
 # ------------------------------------------------------------------ corner detection
 
+@_opencv_threads(1)
 def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
                    order_by: str | None = "colour", *, fast_check: bool = False,
                    subpix_window: tuple[int, int] = (11, 11)) -> np.ndarray | None:
@@ -247,7 +267,8 @@ def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
 
     Measured on rendered 1280×960 boards against the projected truth: 0.012–0.015 px RMS,
     against 0.06–0.08 px for cornerSubPix (any window) and 0.033 px for
-    findChessboardCornersSB with CALIB_CB_ACCURACY, at 7 ms an image (SB: 0.34 s).
+    findChessboardCornersSB with CALIB_CB_ACCURACY, and far faster than SB (per-image
+    times: ``benchmarks/bench_pipeline.py``, figures in the README).
 
     Returns ``None`` when a corner is not a saddle (the fitted Hessian is not indefinite)
     or moves more than r in total: no reliable corner there.
@@ -536,6 +557,7 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
     return float(rms), K, dist, T, per_view
 
 
+@_opencv_threads(1)
 def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
                          image_size: tuple[int, int], dist_model: str = "opencv5",
                          outlier_rms: float | None = None,
@@ -607,6 +629,7 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 # ------------------------------------------------------------------------ extrinsics
 
+@_opencv_threads(1)
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
                         dist: np.ndarray) -> tuple[np.ndarray, float]:
     """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt
