@@ -93,18 +93,6 @@ def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
     write_text_atomic(path, dumps_json(obj))
 
 
-def check_writable(path: str | os.PathLike) -> None:
-    """Fail early (before long work) when ``path`` cannot be written."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise InputError(f"{path}: cannot write: it is a folder")
-    if not folder.is_dir():
-        raise InputError(f"{path}: cannot write: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise InputError(f"{path}: cannot write: folder {folder} is not writable")
-
-
 def write_stdout(text: str) -> None:
     """Write ``text`` to standard output and flush it; a full device or a closed pipe is
     an :class:`InputError` (one line) instead of a traceback at exit."""

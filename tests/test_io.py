@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rasc.errors import InputError
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, write_json_atomic
 
 json_values = st.recursive(
     st.none() | st.booleans() | st.integers(-10**12, 10**12)
@@ -52,9 +52,9 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
 
 def test_unwritable_paths(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
-        check_writable(tmp_path / "missing" / "x.json")
+        check_output(tmp_path / "missing" / "x.json")
     with pytest.raises(InputError, match="is a folder"):
-        check_writable(tmp_path)
+        check_output(tmp_path)
     with pytest.raises(InputError, match="does not exist"):
         write_json_atomic(tmp_path / "missing" / "x.json", {})
 
