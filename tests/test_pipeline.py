@@ -23,6 +23,8 @@ from rasc.head.base_to_ptu import cyclopean_base
 from rasc.head.pipeline import CalibrationOptions, errors_against_truth
 from rasc.vision.dataset import load_dataset
 
+from conftest import PAPER
+
 #: Issue 3 bounds for T_cam_from_gaze recovered from the nine renders. Measured here:
 #: left 0.015 deg / 0.19 mm, right 0.006 deg / 0.46 mm; a half-pixel principal-point
 #: convention error or a wrong corner order moves these by degrees and centimetres.
@@ -231,3 +233,10 @@ def test_malformed_ground_truth_names_the_file(calibration, rendered, change, fr
     change(bad)
     with pytest.raises(InputError, match=f"^gt.json: {fragment}"):
         errors_against_truth(calibration, bad, where="gt.json")
+
+
+def test_readme_conftest_example(default_dataset, default_calibration):
+    """The README's example of a test on conftest's shared dataset, verbatim."""
+    dataset = load_dataset(default_dataset)          # read-only: copy it to change it
+    assert len(dataset.select(eye="left", role="pose")) == len(PAPER) == 9
+    assert default_calibration.eyes["left"].handeye.quality < 0.01

@@ -519,8 +519,10 @@ def _weights(theta: np.ndarray, pair: _Pairs, n: int,
     """
     ok = theta >= min_rotation_rad
     if ok.all():                                  # the usual case: the method's pair set
-        Su, n2 = theta.shape[0], pair.W_all.shape[1:]
-        return (np.broadcast_to(pair.W_all, (Su, *n2)),
+        Su = theta.shape[0]
+        if Su == 1:
+            return pair.W_all, pair.wk_all
+        return (np.broadcast_to(pair.W_all, (Su, n, n)),
                 np.broadcast_to(pair.wk_all, theta.shape))
     w_ij, w_ji = ok & pair.use_ij, ok & pair.use_ji
     W = np.zeros((theta.shape[0], n * n))
@@ -537,8 +539,9 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
     weights. Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
     """
     Su = wk.shape[0]
-    usable = np.count_nonzero(wk, axis=1)
-    if usable.min() < 2:
+    usable = np.count_nonzero(wk, axis=1) if Su > 1 else [np.count_nonzero(wk)]
+    if min(usable) < 2:
+        usable = np.asarray(usable)
         s = int(np.argmax(usable < 2))
         raise DegenerateDataError(
             f"only {int(usable[s])} motion(s) of the unit rotate by at least "
@@ -549,9 +552,11 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
     if Su == 1:                                   # one sample: plain floats are cheaper
         _, l1, l2 = lam[0].tolist()
         spread = np.array([l1 / l2])
+        bad = not l1 / l2 >= MIN_AXIS_SPREAD
     else:
         spread = lam[:, 1] / lam[:, 2]
-    if not spread.min() >= MIN_AXIS_SPREAD:
+        bad = not spread.min() >= MIN_AXIS_SPREAD
+    if bad:
         s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
         raise DegenerateDataError(
             f"rotation about, and translation along, the unit's rotation axis "
@@ -707,10 +712,12 @@ def _polar_rotation(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     RX = _swap(U @ Vt)                                            # V Uᵀ
     if len(M) == 1:                     # one sample: the sign of det by hand is cheaper
         (a, b, c), (d, e, f), (g, h, k) = RX[0].tolist()
-        flip = np.array([a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0])
+        flip = [a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0]
+        any_flip = flip[0]
     else:
         flip = np.linalg.det(RX) < 0
-    if flip.any():                                                # V diag(1, 1, −1) Uᵀ
+        any_flip = flip.any()
+    if any_flip:                                                  # V diag(1, 1, −1) Uᵀ
         Vt = Vt.copy()
         Vt[flip, 2] *= -1.0
         RX = _swap(U @ Vt)
