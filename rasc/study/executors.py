@@ -20,6 +20,7 @@ each worker process: mujoco issue #991, PR #2069; docs/NOTES.md, dask.distribute
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -70,8 +71,11 @@ class ProcessExecutor(Executor):
 
     def map_unordered(self, fn, tasks):
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(max_workers=self.workers,
-                                             initializer=worker_environment)
+            # forkserver: workers fork from a fresh server process, never from this one,
+            # which may hold an EGL context (a forked copy of one crashes the worker)
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers, initializer=worker_environment,
+                mp_context=multiprocessing.get_context("forkserver"))
         pending = {self._pool.submit(fn, task): k for k, task in enumerate(tasks)}
         try:
             while pending:
