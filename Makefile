@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 reproduce: $(STAMP)
-	$(PY) experiments/reproduce.py --out $(OUT)
+	$(PY) -m experiments.reproduce --out $(OUT)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n $(JOBS)

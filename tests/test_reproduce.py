@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
-sys.path.insert(0, str(EXPERIMENTS))
+sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
-import reproduce  # noqa: E402
+from experiments import reproduce  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
 """E1 — the paper's Figures 3 (translation) and 4 (rotation): hand-eye error against noise.
 
-    python experiments/fig3_fig4_noise.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e1_noise [--seed S] [--quick] [--out DIR] [--workers N]
 
 Protocol (docs/METHOD.md §9, E1; paper section 4): the target poses ``T_cam_from_world`` at the
 paper's nine pan-tilt positions come from the rendered-image pipeline
@@ -31,195 +31,39 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from _common import (
-    PAPER_LEVELS,
+
+from experiments._common import (
+    HEADER,
+    MAIN_VARIANT,
+    METHOD_NAMES,
+    R_COLS,
+    RAW_CSV,
     Context,
     Section,
+    compute_rows,
+    eye_inputs,
+    levels,
     md_table,
+    protocol,
     read_csv,
-    run_tasks,
     save_figure,
     script_main,
-    spawn_rngs,
     stage,
     write_csv,
     write_json,
 )
-
-from rasc.errors import DegenerateDataError, SolverFailure
 from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import T_gaze_from_ptu
-from rasc.geometry.transforms import rotation_error_deg
-from rasc.handeye.li import solve_li
-from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
-from rasc.handeye.solver import solve_rasc, solve_rasc_batch
+from rasc.handeye.noise import VARIANTS
 
 NAME = "e1"
-#: first element of every E1 seed key: (E1_KEY, eye index, level) → one generator
-E1_KEY = 1
-SAMPLES, QUICK_SAMPLES = 30, 8
-#: paper levels (1-based) kept by --quick, besides level 0
-QUICK_LEVELS = (1, 4, 8)
-#: the variant of the main figures: the paper printed the literal form (eq. 13)
-MAIN_VARIANT = "literal"
-METHOD_NAMES = ("rasc", "li")
 #: significance level of the paired tests (per level, uncorrected; stated in the report)
 ALPHA = 0.05
-
-RAW_CSV, SUMMARY_CSV, TESTS_CSV = "noise_samples.csv", "noise_summary.csv", "paired_tests.csv"
-R_COLS = tuple(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
-HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "method", "status",
-          "t_err_mm", "R_err_fro", "R_err_deg", "quality", "t_x_mm", "t_y_mm", "t_z_mm",
-          *R_COLS)
+SUMMARY_CSV, TESTS_CSV = "noise_summary.csv", "paired_tests.csv"
 SUMMARY_HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "method", "n_ok",
                   "n_failed", "t_err_mean_mm", "t_std_mm", "R_fro_mean", "R_std_fro",
                   "R_deg_mean", "quality_mean", "quality_median")
 TESTS_HEADER = ("eye", "variant", "level", "quantity", "n", "rasc_mean", "li_mean",
                 "median_li_minus_rasc", "frac_rasc_better", "wilcoxon_p", "sign_p")
-
-
-# ------------------------------------------------------------------------ inputs
-
-def levels(quick: bool) -> list[tuple[int, float, float]]:
-    """``(level, σ_r rad, σ_t mm)``: level 0 (no noise) and the paper's levels 1–8."""
-    keep = QUICK_LEVELS if quick else range(1, len(PAPER_LEVELS) + 1)
-    return [(0, 0.0, 0.0)] + [(k, *PAPER_LEVELS[k - 1]) for k in keep]
-
-
-def eye_inputs(ctx: Context) -> dict[str, dict]:
-    """Per eye: the pipeline's ``T_cam_from_world`` (n, 4, 4), eq. 3 ``T_gaze_from_ptu``
-    (n, 4, 4) from the commanded angles, the home view's index and the true
-    ``T_cam_from_gaze`` (4, 4)."""
-    cal, truth = ctx.calibration(), ctx.truth()
-    out = {}
-    for eye in EYES:
-        r = cal.eyes[eye]
-        pan_tilt = np.asarray(r.pan_tilt, dtype=float)
-        home = np.flatnonzero(np.all(pan_tilt == 0.0, axis=1))
-        if home.size != 1:
-            raise DegenerateDataError(
-                f"{eye} eye: {home.size} pose views at pan = tilt = 0; E1/E2 need exactly "
-                "one home view (add the (0, 0) position or remove duplicates)")
-        out[eye] = {"T_cam_from_world": np.asarray(r.T_cam_from_world, dtype=float),
-                    "T_gaze_from_ptu": T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
-                    "pan_tilt_rad": pan_tilt, "home": int(home[0]),
-                    "T_cam_from_gaze_true": np.asarray(truth[eye]["T_cam_from_gaze"], float)}
-    return out
-
-
-def protocol(ctx: Context, inputs: dict[str, dict]) -> dict:
-    """Everything the raw samples depend on (E3 reuses them only if this matches)."""
-    return {"experiment": NAME, "seed": ctx.seed, "quick": ctx.quick,
-            "samples": QUICK_SAMPLES if ctx.quick else SAMPLES,
-            "levels": [list(lv) for lv in levels(ctx.quick)], "variants": list(VARIANTS),
-            "methods": list(METHOD_NAMES), "seed_key": [E1_KEY, "eye index", "level"],
-            "inputs": {eye: {k: np.asarray(v).tolist() for k, v in d.items()}
-                       for eye, d in inputs.items()}}
-
-
-# ------------------------------------------------------------------ Monte Carlo
-
-def _solve_rasc_samples(T_cw: np.ndarray, T_gp: np.ndarray, check_rigid: bool) -> list:
-    """RASC on (S, n, 4, 4) samples: ``[(T (4, 4) | None, quality | None, status)]``.
-
-    The batch solver raises for the whole batch if one sample is degenerate; then every
-    sample is solved alone so only the degenerate ones are lost (never given a number).
-    """
-    try:
-        b = solve_rasc_batch(T_cw, T_gp, check_rigid=check_rigid)
-        return [(b.T_cam_from_gaze[s], float(b.quality[s]), "ok") for s in range(len(T_cw))]
-    except DegenerateDataError:
-        out = []
-        for T in T_cw:
-            try:
-                r = solve_rasc(T, T_gp, check_rigid=check_rigid)
-                out.append((r.T_cam_from_gaze, r.quality, "ok"))
-            except DegenerateDataError:
-                out.append((None, None, "degenerate"))
-        return out
-
-
-def _solve_li_samples(T_cw: np.ndarray, T_gp: np.ndarray, home: int,
-                      check_rigid: bool) -> list:
-    out = []
-    for T in T_cw:
-        try:
-            r = solve_li(T, T_gp, home=home, check_rigid=check_rigid)
-            out.append((r.T_cam_from_gaze, r.quality, "ok"))
-        except DegenerateDataError:
-            out.append((None, None, "degenerate"))
-        except SolverFailure:
-            out.append((None, None, "not converged"))
-    return out
-
-
-def solve_methods(noisy: np.ndarray, T_gp: np.ndarray, home: int, methods, variant: str):
-    """``{method: [(T, quality, status)] per sample}`` for noisy (S, n, 4, 4) poses."""
-    check_rigid = variant != "literal"    # literal eq. 13 matrices are not rotations
-    out = {}
-    for m in methods:
-        if m == "rasc":
-            out[m] = _solve_rasc_samples(noisy, T_gp, check_rigid)
-        elif m == "li":
-            out[m] = _solve_li_samples(noisy, T_gp, home, check_rigid)
-        else:
-            raise ValueError(f"unknown method {m!r}")
-    return out
-
-
-def sample_row(head: list, T: np.ndarray | None, quality: float | None, status: str,
-               T_true: np.ndarray) -> list:
-    """One raw CSV row: ``head`` (eye … method) + status, errors, quality, estimate."""
-    if T is None:
-        return head + [status] + [""] * (len(HEADER) - len(head) - 1)
-    t_mm, R = T[:3, 3] * 1000.0, T[:3, :3]
-    R_true = T_true[:3, :3]
-    return head + [status,
-                   float(np.linalg.norm(t_mm - T_true[:3, 3] * 1000.0)),
-                   float(np.linalg.norm(R - R_true)),
-                   float(rotation_error_deg(R, R_true)), float(quality),
-                   *(float(x) for x in t_mm), *(float(x) for x in R.ravel())]
-
-
-def noise_task(task: dict) -> list[list]:
-    """One eye at one level, every variant: perturb, solve, one row per sample and method.
-
-    The generator is spawned from ``(seed, E1_KEY, eye index, level)`` afresh for each
-    variant, so the variants see the same ω and t draws (``rasc.handeye.noise``).
-    """
-    T_cw, T_gp, T_true = task["T_cam_from_world"], task["T_gaze_from_ptu"], task["T_true"]
-    rows = []
-    for variant in task["variants"]:
-        if task["level"] == 0:     # the pipeline's own floor: no noise, one solve
-            noisy = T_cw[None]
-        else:
-            rng = spawn_rngs(task["seed"], 1, E1_KEY, task["eye_index"], task["level"])[0]
-            noisy = perturb_T_cam_from_world(
-                np.broadcast_to(T_cw, (task["samples"],) + T_cw.shape), task["sigma_r"],
-                task["sigma_t_mm"] / 1000.0, rng, variant)          # mm → metres
-        solved = solve_methods(noisy, T_gp, task["home"], task["methods"], variant)
-        for m in task["methods"]:
-            for s, (T, q, status) in enumerate(solved[m]):
-                head = [task["eye"], variant, task["level"], task["sigma_r"],
-                        task["sigma_t_mm"], s, m]
-                rows.append(sample_row(head, T, q, status, T_true))
-    return rows
-
-
-def compute_rows(ctx: Context, inputs: dict, level_list, methods=METHOD_NAMES,
-                 samples: int | None = None, label: str = "E1 noise") -> list[list]:
-    """Raw rows for ``level_list`` [(level, σ_r, σ_t mm)]: one task per eye and level,
-    fixed independently of ``ctx.workers``."""
-    samples = samples or (QUICK_SAMPLES if ctx.quick else SAMPLES)
-    tasks = [{"eye": eye, "eye_index": e, "level": lv, "sigma_r": sr, "sigma_t_mm": st,
-              "samples": samples, "seed": ctx.seed, "variants": VARIANTS,
-              "methods": tuple(methods), "home": inputs[eye]["home"],
-              "T_cam_from_world": inputs[eye]["T_cam_from_world"],
-              "T_gaze_from_ptu": inputs[eye]["T_gaze_from_ptu"],
-              "T_true": inputs[eye]["T_cam_from_gaze_true"]}
-             for e, eye in enumerate(EYES) for lv, sr, st in level_list]
-    return [row for rows in run_tasks(noise_task, tasks, ctx.workers, label) for row in rows]
-
 
 # ------------------------------------------------------------------- statistics
 
