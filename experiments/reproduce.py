@@ -26,7 +26,9 @@ import shutil
 import sys
 import time
 
-from experiments._common import REPO, Context, Section, md_table, stage
+from experiments._common import PARTIAL_PREFIX, REPO, Context, Section, md_table, stage
+from rasc.errors import RascError
+from rasc.interrupt import signals_as_interrupt
 from rasc.io import write_text_atomic
 
 #: one module per paper output, in report order (adding an experiment: one module with
