@@ -437,8 +437,42 @@ def solve_methods(noisy: np.ndarray, T_gp: np.ndarray, home: int, methods, varia
         elif m == "li":
             out[m] = _solve_li_samples(noisy, T_gp, home, check_rigid)
         else:
-            raise ValueError(f"unknown method {m!r}")
+            out[m] = _solve_named_samples(m, noisy, T_gp, check_rigid)
     return out
+
+
+def _solve_named_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray,
+                         check_rigid: bool) -> list:
+    """Any method by name (rasc.handeye.methods.solve), one sample at a time; a failure
+    is that sample's status, never a number."""
+    from rasc.handeye.methods import solve
+
+    out = []
+    for T in T_cw:
+        try:
+            r = solve(method, T, T_gp, check_rigid=check_rigid)
+        except DegenerateDataError:
+            out.append((None, None, "degenerate"))
+            continue
+        except FAILURES:
+            out.append((None, None, "failed"))
+            continue
+        T_est = np.asarray(r.T_cam_from_gaze, dtype=float)
+        if T_est.shape != (4, 4) or not np.all(np.isfinite(T_est)):
+            out.append((None, None, "non-finite"))
+        else:
+            out.append((T_est, float(r.quality), "ok"))
+    return out
+
+
+def method_available(name: str) -> bool:
+    """Whether ``name`` names a hand-eye method here (e.g. a variant added later)."""
+    from rasc.study.spec import check_method
+    try:
+        check_method(name)
+    except InputError:
+        return False
+    return True
 
 
 def sample_row(head: list, T: np.ndarray | None, quality: float | None, status: str,
@@ -481,12 +515,13 @@ def noise_task(task: dict) -> list[list]:
 
 
 def compute_rows(ctx: Context, inputs: dict, level_list, methods=METHOD_NAMES,
-                 samples: int | None = None, label: str = "E1 noise") -> list[list]:
+                 samples: int | None = None, label: str = "E1 noise",
+                 variants: tuple[str, ...] = VARIANTS) -> list[list]:
     """Raw rows for ``level_list`` [(level, σ_r, σ_t mm)]: one task per eye and level,
     fixed independently of ``ctx.workers``."""
     samples = samples or (QUICK_SAMPLES if ctx.quick else SAMPLES)
     tasks = [{"eye": eye, "eye_index": e, "level": lv, "sigma_r": sr, "sigma_t_mm": st,
-              "samples": samples, "seed": ctx.seed, "variants": VARIANTS,
+              "samples": samples, "seed": ctx.seed, "variants": variants,
               "methods": tuple(methods), "home": inputs[eye]["home"],
               "T_cam_from_world": inputs[eye]["T_cam_from_world"],
               "T_gaze_from_ptu": inputs[eye]["T_gaze_from_ptu"],
