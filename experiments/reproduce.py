@@ -98,11 +98,12 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         ctx = state["ctx"]
-        removed = []
+        removed = [state["running"]] if state["running"] else []
         if ctx is not None:
             for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
                 shutil.rmtree(partial, ignore_errors=True)
-                removed.append(partial.name[len(PARTIAL_PREFIX):])
+                name = partial.name[len(PARTIAL_PREFIX):]
+                removed += [] if name in removed else [name]
         kept = ", ".join(state["done"]) or "none"
         where = f" in {ctx.out}" if ctx is not None else ""
         print(f"reproduce: interrupted: kept the finished experiments{where}: {kept}; "
@@ -135,6 +136,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
             section = module.run(ctx)
         ctx.commit(module.NAME)
         state["done"].append(module.NAME)
+        state["running"] = None
         section.title = title
         sections.append(section)
         timings.append((title, st.seconds))

@@ -103,7 +103,7 @@ def test_e1_samples_are_the_documented_noise_and_shared_by_both_methods(runs):
     eye, e, level = "right", 1, 4
     sr, st = common.PAPER_LEVELS[level - 1]
     d = inputs[eye]
-    rng = spawn_rngs(ctx.seed, 1, e1.E1_KEY, e, level)[0]
+    rng = spawn_rngs(ctx.seed, 1, common.E1_KEY, e, level)[0]
     noisy = perturb_T_cam_from_world(
         np.broadcast_to(d["T_cam_from_world"], (common.QUICK_SAMPLES, 9, 4, 4)), sr, st / 1000,
         rng, "literal")
