@@ -285,6 +285,27 @@ class Context:
         return self._truth
 
 
+def run_experiment(job: tuple[Context, str]) -> tuple[str, Section, float]:
+    """One experiment in a worker process of reproduce.py: ``(module, section, seconds)``.
+
+    The context arrives pickled with the default dataset's calibration, so nothing is
+    computed twice; its ``workers`` is 1 (the experiments themselves run in parallel)."""
+    import importlib
+    ctx, name = job
+    module = importlib.import_module(f"experiments.{name}")
+    t0 = time.perf_counter()
+    section = module.run(ctx)
+    return name, section, time.perf_counter() - t0
+
+
+def init_experiment_worker() -> None:
+    """A reproduce.py worker: single-threaded libraries; Ctrl-C is the parent's to handle
+    (it reaches the whole process group), so the worker ignores SIGINT."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def script_main(run: Callable[[Context], Section], doc: str,
                 argv: Sequence[str] | None = None) -> int:
     """What every experiment script's ``main`` does: arguments → ``run`` → its section."""

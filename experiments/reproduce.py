@@ -89,7 +89,7 @@ def pipeline_section(ctx: Context) -> Section:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the reproduction; 2 on bad input, 130 when interrupted (SIGINT or SIGTERM)."""
-    state: dict = {"ctx": None, "done": [], "running": None}
+    state: dict = {"ctx": None, "done": [], "running": []}
     try:
         with signals_as_interrupt():
             return _run(argv, state)
@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         ctx = state["ctx"]
-        removed = [state["running"]] if state["running"] else []
+        removed = list(state["running"])
         if ctx is not None:
             for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
                 shutil.rmtree(partial, ignore_errors=True)
@@ -110,6 +110,64 @@ def main(argv: list[str] | None = None) -> int:
               f"removed the unfinished: {', '.join(removed) or 'none'}; no REPORT.md "
               "written", file=sys.stderr)
         return 130
+
+
+#: experiments that read another's finished results start after it (E3 reuses E1's
+#: raw samples when their protocol matches; it would otherwise recompute them)
+AFTER = {"e3_quality": "e1_noise"}
+
+
+def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
+            seconds: float, finished: dict) -> None:
+    """An experiment has finished: rename its staging folder, record it."""
+    ctx.commit(key)
+    state["done"].append(key)
+    state["running"] = [r for r in state["running"] if r != key]
+    finished[name] = (section, seconds)
+
+
+def _run_parallel(ctx: Context, state: dict, finished: dict) -> None:
+    """The experiments in ``ctx.workers`` processes (forkserver: none inherits this
+    process's EGL context), each single-threaded; results do not depend on the order
+    they finish. An interrupt terminates the workers."""
+    import copy
+    import multiprocessing
+
+    from experiments._common import init_experiment_worker, run_experiment
+
+    child = copy.copy(ctx)
+    child.workers = 1
+    keys = {name: importlib.import_module(f"experiments.{name}").NAME
+            for name, _ in EXPERIMENTS}
+    waiting = [name for name, _ in EXPERIMENTS]
+    pending: dict = {}
+    pool = multiprocessing.get_context("forkserver").Pool(
+        processes=min(ctx.workers, len(EXPERIMENTS)), initializer=init_experiment_worker)
+    ok = False
+    try:
+        while waiting or pending:
+            for name in list(waiting):
+                dep = AFTER.get(name)
+                if dep is None or dep in finished:
+                    waiting.remove(name)
+                    print(f"== {dict(EXPERIMENTS)[name]}", file=sys.stderr, flush=True)
+                    pending[name] = pool.apply_async(run_experiment, ((child, name),))
+                    state["running"].append(keys[name])
+            done = [n for n, r in pending.items() if r.ready()]
+            if not done:
+                time.sleep(0.02)
+            for name in done:
+                _, section, seconds = pending.pop(name).get()
+                print(f"== {dict(EXPERIMENTS)[name]}: {seconds:.1f} s", file=sys.stderr,
+                      flush=True)
+                _finish(ctx, state, name, keys[name], section, seconds, finished)
+        ok = True
+    finally:
+        if ok:
+            pool.close()
+        else:
+            pool.terminate()
+        pool.join()
 
 
 def _run(argv: list[str] | None, state: dict) -> int:
@@ -129,17 +187,21 @@ def _run(argv: list[str] | None, state: dict) -> int:
     rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
     if rig.is_file():
         shutil.copyfile(rig, ctx.out / "rig.png")
+    finished: dict[str, tuple[Section, float]] = {}
+    if ctx.workers <= 1:
+        for name, title in EXPERIMENTS:
+            module = importlib.import_module(f"experiments.{name}")
+            state["running"] = [module.NAME]
+            with stage(title) as st:
+                section = module.run(ctx)
+            _finish(ctx, state, name, module.NAME, section, st.seconds, finished)
+    else:
+        _run_parallel(ctx, state, finished)
     for name, title in EXPERIMENTS:
-        module = importlib.import_module(f"experiments.{name}")
-        state["running"] = module.NAME
-        with stage(title) as st:
-            section = module.run(ctx)
-        ctx.commit(module.NAME)
-        state["done"].append(module.NAME)
-        state["running"] = None
+        section, seconds = finished[name]
         section.title = title
         sections.append(section)
-        timings.append((title, st.seconds))
+        timings.append((title, seconds))
     total = time.perf_counter() - t_start
 
     v = versions()
