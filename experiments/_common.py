@@ -167,6 +167,61 @@ def stage(label: str):
 PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
 
 
+def renderer_digest() -> str:
+    """sha256 over the renderer's code and models (rasc/sim, rasc/vision/board.py)."""
+    import hashlib
+
+    import rasc
+    root = Path(rasc.__file__).parent
+    h = hashlib.sha256()
+    files = sorted([*(root / "sim").rglob("*.py"), *(root / "sim" / "models").rglob("*"),
+                    root / "vision" / "board.py"])
+    for p in files:
+        if p.is_file() and "__pycache__" not in p.parts:
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()
+
+
+def dataset_cache(options: dict) -> Path | None:
+    """Where a default dataset with ``options`` is cached between runs: under
+    ``$RASC_CACHE_DIR`` (``none`` disables the cache), else ``$XDG_CACHE_HOME/rasc``
+    or ``~/.cache/rasc``, keyed by the sha256 of the options."""
+    import hashlib
+
+    root = os.environ.get("RASC_CACHE_DIR")
+    if root is not None and root.strip().lower() in ("none", "off", ""):
+        return None
+    if not root:
+        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
+    key = hashlib.sha256(dumps_json(options).encode()).hexdigest()[:24]
+    return Path(root) / "reproduce-datasets" / key
+
+
+def _record(folder: Path) -> dict | None:
+    try:
+        return json.loads((folder / DATASET_OPTIONS).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _store(dataset: Path, cache: Path) -> None:
+    """Copy a finished dataset into the cache (whole or not at all; best effort)."""
+    import shutil
+    import tempfile
+    try:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=cache.parent))
+        shutil.copytree(dataset, tmp / "d")
+        try:
+            if not cache.exists():
+                (tmp / "d").replace(cache)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    except OSError as exc:
+        print(f"reproduce: note: could not cache the dataset in {cache} ({exc})",
+              file=sys.stderr)
+
+
 #: staging folders of unfinished experiments (reproduce.py removes them on an interrupt)
 PARTIAL_PREFIX = ".partial-"
 #: the default dataset's record of the options it was rendered with
@@ -214,13 +269,22 @@ class Context:
             partial.replace(final)
 
     def dataset_options(self) -> dict:
-        """What the default dataset depends on (recorded beside it, compared on reuse)."""
+        """What the default dataset depends on (recorded beside it, compared on reuse):
+        the render options (seed included), the rasc version, the sha256 of the renderer's
+        code and models, and the versions of the libraries that draw and encode it."""
         from dataclasses import asdict
+
+        import cv2
+        import mujoco
 
         import rasc
         from rasc.sim.render import RenderOptions
         return json.loads(dumps_json({"format": "rasc-reproduce-dataset/1",
                                       "rasc_version": rasc.__version__,
+                                      "renderer_sha256": renderer_digest(),
+                                      "libraries": {"numpy": np.__version__,
+                                                    "mujoco": mujoco.__version__,
+                                                    "opencv": cv2.__version__},
                                       "render_options": asdict(RenderOptions(seed=self.seed))}))
 
     def dataset_dir(self) -> Path:
@@ -250,10 +314,19 @@ class Context:
                   file=sys.stderr)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=".dataset.", dir=path.parent))
+        cache = dataset_cache(want)
         try:
-            with stage("render the default dataset (intrinsics views + nine poses, both eyes)"):
-                render_dataset(tmp / "dataset", RenderOptions(seed=self.seed), quiet=True)
-            write_json(tmp / "dataset" / DATASET_OPTIONS, want)
+            if cache is not None and _record(cache) == want:
+                shutil.copytree(cache, tmp / "dataset")
+                print(f"reproduce: the default dataset copied from the cache {cache} "
+                      "(same options; RASC_CACHE_DIR=none renders it afresh)", file=sys.stderr)
+            else:
+                with stage("render the default dataset (intrinsics views + nine poses, "
+                           "both eyes)"):
+                    render_dataset(tmp / "dataset", RenderOptions(seed=self.seed), quiet=True)
+                write_json(tmp / "dataset" / DATASET_OPTIONS, want)
+                if cache is not None:
+                    _store(tmp / "dataset", cache)
             if path.is_symlink() or path.is_file():
                 path.unlink()
             elif path.exists():
