@@ -84,6 +84,16 @@ def test_bad_spec_is_one_line_naming_file_and_key(tmp_path, capsys, text, messag
     assert not out.exists()          # nothing written
 
 
+def test_a_dataset_that_cannot_be_rendered_is_one_line_and_leaves_nothing(tmp_path, capsys):
+    spec = write(tmp_path, "seed = 0\nsamples = 2\nmethods = ['rasc']\n[fixed]\n"
+                 "intrinsics_views = 4\n[axes]\ndistance = [0.3]\n")
+    out = tmp_path / "out"
+    assert cli(["study", str(spec), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "distance = 0.3" in err, err
+    assert not out.exists()
+
+
 def test_out_holding_another_study_or_files_is_refused(tmp_path, capsys):
     spec = write(tmp_path, TINY)
     busy = tmp_path / "busy"

@@ -114,9 +114,14 @@ def render_task(task: dict) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
     try:
         folder = tmp / "dataset"
-        render_dataset(folder, options, model_path=task["model_path"], quiet=True)
-        ds = load_dataset(folder)
-        cal = calibrate_dataset(ds)
+        try:
+            render_dataset(folder, options, model_path=task["model_path"], quiet=True)
+            ds = load_dataset(folder)
+            cal = calibrate_dataset(ds)
+        except RascError as exc:     # name the cell's render parameters, not a CLI flag
+            what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
+            raise type(exc)(f"the dataset for {what}: "
+                            f"{' '.join(str(exc).split())}") from None
         truth = json.loads((folder / "ground_truth.json").read_text())
         eyes = {}
         for eye, res in cal.eyes.items():
@@ -318,6 +323,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
             spec_path.relative_to(out.resolve()).parts[0] in OUTPUT_NAMES:
         raise InputError(f"{out}: --out would overwrite the spec {spec.path}")
     prepare_folder(out, spec, resume)
+    created = not out.exists()
     cells = spec.cells()
     owned = executor is None
     executor = executor or make_executor(workers, dask)
@@ -357,6 +363,12 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                 write_text_atomic(_cell_path(out, todo[i]), csv_text(header, rows))
                 cells_done += 1
                 bar.update(1)
+    except RascError:
+        # bad input found only now (a dataset that cannot be rendered or calibrated):
+        # a folder this run created and filled with nothing finished is removed
+        if created and rendered == 0 and cells_done == 0:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     except KeyboardInterrupt:
         n = sum(_cell_done(out, c, SAMPLE_COLUMNS) for c in cells)
         log(f"rasc study: interrupted: kept {n} of {len(cells)} finished cells and "
