@@ -49,7 +49,8 @@ BAD = [
     ("samples = 3\nmethods = ['rasc']\n", "seed: missing"),
     ("seed = 0\nsamples = 3\nmethods = ['rasc']\ncolour = 1\n", "colour: unknown key"),
     ("seed = 0\nsamples = 3\nmethods = []\n", "methods: empty list"),
-    ("seed = 0\nsamples = 3\nmethods = ['nosuch']\n", "methods[0]: unknown method 'nosuch'"),
+    ("seed = 0\nsamples = 3\nmethods = ['nosuch']\n", "methods[0]: "),   # names 'nosuch'
+    ("seed = 0\nsamples = 3\nmethods = ['rasc', 'rasc']\n", "methods[1]: 'rasc' given twice"),
     ("seed = 0\nsamples = 'x'\nmethods = ['rasc']\n", "samples: expected an integer"),
     ("seed = 0\nsamples = 3\nmethods = ['rasc']\n[axes]\nnoise_level = []\n",
      "axes.noise_level: empty list"),
@@ -81,6 +82,8 @@ def test_bad_spec_is_one_line_naming_file_and_key(tmp_path, capsys, text, messag
     assert err.count("\n") == 1, err
     assert err.startswith(f"rasc study: error: {spec}: "), err
     assert message in err, err
+    if "nosuch" in text:
+        assert "'nosuch'" in err and "unknown" in err, err
     assert not out.exists()          # nothing written
 
 
