@@ -17,7 +17,7 @@ from rasc.errors import RascError
 from rasc.interrupt import signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate", "study")
+COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
 from rasc.io import check_writable, dumps_json, write_json_atomic
 
@@ -30,10 +31,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "per eye (RASC) and base-to-ptu; write one JSON calibration.")
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (with manifest.json)")
     p.add_argument("--out", metavar="FILE", help="output JSON (default: stdout)")
-    p.add_argument("--method", default="rasc",
-                   choices=("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
-                            "opencv-andreff", "opencv-daniilidis"),
-                   help="hand-eye method (default rasc)")
+    p.add_argument("--method", metavar="M", default="rasc", help=METHOD_HELP)
     p.add_argument("--detector", default="saddle", choices=("classic", "saddle", "sb"),
                    help="corner detector (default saddle: classic + saddle-point refinement)")
     p.add_argument("--dist-model", default="k1k2", choices=("opencv5", "k1k2", "none"),
@@ -78,11 +76,13 @@ def _read_mounts(path: str) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     from rasc.handeye.advice import solution_warnings
+    from rasc.handeye.methods import get_method
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
     if args.out:
         check_writable(args.out)
+    get_method(args.method)  # an unknown name or a broken plugin, before any image is read
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
     options = CalibrationOptions(method=args.method, detector=args.detector,

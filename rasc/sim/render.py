@@ -13,11 +13,15 @@ Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
   position share a ``view`` id, so they also serve as simultaneous views for loop closure.
 
 Every random draw comes from ``numpy.random.default_rng(seed)``; the same seed and
-options give byte-identical files.
+options give byte-identical files. The pan-tilt units may be imperfect
+(:mod:`rasc.sim.units`); the pose views' angles are then encoder readings, and the
+ground truth (per eye ``unit``, ``T_cam_from_gaze``, ``T_ptu_from_base`` in the canonical
+gauge) is checked against MuJoCo's camera frame at every rendered pose.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from dataclasses import dataclass
@@ -30,6 +34,7 @@ from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import write_json_atomic
+from rasc.progress import progress
 from rasc.vision.board import Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
@@ -151,16 +156,23 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
-    board is still found). Returns the smallest square (px).
+    board is still found), and the ground truth agreeing with MuJoCo's camera frames at
+    each (:meth:`rasc.sim.scene.StereoHeadSim.check_ground_truth`). Returns the smallest
+    square (px).
 
     Raises
     ------
     InputError
-        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully.
+        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully,
+        or the eye and pose where the ground truth disagrees with the model.
     """
     board, size = sim.board, sim.image_size
     d = options.target_distance
     smallest = math.inf
+    for eye in EYES:  # the intrinsics views are taken at home
+        sim.set_angles(eye, 0.0, 0.0)
+    for eye in EYES:
+        sim.check_ground_truth(eye, "home (the intrinsics views)")
     for k, (pan, tilt) in enumerate(options.poses_deg):
         for eye in EYES:
             try:
@@ -168,6 +180,7 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
             except InputError as exc:
                 raise InputError(f"--poses: item {k} ({pan:g},{tilt:g}): {exc}") from None
         for eye in EYES:
+            sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
                 raise InputError(
@@ -214,27 +227,32 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     return poses
 
 
-class _Progress:
-    """Progress on stderr: an updating line on a terminal, else a line every 20 images."""
-
-    def __init__(self, total: int, quiet: bool):
-        self.total, self.done, self.quiet = total, 0, quiet
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, what: str) -> None:
-        self.done += 1
-        last = self.done == self.total
-        if self.quiet or not (self.tty or last or self.done % 20 == 0):
-            return
-        end = "\n" if last or not self.tty else "\r"
-        print(f"render: {self.done}/{self.total} {what:<28}", end=end, file=sys.stderr,
-              flush=True)
+def unit_summary(sim) -> list[str]:
+    """One line per eye whose pan-tilt unit is not the paper's: what the images will show
+    (axis distance and angle, encoder zeros and scales as built)."""
+    lines = []
+    for eye in EYES:
+        unit, (built, _, _) = sim.unit(eye), sim.unit_as_built(eye)
+        if unit.is_ideal and built.is_ideal:
+            continue
+        lines.append(
+            f"{eye} unit: tilt axis {1e3 * unit.axis_distance:.4g} mm from the pan axis, "
+            f"{unit.axis_angle_deg:.4f} deg between the axes, encoder zeros "
+            f"{math.degrees(built.pan_offset):+.4g}/{math.degrees(built.tilt_offset):+.4g} deg "
+            f"and scales {built.pan_scale:.6g}/{built.tilt_scale:.6g} (pan/tilt); ground truth "
+            f"in the canonical gauge")
+    return lines
 
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
-                   model_path: str | Path | None = None, quiet: bool = False) -> Path:
+                   model_path: str | Path | None = None, quiet: bool = False,
+                   units: dict | None = None) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
 
+    ``units`` ({eye: :class:`rasc.sim.units.UnitBuild`}) makes the pan-tilt units
+    imperfect; the pose views' ``pan``/``tilt`` are then encoder readings. At every
+    rendered pose the ground truth is checked against MuJoCo's camera frame; a
+    disagreement raises :class:`InputError` before ``ground_truth.json`` is written.
     Returns the manifest path. Images are written as 8-bit grey PNG.
     """
     from rasc.sim.scene import (
@@ -252,7 +270,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
-    with StereoHeadSim(model_path) as sim:
+    with contextlib.ExitStack() as stack:
+        sim = stack.enter_context(StereoHeadSim(model_path, units=units))
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -273,16 +292,21 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             print(f"render: warning: board squares are only {square_px:.1f} px in the pose "
                   f"views at --distance {options.target_distance:g}; corner detection was "
                   f"measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if not quiet:
+            for line in unit_summary(sim):
+                print(f"render: {line}", file=sys.stderr)
         warp = {eye: distortion_warp(sim.K(eye), dist, size) for eye in EYES} \
             if distorted else {}
         views: dict[str, dict] = {}
         images: list[dict] = []
         total = 2 * (options.n_intrinsics + len(options.poses_deg))
-        progress = _Progress(total, quiet)
+        bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
+                                           unit="image"))
         (out / "intrinsics").mkdir(parents=True, exist_ok=True)
         (out / "poses").mkdir(exist_ok=True)
 
         def shoot(eye: str, name: str, entry: dict) -> None:
+            sim.check_ground_truth(eye, name)
             image = sim.render_grey(eye)
             if distorted:  # as rasc.sim.scene.degrade: distortion, then blur, then noise
                 image = warp[eye](image)
@@ -293,7 +317,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
                            **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
-            progress(name)
+            bar.set_postfix_str(name, refresh=False)
+            bar.update(1)
 
         for eye in EYES:
             sim.set_angles("left", 0.0, 0.0)
