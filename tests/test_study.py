@@ -235,6 +235,7 @@ def test_study_writes_tidy_samples_summary_and_figures(reference):
     assert not [n for n in names if n.endswith(".tmp")]
 
 
+@pytest.mark.slow
 def test_process_pool_and_dask_localcluster_give_the_same_bytes(reference, tmp_path):
     spec, serial = reference
     assert cli(["study", str(spec), "--out", str(tmp_path / "pool"), "--workers", "2",
@@ -286,6 +287,7 @@ def test_shipped_specs_of_the_papers_experiments_load():
     assert (k8.params["sigma_r"], k8.params["sigma_t_mm"]) == (0.04, 8.0)
 
 
+@pytest.mark.slow
 def test_readme_study_example_runs(tmp_path):
     text = (REPO / "README.md").read_text()
     section = text[text.index("## Studies"):]
