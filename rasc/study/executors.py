@@ -40,6 +40,15 @@ def worker_environment() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _pool_worker_init() -> None:
+    """A process-pool worker: :func:`worker_environment`, and Ctrl-C left to the parent
+    (it reaches the whole process group; the parent stops the pool and says what it
+    kept, a worker must not print a traceback of its own)."""
+    import signal
+    worker_environment()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 class Executor:
     """Runs ``fn(task)`` for each task; :meth:`map_unordered` yields ``(index, result)``."""
 
@@ -74,7 +83,7 @@ class ProcessExecutor(Executor):
             # forkserver: workers fork from a fresh server process, never from this one,
             # which may hold an EGL context (a forked copy of one crashes the worker)
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, initializer=worker_environment,
+                max_workers=self.workers, initializer=_pool_worker_init,
                 mp_context=multiprocessing.get_context("forkserver"))
         pending = {self._pool.submit(fn, task): k for k, task in enumerate(tasks)}
         try:
