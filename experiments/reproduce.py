@@ -98,16 +98,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         ctx = state["ctx"]
-        removed = list(state["running"])
+        removed = []
         if ctx is not None:
             for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
                 shutil.rmtree(partial, ignore_errors=True)
-                name = partial.name[len(PARTIAL_PREFIX):]
-                removed += [] if name in removed else [name]
+                removed.append(partial.name[len(PARTIAL_PREFIX):])
         kept = ", ".join(state["done"]) or "none"
         where = f" in {ctx.out}" if ctx is not None else ""
         print(f"reproduce: interrupted: kept the finished experiments{where}: {kept}; "
-              f"removed the unfinished: {', '.join(removed) or 'none'}; no REPORT.md "
+              f"stopped the unfinished: {', '.join(state['running']) or 'none'} and removed "
+              f"their partial folders ({', '.join(removed) or 'none'}); no REPORT.md "
               "written", file=sys.stderr)
         return 130
 

@@ -147,7 +147,7 @@ def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(tmp_path,
     assert "Traceback" not in rest
     last = rest.strip().splitlines()[-1]
     assert last.startswith("reproduce: interrupted: kept the finished experiments"), last
-    assert "e1" in last and "removed the unfinished: e2" in last
+    assert ": e1;" in last and "stopped the unfinished: e2 and removed" in last
     names = {p.name for p in out.iterdir()}
     assert "e1" in names and "e2" not in names and "REPORT.md" not in names
     assert not [n for n in names if n.startswith(".")]
