@@ -248,6 +248,9 @@ class Context:
         #: reproduce.py sets this: experiments then write into ``.partial-<name>`` and
         #: :meth:`commit` renames the folder when the experiment has finished
         self.staging = False
+        #: E3 may read E1's raw samples from ``out/e1`` (False: it recomputes them, the
+        #: same numbers; reproduce.py's parallel run, where E1 may be writing meanwhile)
+        self.reuse_e1 = True
 
     @classmethod
     def from_argv(cls, doc: str, argv: Sequence[str] | None = None) -> Context:

@@ -95,6 +95,7 @@ def e1_rasc_rows(ctx: Context, inputs: dict) -> tuple[list[dict], str]:
             reuse = json.load(f) == want and (folder / E1_RAW_CSV).is_file()
     except (OSError, ValueError):
         reuse = False
+    reuse = reuse and ctx.reuse_e1
     if reuse:
         rows, how = read_csv(folder / E1_RAW_CSV), "reused E1's raw CSV"
     else:

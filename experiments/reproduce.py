@@ -112,9 +112,9 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
-#: experiments that read another's finished results start after it (E3 reuses E1's
-#: raw samples when their protocol matches; it would otherwise recompute them)
-AFTER = {"e3_quality": "e1_noise"}
+#: experiments that must start after another has finished (none: in the parallel run
+#: E3 recomputes E1's RASC samples, the same numbers, rather than wait for E1)
+AFTER: dict[str, str] = {}
 
 
 def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
@@ -128,8 +128,8 @@ def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
 
 def _run_parallel(ctx: Context, state: dict, finished: dict) -> None:
     """The experiments in ``ctx.workers`` processes (forkserver: none inherits this
-    process's EGL context), each single-threaded; results do not depend on the order
-    they finish. An interrupt terminates the workers."""
+    process's EGL context), each single-threaded, E1 (the longest) first; results do not depend
+    on the order they finish. An interrupt terminates the workers."""
     import copy
     import multiprocessing
 
@@ -137,6 +137,7 @@ def _run_parallel(ctx: Context, state: dict, finished: dict) -> None:
 
     child = copy.copy(ctx)
     child.workers = 1
+    child.reuse_e1 = False      # E3 does not wait for E1 (nor read its folder meanwhile)
     keys = {name: importlib.import_module(f"experiments.{name}").NAME
             for name, _ in EXPERIMENTS}
     waiting = [name for name, _ in EXPERIMENTS]
