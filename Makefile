@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 reproduce: $(STAMP)
-	$(PY) experiments/reproduce.py --out $(OUT)
+	$(PY) -m experiments.reproduce --out $(OUT)
 
 # (--dist loadscope, one module per worker, was measured slower: 447 s against 379 s,
 # its last modules run alone.)

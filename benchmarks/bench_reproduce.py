@@ -1,4 +1,4 @@
-"""Reproduction benchmark: wall time of every stage of ``experiments/reproduce.py``, full
+"""Reproduction benchmark: wall time of every stage of ``python -m experiments.reproduce``, full
 protocol and ``--quick``, side by side in one run, with a yardstick for the machine.
 
     .venv/bin/python benchmarks/bench_reproduce.py [--seed 0] [--workers 2] [--skip-full]
@@ -63,11 +63,11 @@ def stage_times(report: Path) -> list[tuple[str, float]]:
 
 
 def run_mode(quick: bool, seed: int, workers: int, folder: Path) -> tuple[float, list]:
-    cmd = [sys.executable, str(REPO / "experiments" / "reproduce.py"), "--seed", str(seed),
+    cmd = [sys.executable, "-m", "experiments.reproduce", "--seed", str(seed),
            "--workers", str(workers), "--out", str(folder)] + (["--quick"] if quick else [])
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    proc = subprocess.run(cmd, env=env, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                           text=True)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:

@@ -1,6 +1,6 @@
 """E2 — paper section 4 text: noise on the home view only; Li an order of magnitude worse.
 
-    python experiments/e2_home_view.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e2_home_view [--seed S] [--quick] [--out DIR] [--workers N]
 
 Protocol (docs/METHOD.md §9, E2): the nine pipeline poses of E1, eq. 13–14 noise at (0.030 rad,
 6 mm) added to the HOME view (pan = tilt = 0) only (``rasc.handeye.noise.perturb_one_view``),
@@ -19,22 +19,27 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-import fig3_fig4_noise as e1
 import numpy as np
-from _common import (
+
+from experiments._common import (
+    HEADER,
+    MAIN_VARIANT,
+    METHOD_NAMES,
     Context,
     Section,
+    eye_inputs,
     md_table,
     read_csv,
     run_tasks,
+    sample_row,
     save_figure,
     script_main,
+    solve_methods,
     spawn_rngs,
     stage,
     write_csv,
     write_json,
 )
-
 from rasc.geometry.frames import EYES
 from rasc.handeye.noise import VARIANTS, perturb_one_view
 
@@ -47,7 +52,7 @@ SAMPLES, QUICK_SAMPLES = 30, 8
 PAPER_RATIO = 10.0
 
 RAW_CSV, SUMMARY_CSV = "home_samples.csv", "home_summary.csv"
-HEADER = e1.HEADER
+HEADER = HEADER
 SUMMARY_HEADER = ("eye", "variant", "n_ok_rasc", "n_ok_li", "rasc_t_mean_mm", "li_t_mean_mm",
                   "ratio_t", "median_ratio_t", "rasc_R_fro_mean", "li_R_fro_mean", "ratio_R",
                   "median_ratio_R", "rasc_R_deg_mean", "li_R_deg_mean", "frac_li_worse_t",
@@ -62,11 +67,11 @@ def home_task(task: dict) -> list[list]:
         rng = spawn_rngs(task["seed"], 1, E2_KEY, task["eye_index"])[0]
         noisy = perturb_one_view(np.broadcast_to(T_cw, (task["samples"],) + T_cw.shape),
                                  home, SIGMA_R, SIGMA_T_MM / 1000.0, rng, variant)
-        solved = e1.solve_methods(noisy, T_gp, home, e1.METHOD_NAMES, variant)
-        for m in e1.METHOD_NAMES:
+        solved = solve_methods(noisy, T_gp, home, METHOD_NAMES, variant)
+        for m in METHOD_NAMES:
             for s, (T, q, status) in enumerate(solved[m]):
                 head = [task["eye"], variant, 1, SIGMA_R, SIGMA_T_MM, s, m]
-                rows.append(e1.sample_row(head, T, q, status, task["T_true"]))
+                rows.append(sample_row(head, T, q, status, task["T_true"]))
     return rows
 
 
@@ -107,7 +112,7 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
                                        ("R_err_deg", "rotation error (°)")), strict=True):
         data, names = [], []
         for eye in EYES:
-            for m in e1.METHOD_NAMES:
+            for m in METHOD_NAMES:
                 data.append([float(r[key]) for r in raw if r["eye"] == eye and r["method"] == m])
                 names.append(f"{eye}\n{'RASC' if m == 'rasc' else 'Li'}")
         ax.boxplot(data, tick_labels=names, showmeans=True)
@@ -125,7 +130,7 @@ def run(ctx: Context) -> Section:
     folder = ctx.dir(NAME)
     samples = QUICK_SAMPLES if ctx.quick else SAMPLES
     with stage("E2 home-view noise: RASC vs Li"):
-        inputs = e1.eye_inputs(ctx)
+        inputs = eye_inputs(ctx)
         tasks = [{"eye": eye, "eye_index": k, "seed": ctx.seed, "samples": samples,
                   "home": inputs[eye]["home"],
                   "T_cam_from_world": inputs[eye]["T_cam_from_world"],
@@ -139,9 +144,9 @@ def run(ctx: Context) -> Section:
         write_csv(folder / SUMMARY_CSV, SUMMARY_HEADER, summarise(raw))
         summary = read_csv(folder / SUMMARY_CSV)
         files = [folder / RAW_CSV, folder / SUMMARY_CSV]
-        files += plot(folder / RAW_CSV, e1.MAIN_VARIANT, folder)
+        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder)
         result = {"samples": samples, "seed": ctx.seed, "sigma_r": SIGMA_R,
-                  "sigma_t_mm": SIGMA_T_MM, "main_variant": e1.MAIN_VARIANT,
+                  "sigma_t_mm": SIGMA_T_MM, "main_variant": MAIN_VARIANT,
                   "home": {eye: inputs[eye]["home"] for eye in EYES},
                   **{f"{r['eye']}_{r['variant']}": {k: float(v) for k, v in r.items()
                                                     if k not in ("eye", "variant")}
@@ -163,7 +168,7 @@ def _markdown(summary: list[dict], result: dict) -> str:
                      f"**{float(r['ratio_R']):.1f}**", f"{float(r['median_ratio_R']):.1f}",
                      f"{float(r['frac_li_worse_t']):.2f} / {float(r['frac_li_worse_R']):.2f}",
                      f"≈ {PAPER_RATIO:g}×"))
-    main = [r for r in summary if r["variant"] == e1.MAIN_VARIANT]
+    main = [r for r in summary if r["variant"] == MAIN_VARIANT]
     rt = [float(r["ratio_t"]) for r in main]
     rR = [float(r["ratio_R"]) for r in main]
     return f"""\
@@ -178,7 +183,7 @@ median of the per-sample ratios is beside it.
            "fraction Li worse (t / R)", "paper (Li / RASC)"), rows)}
 ![E2 home-view noise]({NAME}/e2_home_view.png)
 
-**Reading.** With {e1.MAIN_VARIANT} noise on the home view, Li's mean error is
+**Reading.** With {MAIN_VARIANT} noise on the home view, Li's mean error is
 {_span(rt)}× RASC's in translation and {_span(rR)}× in rotation (the two eyes). The
 paper reports "an order of magnitude"; it does not say whether for rotation,
 translation or both. Li's defect is structural, as the paper argues: the home view

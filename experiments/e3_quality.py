@@ -1,6 +1,6 @@
 """E3 — paper section 3.2 text: does the quality measure (eq. 10) flag unusable solutions?
 
-    python experiments/e3_quality.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e3_quality [--seed S] [--quick] [--out DIR] [--workers N]
 
 Protocol (docs/METHOD.md §9, E3): RASC's eq. 10 quality (mean over i ≠ j of
 ‖R_X R_B R_Xᵀ − R_A‖_F) against its true rotation and translation errors, over every
@@ -31,13 +31,21 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-import fig3_fig4_noise as e1
 import numpy as np
-from _common import (
+
+from experiments._common import (
+    E1_NAME,
+    MAIN_VARIANT,
+    QUICK_SAMPLES,
+    SAMPLES,
     Context,
     Section,
+    compute_rows,
+    eye_inputs,
     fmt,
+    levels,
     md_table,
+    protocol,
     read_csv,
     save_figure,
     script_main,
@@ -45,7 +53,12 @@ from _common import (
     write_csv,
     write_json,
 )
-
+from experiments._common import (
+    HEADER as E1_HEADER,
+)
+from experiments._common import (
+    RAW_CSV as E1_RAW_CSV,
+)
 from rasc.handeye.noise import VARIANTS
 from rasc.io import dumps_json
 
@@ -75,19 +88,20 @@ def ext_levels(quick: bool) -> list[tuple[int, float, float]]:
 def e1_rasc_rows(ctx: Context, inputs: dict) -> tuple[list[dict], str]:
     """E1's RASC rows as CSV dicts: read from ``<out>/e1`` when its protocol and input
     poses match this run, else computed (same numbers either way). Returns (rows, how)."""
-    folder = ctx.out / e1.NAME
-    want = json.loads(dumps_json(e1.protocol(ctx, inputs)))   # as it reads back: lists
+    folder = ctx.out / E1_NAME
+    want = json.loads(dumps_json(protocol(ctx, inputs)))   # as it reads back: lists
     try:
         with open(folder / "inputs.json") as f:
-            reuse = json.load(f) == want and (folder / e1.RAW_CSV).is_file()
+            reuse = json.load(f) == want and (folder / E1_RAW_CSV).is_file()
     except (OSError, ValueError):
         reuse = False
+    reuse = reuse and ctx.reuse_e1
     if reuse:
-        rows, how = read_csv(folder / e1.RAW_CSV), "reused E1's raw CSV"
+        rows, how = read_csv(folder / E1_RAW_CSV), "reused E1's raw CSV"
     else:
-        raw = e1.compute_rows(ctx, inputs, e1.levels(ctx.quick), methods=("rasc",),
+        raw = compute_rows(ctx, inputs, levels(ctx.quick), methods=("rasc",),
                               label="E3: E1 samples")
-        rows = [dict(zip(e1.HEADER, (fmt(v) for v in r), strict=True)) for r in raw]
+        rows = [dict(zip(E1_HEADER, (fmt(v) for v in r), strict=True)) for r in raw]
         how = "recomputed E1's samples (no matching E1 output)"
     return [r for r in rows if r["method"] == "rasc"], how
 
@@ -234,23 +248,23 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
 def run(ctx: Context) -> Section:
     folder = ctx.dir(NAME)
     with stage("E3 quality measure (eq. 10) against the true error"):
-        inputs = e1.eye_inputs(ctx)
+        inputs = eye_inputs(ctx)
         base, how = e1_rasc_rows(ctx, inputs)
-        ext = e1.compute_rows(ctx, inputs, ext_levels(ctx.quick), methods=("rasc",),
+        ext = compute_rows(ctx, inputs, ext_levels(ctx.quick), methods=("rasc",),
                               label="E3 extended noise")
-        ext = [dict(zip(e1.HEADER, (fmt(v) for v in r), strict=True)) for r in ext]
+        ext = [dict(zip(E1_HEADER, (fmt(v) for v in r), strict=True)) for r in ext]
         failed = sum(r["status"] != "ok" for r in base + ext)
         write_csv(folder / RAW_CSV, HEADER, sample_rows(base, "e1") + sample_rows(ext, "e3"))
         raw = read_csv(folder / RAW_CSV)
         write_csv(folder / LEVELS_CSV, LEVELS_HEADER, per_level(raw))
         analysis = analyse(raw)
         analysis.update({"failed_samples": failed, "seed": ctx.seed,
-                         "samples": e1.QUICK_SAMPLES if ctx.quick else e1.SAMPLES,
+                         "samples": QUICK_SAMPLES if ctx.quick else SAMPLES,
                          "extended_levels": [list(lv) for lv in ext_levels(ctx.quick)],
-                         "main_variant": e1.MAIN_VARIANT})
+                         "main_variant": MAIN_VARIANT})
         write_json(folder / ANALYSIS_JSON, analysis)
         files = [folder / RAW_CSV, folder / LEVELS_CSV, folder / ANALYSIS_JSON]
-        files += plot(folder / RAW_CSV, e1.MAIN_VARIANT, folder)
+        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder)
         print(f"E3: {how}", file=sys.stderr)
     return Section(NAME, "E3 — the quality measure (eq. 10) against the true error",
                    _markdown(analysis, read_csv(folder / LEVELS_CSV)), files, analysis)
@@ -307,7 +321,7 @@ def _reading(s_all: dict, s_paper: dict, ratio: list[float], lv: list[dict]) -> 
 
 
 def _markdown(a: dict, levels_rows: list[dict]) -> str:
-    main = e1.MAIN_VARIANT
+    main = MAIN_VARIANT
     rows = []
     for variant in VARIANTS:
         for subset in ("paper_sets", "all"):

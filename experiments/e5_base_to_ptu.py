@@ -22,7 +22,7 @@ difference (mm) (``rasc.head.base_to_ptu.mount_errors``).
 
 Run::
 
-    python experiments/e5_base_to_ptu.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e5_base_to_ptu [--seed S] [--quick] [--out DIR] [--workers N]
 
 Writes ``<out>/e5/``: ``loop_closure.json``, ``measured_draws.csv``, ``montecarlo.csv``
 (raw, per sample), then from those ``e5_table.csv``, ``summary.json`` and
@@ -35,7 +35,8 @@ import sys
 from collections.abc import Sequence
 
 import numpy as np
-from _common import (
+
+from experiments._common import (
     PAPER_LEVELS,
     Context,
     Section,
@@ -48,7 +49,6 @@ from _common import (
     write_csv,
     write_json,
 )
-
 from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.geometry.transforms import (
     invert_transform,

@@ -1,6 +1,6 @@
 """Reproduce Neubert & Ferrier (ICRA 2002) end to end: one command, one report.
 
-    python experiments/reproduce.py [--quick] [--out DIR] [--workers N] [--seed S]
+    python -m experiments.reproduce [--quick] [--out DIR] [--workers N] [--seed S]
 
 Renders the default dataset from the MuJoCo head, calibrates it through the real
 pipeline (detection → intrinsics → extrinsics → RASC → loop closure), runs every
@@ -8,6 +8,14 @@ experiment of docs/METHOD.md §9 (E1–E5) and the extra E6, and writes ``DIR/RE
 figure (PNG and SVG) and table beside the paper's values, the protocol parameters, the
 seed, the software versions and the wall time of every stage. Raw results (CSV/JSON)
 are byte-identical for the same seed, whatever ``--workers``.
+
+Reuse: ``DIR/data/dataset`` is reused only when its ``render_options.json`` matches this
+run exactly (seed, render options, rasc version); otherwise it is rendered afresh (so
+``--seed 1`` into a seed-0 folder re-renders, and says so). Every experiment writes into
+``DIR/.partial-<name>`` and the folder is renamed to ``DIR/<name>`` when the experiment
+has finished. An interrupt (Ctrl-C, SIGTERM) removes the unfinished experiment's folder,
+keeps the finished ones, writes no REPORT.md (a report of an earlier run is removed when
+a run starts), says on stderr what it kept and removed, and exits 130.
 """
 
 from __future__ import annotations
@@ -18,19 +26,21 @@ import shutil
 import sys
 import time
 
-from _common import REPO, Context, Section, md_table, stage
-
+from experiments._common import PARTIAL_PREFIX, REPO, Context, Section, md_table, stage
+from rasc.errors import RascError
+from rasc.interrupt import signals_as_interrupt
 from rasc.io import write_text_atomic
 
-#: one script per paper output, in report order
+#: one module per paper output, in report order (adding an experiment: one module with
+#: ``NAME`` and ``run(ctx) -> Section``, and one line here)
 EXPERIMENTS = (
-    ("fig3_fig4_noise", "E1 — Figures 3 and 4: hand-eye error against noise"),
+    ("e1_noise", "E1 — Figures 3 and 4: hand-eye error against noise"),
     ("e2_home_view", "E2 — noise on the home view only"),
     ("e3_quality", "E3 — the quality measure (eq. 10)"),
-    ("table1_triangulation", "E4 — Table 1: triangulation with the calibrated model"),
+    ("e4_triangulation", "E4 — Table 1: triangulation with the calibrated model"),
     ("e5_base_to_ptu", "E5 — base-to-ptu: loop closure against measured mounts"),
-    ("e6_pixel_noise", "E6a — beyond the paper: error against image-space noise"),
-    ("e6_shootout", "E6b — beyond the paper: hand-eye shoot-out at small motions"),
+    ("e6a_pixel_noise", "E6a — beyond the paper: error against image-space noise"),
+    ("e6b_shootout", "E6b — beyond the paper: hand-eye shoot-out at small motions"),
 )
 
 
@@ -78,7 +88,96 @@ def pipeline_section(ctx: Context) -> Section:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the reproduction; 2 on bad input, 130 when interrupted (SIGINT or SIGTERM)."""
+    state: dict = {"ctx": None, "done": [], "running": []}
+    try:
+        with signals_as_interrupt():
+            return _run(argv, state)
+    except RascError as exc:
+        print(f"reproduce: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        ctx = state["ctx"]
+        removed = []
+        if ctx is not None:
+            for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
+                shutil.rmtree(partial, ignore_errors=True)
+                removed.append(partial.name[len(PARTIAL_PREFIX):])
+        kept = ", ".join(state["done"]) or "none"
+        where = f" in {ctx.out}" if ctx is not None else ""
+        print(f"reproduce: interrupted: kept the finished experiments{where}: {kept}; "
+              f"stopped the unfinished: {', '.join(state['running']) or 'none'} and removed "
+              f"their partial folders ({', '.join(removed) or 'none'}); no REPORT.md "
+              "written", file=sys.stderr)
+        return 130
+
+
+#: experiments that must start after another has finished (none: in the parallel run
+#: E3 recomputes E1's RASC samples, the same numbers, rather than wait for E1)
+AFTER: dict[str, str] = {}
+
+
+def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
+            seconds: float, finished: dict) -> None:
+    """An experiment has finished: rename its staging folder, record it."""
+    ctx.commit(key)
+    state["done"].append(key)
+    state["running"] = [r for r in state["running"] if r != key]
+    finished[name] = (section, seconds)
+
+
+def _run_parallel(ctx: Context, state: dict, finished: dict) -> None:
+    """The experiments in ``ctx.workers`` processes (forkserver: none inherits this
+    process's EGL context), each single-threaded, E1 (the longest) first; results do not depend
+    on the order they finish. An interrupt terminates the workers."""
+    import copy
+    import multiprocessing
+
+    from experiments._common import init_experiment_worker, run_experiment
+
+    child = copy.copy(ctx)
+    child.workers = 1
+    child.reuse_e1 = False      # E3 does not wait for E1 (nor read its folder meanwhile)
+    keys = {name: importlib.import_module(f"experiments.{name}").NAME
+            for name, _ in EXPERIMENTS}
+    waiting = [name for name, _ in EXPERIMENTS]
+    pending: dict = {}
+    pool = multiprocessing.get_context("forkserver").Pool(
+        processes=min(ctx.workers, len(EXPERIMENTS)), initializer=init_experiment_worker)
+    ok = False
+    try:
+        while waiting or pending:
+            for name in list(waiting):
+                dep = AFTER.get(name)
+                if dep is None or dep in finished:
+                    waiting.remove(name)
+                    print(f"== {dict(EXPERIMENTS)[name]}", file=sys.stderr, flush=True)
+                    pending[name] = pool.apply_async(run_experiment, ((child, name),))
+                    state["running"].append(keys[name])
+            done = [n for n, r in pending.items() if r.ready()]
+            if not done:
+                time.sleep(0.02)
+            for name in done:
+                _, section, seconds = pending.pop(name).get()
+                print(f"== {dict(EXPERIMENTS)[name]}: {seconds:.1f} s", file=sys.stderr,
+                      flush=True)
+                _finish(ctx, state, name, keys[name], section, seconds, finished)
+        ok = True
+    finally:
+        if ok:
+            pool.close()
+        else:
+            pool.terminate()
+        pool.join()
+
+
+def _run(argv: list[str] | None, state: dict) -> int:
     ctx = Context.from_argv(__doc__, argv)
+    ctx.staging = True
+    state["ctx"] = ctx
+    report = ctx.out / "REPORT.md"
+    if report.is_file():
+        report.unlink()     # it describes an earlier run; rewritten at the end of this one
     t_start = time.perf_counter()
     timings: list[tuple[str, float]] = []
     sections: list[Section] = []
@@ -89,13 +188,21 @@ def main(argv: list[str] | None = None) -> int:
     rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
     if rig.is_file():
         shutil.copyfile(rig, ctx.out / "rig.png")
+    finished: dict[str, tuple[Section, float]] = {}
+    if ctx.workers <= 1:
+        for name, title in EXPERIMENTS:
+            module = importlib.import_module(f"experiments.{name}")
+            state["running"] = [module.NAME]
+            with stage(title) as st:
+                section = module.run(ctx)
+            _finish(ctx, state, name, module.NAME, section, st.seconds, finished)
+    else:
+        _run_parallel(ctx, state, finished)
     for name, title in EXPERIMENTS:
-        module = importlib.import_module(name)
-        with stage(title) as st:
-            section = module.run(ctx)
+        section, seconds = finished[name]
         section.title = title
         sections.append(section)
-        timings.append((title, st.seconds))
+        timings.append((title, seconds))
     total = time.perf_counter() - t_start
 
     v = versions()
@@ -103,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
     parts = [
         "# RASC — reproduction of Neubert & Ferrier, *Robust Active Stereo Calibration* "
         "(ICRA 2002)\n",
-        f"Command: `python experiments/reproduce.py{' --quick' if ctx.quick else ''} "
+        f"Command: `python -m experiments.reproduce{' --quick' if ctx.quick else ''} "
         f"--seed {ctx.seed} --workers {ctx.workers}` — {mode}; seed {ctx.seed}.\n",
         "Everything below was computed from images rendered by the MuJoCo model of the "
         "head (`rasc/sim/models/`) and passed through the real pipeline (OpenCV detection, "

@@ -33,7 +33,7 @@ from rasc.errors import RascError
 from rasc.interrupt import Interrupted, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at")
+COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study")
 
 
 class _Parser(argparse.ArgumentParser):

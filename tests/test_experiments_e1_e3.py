@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
 
-import e2_home_view as e2  # noqa: E402
-import e3_quality as e3  # noqa: E402
-import fig3_fig4_noise as e1  # noqa: E402
-from _common import Context, read_csv, spawn_rngs  # noqa: E402
-
+import experiments._common as common  # noqa: E402
+from experiments import e1_noise as e1  # noqa: E402
+from experiments import e2_home_view as e2  # noqa: E402
+from experiments import e3_quality as e3  # noqa: E402
+from experiments._common import Context, read_csv, spawn_rngs  # noqa: E402
 from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
 from rasc.handeye.li import solve_li  # noqa: E402
@@ -31,7 +31,7 @@ from rasc.handeye.solver import solve_rasc  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
-QUICK_LEVELS = [0, *e1.QUICK_LEVELS]
+QUICK_LEVELS = [0, *common.QUICK_LEVELS]
 
 
 @pytest.fixture(scope="module")
@@ -70,10 +70,10 @@ def result_files(root: Path, names=("e1", "e2", "e3")) -> dict[str, bytes]:
 def test_e1_files_rows_and_report(runs):
     ctx, sec = runs["A"]["ctx"], runs["A"]["e1"]
     folder = ctx.out / "e1"
-    raw = read_csv(folder / e1.RAW_CSV)
-    assert tuple(raw[0].keys()) == e1.HEADER
+    raw = read_csv(folder / common.RAW_CSV)
+    assert tuple(raw[0].keys()) == common.HEADER
     # level 0: one solve; other quick levels: QUICK_SAMPLES; per eye, variant, method
-    assert len(raw) == 2 * 2 * 2 * (1 + len(e1.QUICK_LEVELS) * e1.QUICK_SAMPLES)
+    assert len(raw) == 2 * 2 * 2 * (1 + len(common.QUICK_LEVELS) * common.QUICK_SAMPLES)
     assert {r["status"] for r in raw} == {"ok"}
     assert sorted({int(r["level"]) for r in raw}) == QUICK_LEVELS
     for stem in ("fig3_translation", "fig4_rotation", "fig3_translation_exponential",
@@ -83,7 +83,7 @@ def test_e1_files_rows_and_report(runs):
     # the report embeds the main figures by a path relative to --out, and they exist
     for rel in ("e1/fig3_translation.png", "e1/fig4_rotation.png"):
         assert f"]({rel})" in sec.markdown and (ctx.out / rel).is_file()
-    assert set(sec.files) >= {folder / e1.RAW_CSV, folder / e1.SUMMARY_CSV}
+    assert set(sec.files) >= {folder / common.RAW_CSV, folder / e1.SUMMARY_CSV}
     assert sec.summary["main_variant"] == "literal" and sec.summary["levels"] == QUICK_LEVELS
 
 
@@ -101,18 +101,18 @@ def test_e1_samples_are_the_documented_noise_and_shared_by_both_methods(runs):
     """Regenerate one (eye, level) from the stated seeding, solve each sample with the
     single-sample solvers, and find the CSV's numbers: both methods saw these samples."""
     ctx = runs["A"]["ctx"]
-    inputs = e1.eye_inputs(ctx)
+    inputs = common.eye_inputs(ctx)
     eye, e, level = "right", 1, 4
-    sr, st = e1.PAPER_LEVELS[level - 1]
+    sr, st = common.PAPER_LEVELS[level - 1]
     d = inputs[eye]
-    rng = spawn_rngs(ctx.seed, 1, e1.E1_KEY, e, level)[0]
+    rng = spawn_rngs(ctx.seed, 1, common.E1_KEY, e, level)[0]
     noisy = perturb_T_cam_from_world(
-        np.broadcast_to(d["T_cam_from_world"], (e1.QUICK_SAMPLES, 9, 4, 4)), sr, st / 1000,
+        np.broadcast_to(d["T_cam_from_world"], (common.QUICK_SAMPLES, 9, 4, 4)), sr, st / 1000,
         rng, "literal")
-    raw = {(r["method"], int(r["sample"])): r for r in read_csv(ctx.out / "e1" / e1.RAW_CSV)
+    raw = {(r["method"], int(r["sample"])): r for r in read_csv(ctx.out / "e1" / common.RAW_CSV)
            if (r["eye"], r["variant"], int(r["level"])) == (eye, "literal", level)}
     X = d["T_cam_from_gaze_true"]
-    for s in range(e1.QUICK_SAMPLES):
+    for s in range(common.QUICK_SAMPLES):
         for method, res in (("rasc", solve_rasc(noisy[s], d["T_gaze_from_ptu"],
                                                 check_rigid=False)),
                             ("li", solve_li(noisy[s], d["T_gaze_from_ptu"], home=d["home"],
@@ -131,13 +131,13 @@ def test_e1_summary_is_the_papers_definition(runs):
     """Mean errors and the paper's std (norm of component / element-wise std of the
     estimates), recomputed from the raw rows with variances instead of std."""
     folder = runs["A"]["ctx"].out / "e1"
-    raw = read_csv(folder / e1.RAW_CSV)
+    raw = read_csv(folder / common.RAW_CSV)
     summ = {(r["eye"], r["variant"], int(r["level"]), r["method"]): r
             for r in read_csv(folder / e1.SUMMARY_CSV)}
     for key, row in summ.items():
         rows = [r for r in raw if (r["eye"], r["variant"], int(r["level"]), r["method"]) == key]
         t = np.array([[float(r[c]) for c in ("t_x_mm", "t_y_mm", "t_z_mm")] for r in rows])
-        R = np.array([[float(r[c]) for c in e1.R_COLS] for r in rows])
+        R = np.array([[float(r[c]) for c in common.R_COLS] for r in rows])
         assert float(row["t_err_mean_mm"]) == pytest.approx(
             np.mean([float(r["t_err_mm"]) for r in rows]), rel=1e-12)
         if len(rows) == 1:
@@ -152,7 +152,7 @@ def test_e1_summary_is_the_papers_definition(runs):
     X = {eye: np.array(runs["A"]["ctx"].truth()[eye]["T_cam_from_gaze"]) for eye in EYES}
     for r in raw[::7]:
         t = np.array([float(r[c]) for c in ("t_x_mm", "t_y_mm", "t_z_mm")])
-        R = np.array([float(r[c]) for c in e1.R_COLS]).reshape(3, 3)
+        R = np.array([float(r[c]) for c in common.R_COLS]).reshape(3, 3)
         assert float(r["t_err_mm"]) == pytest.approx(
             np.linalg.norm(t - 1000 * X[r["eye"]][:3, 3]), rel=1e-9)
         assert float(r["R_err_fro"]) == pytest.approx(
@@ -163,7 +163,7 @@ def test_e1_paired_tests_match_scipy(runs):
     from scipy.stats import wilcoxon
 
     folder = runs["A"]["ctx"].out / "e1"
-    raw = read_csv(folder / e1.RAW_CSV)
+    raw = read_csv(folder / common.RAW_CSV)
     tests = {(r["eye"], r["variant"], r["level"], r["quantity"]): r
              for r in read_csv(folder / e1.TESTS_CSV)}
     for eye, level, q in (("left", 8, "t_err_mm"), ("right", 1, "R_err_fro")):
@@ -177,16 +177,18 @@ def test_e1_paired_tests_match_scipy(runs):
         assert float(row["frac_rasc_better"]) == pytest.approx((d > 0).mean())
     # pooled rows exist per eye and for both eyes, over all quick levels x samples
     pooled = tests[("both", "literal", "all", "t_err_mm")]
-    assert int(pooled["n"]) == 2 * len(e1.QUICK_LEVELS) * e1.QUICK_SAMPLES
+    assert int(pooled["n"]) == 2 * len(common.QUICK_LEVELS) * common.QUICK_SAMPLES
 
 
 def test_e1_seed_changes_the_noise_not_the_floor(runs, dataset, tmp_path):
+    # the same (seed-0) poses, E1's draws from seed 1 (a seed-1 run would also render its
+    # own dataset: the default dataset is reused only with the options it was made with)
     ctx1 = make_ctx(tmp_path, dataset, seed=1)
-    rows1 = e1.compute_rows(ctx1, e1.eye_inputs(ctx1), e1.levels(True))
-    raw0 = read_csv(runs["A"]["ctx"].out / "e1" / e1.RAW_CSV)
+    rows1 = common.compute_rows(ctx1, common.eye_inputs(runs["A"]["ctx"]), common.levels(True))
+    raw0 = read_csv(runs["A"]["ctx"].out / "e1" / common.RAW_CSV)
     key = lambda r: (r[0], r[1], int(r[2]), int(r[5]), r[6])  # noqa: E731
     t1 = {key(r): r[8] for r in rows1}
-    t0 = {key([r[h] for h in e1.HEADER]): float(r["t_err_mm"]) for r in raw0}
+    t0 = {key([r[h] for h in common.HEADER]): float(r["t_err_mm"]) for r in raw0}
     assert t1.keys() == t0.keys()
     for k, v in t0.items():
         assert (t1[k] == v) == (k[2] == 0), k      # level 0 has no noise: same numbers
@@ -212,7 +214,7 @@ def test_e2_noise_is_on_the_home_view_only(runs):
     """Regenerate eye 0's samples with perturb_one_view: Li's CSV errors match, and the
     perturbed poses differ from the pipeline's at the home view only."""
     ctx = runs["A"]["ctx"]
-    d = e1.eye_inputs(ctx)["left"]
+    d = common.eye_inputs(ctx)["left"]
     rng = spawn_rngs(ctx.seed, 1, e2.E2_KEY, 0)[0]
     T0 = np.broadcast_to(d["T_cam_from_world"], (e2.QUICK_SAMPLES, 9, 4, 4))
     noisy = perturb_one_view(T0, d["home"], e2.SIGMA_R, e2.SIGMA_T_MM / 1000, rng, "literal")
@@ -235,8 +237,8 @@ def test_e3_structure_and_threshold_exercised(runs):
     folder = ctx.out / "e3"
     raw = read_csv(folder / e3.RAW_CSV)
     assert tuple(raw[0].keys()) == e3.HEADER
-    n_e1 = 2 * 2 * (1 + len(e1.QUICK_LEVELS) * e1.QUICK_SAMPLES)     # RASC rows of E1
-    n_ext = 2 * 2 * len(e3.QUICK_EXT) * e1.QUICK_SAMPLES
+    n_e1 = 2 * 2 * (1 + len(common.QUICK_LEVELS) * common.QUICK_SAMPLES)     # RASC rows of E1
+    n_ext = 2 * 2 * len(e3.QUICK_EXT) * common.QUICK_SAMPLES
     assert sum(r["source"] == "e1" for r in raw) == n_e1
     assert sum(r["source"] == "e3" for r in raw) == n_ext
     for r in raw:        # the flag is the stated definition
@@ -261,7 +263,7 @@ def test_e3_structure_and_threshold_exercised(runs):
 
 def test_e3_reuses_e1_only_when_protocol_matches(runs, dataset, tmp_path):
     ctx = runs["A"]["ctx"]
-    inputs = e1.eye_inputs(ctx)
+    inputs = common.eye_inputs(ctx)
     rows, how = e3.e1_rasc_rows(ctx, inputs)
     assert how.startswith("reused")
     # a stale E1 output (another seed) is not reused
@@ -269,8 +271,8 @@ def test_e3_reuses_e1_only_when_protocol_matches(runs, dataset, tmp_path):
     (other.out / "e1").mkdir()
     text = (ctx.out / "e1" / "inputs.json").read_text().replace('"seed": 0', '"seed": 7')
     (other.out / "e1" / "inputs.json").write_text(text)
-    (other.out / "e1" / e1.RAW_CSV).write_bytes((ctx.out / "e1" / e1.RAW_CSV).read_bytes())
-    rows2, how2 = e3.e1_rasc_rows(other, e1.eye_inputs(other))
+    (other.out / "e1" / common.RAW_CSV).write_bytes((ctx.out / "e1" / common.RAW_CSV).read_bytes())
+    rows2, how2 = e3.e1_rasc_rows(other, common.eye_inputs(other))
     assert how2.startswith("recomputed")
     assert rows2 == rows            # same protocol otherwise: same numbers either way
 

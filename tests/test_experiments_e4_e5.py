@@ -19,12 +19,11 @@ import numpy as np
 import pytest
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
-sys.path.insert(0, str(EXPERIMENTS))
+sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
-import e5_base_to_ptu as e5  # noqa: E402
-import table1_triangulation as e4  # noqa: E402
-from _common import Context, read_csv  # noqa: E402
-
+from experiments import e4_triangulation as e4  # noqa: E402
+from experiments import e5_base_to_ptu as e5  # noqa: E402
+from experiments._common import Context, read_csv  # noqa: E402
 from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import transform_points  # noqa: E402

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
 
-import e6_pixel_noise as e6a  # noqa: E402
-import e6_shootout as e6b  # noqa: E402
-from _common import Context, read_csv  # noqa: E402
-
+import experiments._common as common  # noqa: E402
+from experiments import e6a_pixel_noise as e6a  # noqa: E402
+from experiments import e6b_shootout as e6b  # noqa: E402
+from experiments._common import Context, read_csv  # noqa: E402
 from rasc.errors import SolverFailure  # noqa: E402
 from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
@@ -299,20 +299,20 @@ def _synthetic(seed: int = 0):
 
 def test_run_method_ok_and_thresholds():
     X, T_gp, T_cw = _synthetic()
-    r = e6a.run_method(solve_rasc, T_cw, T_gp, X)
+    r = common.run_method(solve_rasc, T_cw, T_gp, X)
     # exact data: recovered to round-off (1e-9 deg, 1e-6 mm)
     assert r["status"] == "ok" and r["detail"] == ""
     assert r["rotation_deg"] < 1e-9 and r["translation_mm"] < 1e-6
     for angle, status in ((9.9, "ok"), (10.1, "gross")):
         off = X @ make_transform(matrix_from_rotvec([np.radians(angle), 0, 0]), np.zeros(3))
-        r = e6a.run_method(lambda a, b, off=off: SimpleNamespace(T_cam_from_gaze=off,
+        r = common.run_method(lambda a, b, off=off: SimpleNamespace(T_cam_from_gaze=off,
                                                                  quality=0.0), T_cw, T_gp, X)
         assert r["status"] == status
         assert r["rotation_deg"] == pytest.approx(angle, abs=1e-9)
     for mm, status in ((99.0, "ok"), (101.0, "gross")):
         off = X.copy()
         off[1, 3] += mm / 1000
-        r = e6a.run_method(lambda a, b, off=off: SimpleNamespace(T_cam_from_gaze=off,
+        r = common.run_method(lambda a, b, off=off: SimpleNamespace(T_cam_from_gaze=off,
                                                                  quality=0.0), T_cw, T_gp, X)
         assert r["status"] == status
         assert r["translation_mm"] == pytest.approx(mm, abs=1e-9)
@@ -320,35 +320,35 @@ def test_run_method_ok_and_thresholds():
 
 def test_run_method_failures():
     X, T_gp, T_cw = _synthetic(1)
-    r = e6a.run_method(_raises, T_cw, T_gp, X)
+    r = common.run_method(_raises, T_cw, T_gp, X)
     assert r["status"] == "exception" and r["detail"].startswith("SolverFailure: fake")
     assert np.isnan(r["rotation_deg"]) and np.isnan(r["quality"])
     # a real degenerate input: pan-only motion (all axes parallel) → DegenerateDataError
     pan_only = T_gaze_from_ptu(np.radians([0.0, 4.0, 8.0]), np.zeros(3))
-    r = e6a.run_method(solve_rasc, X @ pan_only, pan_only, X)
+    r = common.run_method(solve_rasc, X @ pan_only, pan_only, X)
     assert r["status"] == "exception" and r["detail"].startswith("DegenerateDataError")
-    r = e6a.run_method(_returns_nan, T_cw, T_gp, X)
+    r = common.run_method(_returns_nan, T_cw, T_gp, X)
     assert r["status"] == "nan" and np.isnan(r["translation_mm"])
-    r = e6a.run_method(_returns_identity, T_cw, T_gp, X)
+    r = common.run_method(_returns_identity, T_cw, T_gp, X)
     assert r["status"] == "gross" and "(the identity returned)" in r["detail"]
 
     def bug(a, b):
         raise TypeError("a programming error")
     with pytest.raises(TypeError):           # bugs are not swallowed as "failures"
-        e6a.run_method(bug, T_cw, T_gp, X)
+        common.run_method(bug, T_cw, T_gp, X)
 
 
 def test_noisy_extrinsics_draws_do_not_depend_on_sigma(e6a_runs):
     """σ scales one fixed stream of standard normals: σ = 0 consumes the generator like
     any σ and reproduces the noise-free extrinsics."""
     ctx, _ = e6a_runs["A"]
-    eyes = e6a.pose_eye_data(ctx)
-    board = e6a.load_dataset(ctx.dataset_dir()).board
+    eyes = common.pose_eye_data(ctx)
+    board = common.load_dataset(ctx.dataset_dir()).board
     g0, g1 = np.random.default_rng(5), np.random.default_rng(5)
-    T0 = e6a.noisy_extrinsics(eyes["left"], board, 0.0, g0)
-    T1 = e6a.noisy_extrinsics(eyes["left"], board, 1.0, g1)
+    T0 = common.noisy_extrinsics(eyes["left"], board, 0.0, g0)
+    T1 = common.noisy_extrinsics(eyes["left"], board, 1.0, g1)
     assert g0.standard_normal() == g1.standard_normal()
-    clean = np.array([e6a.estimate_extrinsics(c, board, eyes["left"].K, eyes["left"].dist)[0]
+    clean = np.array([common.estimate_extrinsics(c, board, eyes["left"].K, eyes["left"].dist)[0]
                       for c in eyes["left"].corners])
     assert np.array_equal(T0, clean)
     assert np.abs(T1 - clean).max() > 1e-6       # 1 px of noise moves the poses

@@ -1,4 +1,4 @@
-"""``experiments/reproduce.py --quick`` end to end: the report, sane numbers, determinism.
+"""``python -m experiments.reproduce --quick`` end to end: the report, sane numbers, determinism.
 
 Two quick runs with one seed, one with --workers 1 and one with --workers 2, must write
 byte-identical result files (CSV, JSON and the rendered dataset); the report must hold
@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
-sys.path.insert(0, str(EXPERIMENTS))
+sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
-import reproduce  # noqa: E402
+from experiments import reproduce  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
@@ -97,3 +97,60 @@ def test_headline_numbers_are_sane(runs):
     for model in ("true", "cal_loop_closure"):
         std = e4["models"][model]["ls"]["std"]
         assert std[0] <= 0.9 and std[1] <= 1.3 and std[2] <= 5.4, (model, std)
+
+
+def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(runs, tmp_path, capsys):
+    """A seed-1 run into a folder holding a seed-0 dataset renders afresh and says so."""
+    import shutil
+
+    from experiments._common import DATASET_OPTIONS, Context
+
+    out = tmp_path / "run"
+    shutil.copytree(runs[1] / "data" / "dataset", out / "data" / "dataset")
+    doc = Context.from_argv(reproduce.__doc__, ["--quick", "--out", str(out)])
+    assert doc.dataset_dir() == out / "data" / "dataset"       # seed 0: reused
+    assert "rendering it afresh" not in capsys.readouterr().err
+    ctx = Context.from_argv(reproduce.__doc__, ["--quick", "--seed", "1", "--out", str(out)])
+    ctx.dataset_dir()
+    assert "rendered with other options (seed 0" in capsys.readouterr().err
+    record = json.loads((out / "data" / "dataset" / DATASET_OPTIONS).read_text())
+    assert record["render_options"]["seed"] == 1
+    # the seed draws the intrinsics views (the pose views have no random part)
+    old = (runs[1] / "data" / "dataset" / "intrinsics").iterdir()
+    new = out / "data" / "dataset" / "intrinsics"
+    changed = [p.name for p in old if p.read_bytes() != (new / p.name).read_bytes()]
+    assert changed                     # the images are seed 1's, not seed 0's
+    assert not [p for p in (out / "data").iterdir() if p.name.startswith(".")]
+
+
+def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(tmp_path, runs):
+    """SIGTERM while E2 runs: E1 kept, E2's staging folder removed, no REPORT.md, 130."""
+    import os
+    import shutil
+    import signal
+    import subprocess
+
+    out = tmp_path / "run"
+    shutil.copytree(runs[1] / "data" / "dataset", out / "data" / "dataset")
+    (out / "REPORT.md").write_text("an earlier run's report")
+    repo = EXPERIMENTS.parent
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.reproduce", "--quick",
+                             "--workers", "1", "--out", str(out)], cwd=repo,
+                            stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "MUJOCO_GL": "egl"})
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if line.startswith("== E2"):        # E1 has finished and been renamed
+            proc.send_signal(signal.SIGTERM)
+            break
+    rest = proc.stderr.read()
+    assert proc.wait(timeout=120) == 130
+    assert "Traceback" not in rest
+    last = rest.strip().splitlines()[-1]
+    assert last.startswith("reproduce: interrupted: kept the finished experiments"), last
+    assert ": e1;" in last and "stopped the unfinished: e2 and removed" in last
+    names = {p.name for p in out.iterdir()}
+    assert "e1" in names and "e2" not in names and "REPORT.md" not in names
+    assert not [n for n in names if n.startswith(".")]
+    assert not [p for p in out.rglob("*.tmp")]

@@ -4,7 +4,7 @@ Figure ``e6a/e6a_pixel_noise.png`` (+ .svg); raw results ``e6a/raw.csv`` and
 ``e6a/pose_noise_raw.csv``; summaries ``e6a/summary.csv``, ``e6a/pose_noise.csv``,
 ``e6a/summary.json``. Run::
 
-    python experiments/e6_pixel_noise.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e6a_pixel_noise [--seed S] [--quick] [--out DIR] [--workers N]
 
 Protocol. The paper perturbs the extrinsics ``T_cam_from_world`` directly (eq. 13-14);
 here the noise enters where it arises, in the image. The default dataset's nine pose
@@ -29,15 +29,23 @@ classification) are shared with ``e6_shootout.py``.
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
 
 import numpy as np
-from _common import (
+
+from experiments._common import (
+    GROSS_ROTATION_DEG,
+    GROSS_TRANSLATION_MM,
     PAPER_LEVELS,
     Context,
+    EyeData,
     Section,
     md_table,
+    mean_std,
+    noisy_extrinsics,
+    pose_eye_data,
+    pose_noise,
     read_csv,
+    run_method,
     run_tasks,
     save_figure,
     script_main,
@@ -46,15 +54,11 @@ from _common import (
     write_csv,
     write_json,
 )
-
-from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import T_gaze_from_ptu
-from rasc.geometry.transforms import rotation_error_deg, rotvec_from_matrix
+from rasc.geometry.transforms import rotation_error_deg
 from rasc.handeye.methods import METHODS
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc_batch
-from rasc.vision.camera import detect_corners, estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
 NAME = "e6a"
@@ -75,164 +79,6 @@ MODEL_SAMPLES = 200
 QUICK_MODEL_SAMPLES = 20
 MODEL = "rasc-eq13"
 ALL_METHODS = (*SOLVERS, MODEL)
-
-#: A result is a gross failure above either threshold (the shoot-out's rule, applied here
-#: too): 10 deg and 100 mm are ~20x the worst honest error seen at 2 px of corner noise
-#: (about 1 deg / 35 mm, measured), so no honest solution is counted as failed, while a
-#: solver that has lost the rotation (errors of tens of degrees) or the translation
-#: (decimetres) is.
-GROSS_ROTATION_DEG = 10.0
-GROSS_TRANSLATION_MM = 100.0
-
-
-# ------------------------------------------------------------------ shared with E6b
-
-@dataclass(frozen=True)
-class EyeData:
-    """One eye's detected pose corners and everything needed to solve and score them.
-
-    Attributes
-    ----------
-    eye : "left" | "right"
-    files : tuple of str, length n (manifest file names, or synthetic labels)
-    corners : ndarray, shape (n, N, 2), canonical order, pixels
-    T_gaze_from_ptu : ndarray, shape (n, 4, 4), eq. 3 at the commanded angles
-    K : ndarray, shape (3, 3); dist : ndarray, shape (5,) (the pipeline's intrinsics)
-    T_cam_from_gaze_true : ndarray, shape (4, 4)
-    T_cam_from_world_true : ndarray, shape (n, 4, 4) (rendered truth per view)
-    """
-
-    eye: str
-    files: tuple[str, ...]
-    corners: np.ndarray
-    T_gaze_from_ptu: np.ndarray
-    K: np.ndarray
-    dist: np.ndarray
-    T_cam_from_gaze_true: np.ndarray
-    T_cam_from_world_true: np.ndarray
-
-
-def pose_eye_data(ctx: Context) -> dict[str, EyeData]:
-    """Detect (method "saddle") the default dataset's pose images of both eyes, once.
-
-    Raises
-    ------
-    rasc.errors.InputError
-        A pose image without a detectable board (names the file).
-    """
-    ds = load_dataset(ctx.dataset_dir())
-    cal, truth = ctx.calibration(), ctx.truth()
-    out = {}
-    for eye in EYES:
-        entries = ds.select(eye, "pose")
-        corners = []
-        for e in entries:
-            c = detect_corners(ds.read(e), ds.board, method="saddle")
-            if c is None:
-                raise InputError(f"{ds.manifest_path}: images[{e.index}] ({e.file}): board "
-                                 "not found; E6 needs every pose view")
-            corners.append(c)
-        pan = np.array([e.pan for e in entries])
-        tilt = np.array([e.tilt for e in entries])
-        intr = cal.eyes[eye].intrinsics
-        out[eye] = EyeData(
-            eye=eye, files=tuple(e.file for e in entries), corners=np.array(corners),
-            T_gaze_from_ptu=T_gaze_from_ptu(pan, tilt), K=np.array(intr.K),
-            dist=np.array(intr.dist),
-            T_cam_from_gaze_true=np.array(truth[eye]["T_cam_from_gaze"], dtype=float),
-            T_cam_from_world_true=np.array([truth["views"][e.file]["T_cam_from_world"]
-                                            for e in entries], dtype=float))
-    return out
-
-
-def noisy_extrinsics(data: EyeData, board, sigma_px: float,
-                     rng: np.random.Generator) -> np.ndarray:
-    """Add N(0, sigma_px^2) to every corner coordinate, re-estimate each view's extrinsics.
-
-    Draws one (N, 2) block per view, in view order (also for sigma = 0, so the stream
-    does not depend on the level). Returns ``T_cam_from_world`` (n, 4, 4).
-    """
-    T = []
-    for c in data.corners:
-        noise = rng.standard_normal(c.shape)
-        T.append(estimate_extrinsics(c + sigma_px * noise, board, data.K, data.dist)[0])
-    return np.array(T)
-
-
-def pose_noise(T_est: np.ndarray, T_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Extrinsics error per camera axis: RMS rotation (rad) and translation, over the views.
-
-    Parameters
-    ----------
-    T_est, T_true : (n, 4, 4) ``T_cam_from_world``
-
-    Returns
-    -------
-    (rot_rms (3,), t_rms (3,)): RMS over views of the rotation-error vector
-    ``log(R_est R_true^T)`` and of ``t_est - t_true``, per camera axis (x right, y down,
-    z optical axis), in rad and in the input's length unit. The eq. 13-14 equivalent is
-    ``sqrt(mean(rot_rms^2))``: the paper draws ``R' = R (I + [w]x)``, i.e.
-    ``w = log(R_true^T R_est)`` in the board frame, and the per-axis RMS over all three
-    axes is the same in either frame (it depends on ``|w|`` only).
-    """
-    w = rotvec_from_matrix(T_est[:, :3, :3] @ np.swapaxes(T_true[:, :3, :3], -1, -2))
-    dt = T_est[:, :3, 3] - T_true[:, :3, 3]
-    return np.sqrt(np.mean(w**2, axis=0)), np.sqrt(np.mean(dt**2, axis=0))
-
-
-#: What a method may raise that counts as its failure (not a crash of the experiment):
-#: the library's errors (SolverFailure, DegenerateDataError, InputError) and numerical
-#: breakdowns. Programming errors (TypeError, AttributeError, ...) still propagate.
-FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
-
-
-def run_method(solver, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-               T_cam_from_gaze_true: np.ndarray) -> dict:
-    """Run one hand-eye solver and score it against the truth, never raising on failure.
-
-    Parameters
-    ----------
-    solver : callable(T_cam_from_world (n,4,4), T_gaze_from_ptu (n,4,4)) -> HandEyeResult
-    T_cam_from_gaze_true : (4, 4), metres
-
-    Returns
-    -------
-    dict with ``status`` ("ok", "exception", "nan" or "gross"), ``detail`` (exception
-    class and message, or the gross error), ``rotation_deg``, ``translation_mm``,
-    ``quality`` (NaN when there is no result).
-    """
-    nan = float("nan")
-    try:
-        res = solver(T_cam_from_world, T_gaze_from_ptu)
-    except FAILURES as exc:
-        msg = " ".join(str(exc).split())
-        return {"status": "exception", "detail": f"{type(exc).__name__}: {msg[:300]}",
-                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
-    T = np.asarray(res.T_cam_from_gaze, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return {"status": "nan", "detail": "non-finite T_cam_from_gaze",
-                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
-    rot = float(rotation_error_deg(T[:3, :3], T_cam_from_gaze_true[:3, :3]))
-    trans = 1000.0 * float(np.linalg.norm(T[:3, 3] - T_cam_from_gaze_true[:3, 3]))
-    quality = float(res.quality)
-    if not (np.isfinite(rot) and np.isfinite(trans)):
-        return {"status": "nan", "detail": "non-finite error", "rotation_deg": nan,
-                "translation_mm": nan, "quality": quality}
-    gross = rot > GROSS_ROTATION_DEG or trans > GROSS_TRANSLATION_MM
-    # an exact identity is what OpenCV's TSAI returns when it gives up (it only logs)
-    what = " (the identity returned)" if np.array_equal(T, np.eye(4)) else ""
-    return {"status": "gross" if gross else "ok",
-            "detail": f"gross: {rot:.4g} deg, {trans:.4g} mm{what}" if gross else "",
-            "rotation_deg": rot, "translation_mm": trans, "quality": quality}
-
-
-def mean_std(values) -> tuple[float, float]:
-    """Mean and sample standard deviation (ddof 1; 0 for one value; NaN for none)."""
-    v = np.asarray([float(x) for x in values], dtype=float)
-    if v.size == 0:
-        return float("nan"), float("nan")
-    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0
-
 
 # ------------------------------------------------------------------------ E6a itself
 

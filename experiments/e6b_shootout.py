@@ -3,7 +3,7 @@
 Figure ``e6b/e6b_shootout.png`` (+ .svg); raw results ``e6b/raw.csv``; summaries
 ``e6b/summary.csv``, ``e6b/summary.json``. Run::
 
-    python experiments/e6_shootout.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e6b_shootout [--seed S] [--quick] [--out DIR] [--workers N]
 
 Protocol. Three pose sets, each a 3x3 grid like the paper's nine, (pan, tilt) in
 {-a, 0, a}^2 with the home (0, 0) first: a = 8 deg is the default dataset's pose renders
@@ -25,11 +25,19 @@ from __future__ import annotations
 import sys
 
 import numpy as np
-from _common import (
+
+from experiments._common import (
+    GROSS_ROTATION_DEG,
+    GROSS_TRANSLATION_MM,
     Context,
+    EyeData,
     Section,
     md_table,
+    noisy_extrinsics,
+    pose_eye_data,
+    pose_noise,
     read_csv,
+    run_method,
     run_tasks,
     save_figure,
     script_main,
@@ -38,16 +46,6 @@ from _common import (
     write_csv,
     write_json,
 )
-from e6_pixel_noise import (
-    GROSS_ROTATION_DEG,
-    GROSS_TRANSLATION_MM,
-    EyeData,
-    noisy_extrinsics,
-    pose_eye_data,
-    pose_noise,
-    run_method,
-)
-
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu

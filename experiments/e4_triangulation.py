@@ -30,7 +30,7 @@ depth = our y (forward).
 
 Run::
 
-    python experiments/table1_triangulation.py [--seed S] [--quick] [--out DIR] [--workers N]
+    python -m experiments.e4_triangulation [--seed S] [--quick] [--out DIR] [--workers N]
 
 Writes ``<out>/e4/``: ``poses.csv``, ``detections.csv``, ``points.csv`` (raw, per point),
 ``mount_draws.csv``, then from those ``table1.csv``, ``summary.json`` and
@@ -43,7 +43,8 @@ import sys
 from collections.abc import Sequence
 
 import numpy as np
-from _common import (
+
+from experiments._common import (
     Context,
     Section,
     md_table,
@@ -54,7 +55,6 @@ from _common import (
     write_csv,
     write_json,
 )
-
 from rasc.errors import DegenerateDataError
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import rotvec_from_matrix

@@ -1,0 +1,423 @@
+"""Run a study: render (or reuse) each dataset it needs, draw every sample, solve with
+every method, and write the tidy results.
+
+A study folder ``DIR``::
+
+    study.json            the normalised spec, its sha256, the cells (the manifest)
+    datasets/<key>.json   one per distinct set of render parameters: the real pipeline's
+                          measurements of a rendered dataset (poses, corners, intrinsics)
+                          and the renderer's truth; reused by every cell that needs it
+    cells/cell-NNNNN.csv  one per finished cell (rows of samples.csv), written atomically
+    samples.csv           one row per cell x sample x method
+    summary.csv           per cell and method: n, failures, mean, median, std and a
+                          bootstrap confidence interval of the mean of each error
+    figures/<axis>.png    error against each axis, one curve per method (and .svg)
+
+Determinism: sample ``s`` of cell ``c`` draws from
+``default_rng(SeedSequence([seed, *c.seed_words, s]))`` (``seed_words``: the cell's
+parameters hashed), the bootstrap of (cell, method) from
+``SeedSequence([seed, BOOTSTRAP_KEY, *c.seed_words, method index])``; nothing depends on
+the order tasks finish, the worker count or the executor. Numbers are written with
+``repr`` (shortest round trip), JSON by :func:`rasc.io.dumps_json`.
+
+Per sample, in this order: corner noise (``corner_noise_px``: an (N, 2) normal block per
+view, in view order, then each view's extrinsics re-estimated with the pipeline's
+intrinsics, docs/METHOD.md §7), then eq. 13-14 pose noise on every ``T_cam_from_world``
+(``sigma_r``, ``sigma_t_mm``; ``noise_model`` literal or exponential; docs/METHOD.md §8),
+then every method on the same noisy poses (paired samples).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import os
+import shutil
+import sys
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rasc.errors import InputError, RascError
+from rasc.io import dumps_json, write_json_atomic, write_text_atomic
+from rasc.study.executors import Executor, make_executor, worker_environment
+from rasc.study.spec import FORMAT, PARAMS, Cell, Spec, pose_grid
+
+BOOTSTRAP_KEY = 0xB007
+#: what a method may raise that counts as its failure on a sample (not a crash):
+#: the library's errors and numerical breakdowns
+FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
+SAMPLE_COLUMNS = ("sample", "method", "status", "translation_mm", "rotation_deg",
+                  "rotation_fro", "quality")
+STATS = ("mean", "median", "std", "ci_low", "ci_high")
+ERRORS = ("translation_mm", "rotation_deg")
+#: what a study writes in its folder
+OUTPUT_NAMES = ("study.json", "samples.csv", "summary.csv", "cells", "datasets", "figures")
+SUMMARY_TAIL = ("method", "n", "n_failed",
+                *(f"{e}_{s}" for e in ERRORS for s in STATS))
+
+
+# ---------------------------------------------------------------------- formatting
+
+def fmt(x: Any) -> str:
+    """A CSV field: floats in their shortest round-trip form, NaN and None as ''."""
+    if x is None:
+        return ""
+    if isinstance(x, float | np.floating):
+        x = float(x)
+        return "" if not np.isfinite(x) else repr(x)
+    if isinstance(x, list | tuple):
+        return " ".join(fmt(v) for v in x)
+    return str(x)
+
+
+def csv_text(header, rows) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for row in rows:
+        w.writerow([fmt(v) for v in row])
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------------- datasets
+
+def dataset_key(render: dict[str, Any], seed: int) -> str:
+    """The cache key of a rendered dataset: its render parameters and seed."""
+    from rasc.study.spec import _digest
+    return _digest({"render": render, "seed": seed})[:20]
+
+
+def render_task(task: dict) -> dict:
+    """Render one dataset in a temporary folder, calibrate it with the real pipeline
+    (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
+
+    Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
+    """
+    worker_environment()
+    from rasc.head.pipeline import calibrate_dataset, detect_pose_views
+    from rasc.sim.render import RenderOptions, render_dataset
+    from rasc.vision.dataset import load_dataset
+
+    r = task["render"]
+    options = RenderOptions(
+        poses_deg=pose_grid(r["layout"], r["positions"], r["motion_deg"]),
+        n_intrinsics=r["intrinsics_views"], target_distance=r["distance"],
+        seed=task["seed"], noise_sigma=r["image_noise"], blur_sigma=r["blur"],
+        dist=tuple(r["distortion"]))
+    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
+    try:
+        folder = tmp / "dataset"
+        try:
+            render_dataset(folder, options, model_path=task["model_path"], quiet=True)
+            ds = load_dataset(folder)
+            cal = calibrate_dataset(ds)
+        except RascError as exc:     # name the cell's render parameters, not a CLI flag
+            what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
+            raise type(exc)(f"the dataset for {what}: "
+                            f"{' '.join(str(exc).split())}") from None
+        truth = json.loads((folder / "ground_truth.json").read_text())
+        eyes = {}
+        for eye, res in cal.eyes.items():
+            det = detect_pose_views(ds, eye, cal.options.detector)
+            eyes[eye] = {
+                "files": list(res.pose_files),
+                "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
+                "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
+                "corners": [np.asarray(det.corners[f], float).tolist()
+                            for f in res.pose_files],
+                "K": np.asarray(res.intrinsics.K, float).tolist(),
+                "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
+                "T_cam_from_gaze_true": truth[eye]["T_cam_from_gaze"]}
+        board = ds.board
+        return {"format": "rasc-study-dataset/1", "key": task["key"], "render": r,
+                "seed": task["seed"],
+                "board": {"inner_corners": list(board.inner_corners),
+                          "square_size": board.square_size},
+                "eyes": eyes}
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+# ---------------------------------------------------------------------- samples
+
+def sample_rng(seed: int, cell: Cell, sample: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence([seed, *cell.seed_words, sample]))
+
+
+def _solve(method: str, T_cw: np.ndarray, T_gp: np.ndarray, literal: bool):
+    from rasc.handeye.methods import solve
+    options = {"check_rigid": False} if literal else {}
+    return solve(method, T_cw, T_gp, **options)
+
+
+def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
+          literal: bool) -> tuple[str, float, float, float, float]:
+    """(status, translation_mm, rotation_deg, rotation_fro, quality) of one solve; a
+    failed or non-finite solve has status "failed: <error class>" or "non-finite" and no
+    numbers (never an error value)."""
+    from rasc.geometry.transforms import rotation_error_deg
+
+    nan = float("nan")
+    try:
+        res = _solve(method, T_cw, T_gp, literal)
+    except FAILURES as exc:
+        return f"failed: {type(exc).__name__}", nan, nan, nan, nan
+    T = np.asarray(res.T_cam_from_gaze, dtype=float)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        return "non-finite", nan, nan, nan, nan
+    R, R_true = T[:3, :3], T_true[:3, :3]
+    return ("ok", 1000.0 * float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
+            float(rotation_error_deg(R, R_true)), float(np.linalg.norm(R - R_true)),
+            float(res.quality))
+
+
+def cell_task(task: dict) -> list[list]:
+    """Every sample of one cell: ``[sample, method, status, errors..., quality]`` rows."""
+    worker_environment()
+    from rasc.geometry.kinematics import T_gaze_from_ptu
+    from rasc.handeye.noise import perturb_T_cam_from_world
+    from rasc.vision.board import Board
+    from rasc.vision.camera import estimate_extrinsics
+
+    cell: Cell = task["cell"]
+    p, data = cell.params, task["dataset"]
+    eye = data["eyes"][p["eye"]]
+    T_cw0 = np.asarray(eye["T_cam_from_world"], float)
+    pan_tilt = np.asarray(eye["pan_tilt_rad"], float)
+    T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
+    T_true = np.asarray(eye["T_cam_from_gaze_true"], float)
+    literal = p["noise_model"] == "literal"
+    board = Board(tuple(data["board"]["inner_corners"]), data["board"]["square_size"])
+    corners = [np.asarray(c, float) for c in eye["corners"]]
+    K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
+    rows = []
+    for s in range(task["samples"]):
+        rng = sample_rng(task["seed"], cell, s)
+        T_cw = T_cw0
+        if p["corner_noise_px"] > 0:
+            T_cw = np.array([estimate_extrinsics(c + p["corner_noise_px"]
+                                                 * rng.standard_normal(c.shape),
+                                                 board, K, dist)[0] for c in corners])
+        if p["sigma_r"] > 0 or p["sigma_t_mm"] > 0:
+            T_cw = perturb_T_cam_from_world(T_cw, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
+                                            rng, p["noise_model"])        # mm -> metres
+        for method in task["methods"]:
+            rows.append([s, method, *score(method, T_cw, T_gp, T_true, literal)])
+    return rows
+
+
+# ---------------------------------------------------------------------- summary
+
+def bootstrap_ci(x: np.ndarray, rng: np.random.Generator, resamples: int,
+                 confidence: float) -> tuple[float, float]:
+    """Percentile bootstrap interval of the mean of ``x`` (n,); NaN for n < 2."""
+    if len(x) < 2:
+        return float("nan"), float("nan")
+    means = x[rng.integers(0, len(x), (resamples, len(x)))].mean(axis=1)
+    a = (1.0 - confidence) / 2.0
+    lo, hi = np.quantile(means, [a, 1.0 - a])
+    return float(lo), float(hi)
+
+
+def summarise(spec: Spec, cells: list[Cell], rows_by_cell: dict[int, list[list]]
+              ) -> list[list]:
+    """Per cell and method: n ok, n failed, and for each error its mean, median, std
+    (ddof 1) and the bootstrap CI of the mean."""
+    out = []
+    for cell in cells:
+        rows = rows_by_cell[cell.index]
+        for m_index, method in enumerate(spec.methods):
+            mine = [r for r in rows if r[1] == method]
+            ok = [r for r in mine if r[2] == "ok"]
+            rng = np.random.default_rng(np.random.SeedSequence(
+                [spec.seed, BOOTSTRAP_KEY, *cell.seed_words, m_index]))
+            stats = []
+            for col in (3, 4):
+                x = np.array([float(r[col]) for r in ok])
+                if len(x) == 0:
+                    stats += [None] * len(STATS)
+                    continue
+                lo, hi = bootstrap_ci(x, rng, spec.bootstrap, spec.confidence)
+                stats += [float(x.mean()), float(np.median(x)),
+                          float(x.std(ddof=1)) if len(x) > 1 else None, lo, hi]
+            out.append([cell.index, *cell.axes.values(), method, len(ok),
+                        len(mine) - len(ok), *stats])
+    return out
+
+
+# ---------------------------------------------------------------------- the study
+
+@dataclass
+class StudyResult:
+    folder: Path
+    cells: int
+    cells_computed: int
+    datasets_rendered: int
+    samples_csv: Path
+    summary_csv: Path
+    figures: list[Path]
+
+
+def _manifest(spec: Spec, cells: list[Cell]) -> dict:
+    import rasc
+    return {"format": FORMAT, "spec_sha256": spec.digest, "spec": spec.to_dict(),
+            "rasc_version": rasc.__version__,
+            "cells": [{"index": c.index, "key": c.key, "axes": c.axes} for c in cells]}
+
+
+def prepare_folder(out: Path, spec: Spec, resume: bool) -> None:
+    """Check ``out`` before any work: new or empty (or, with ``resume``, a study of this
+    very spec); never the spec itself or a folder holding it as an output name."""
+    out = Path(out)
+    manifest = out / "study.json"
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: --out exists and is not a folder")
+    if not out.exists():
+        if not out.parent.is_dir():
+            raise InputError(f"{out}: parent folder {out.parent} does not exist")
+        if resume:
+            raise InputError(f"{out}: --resume: no study to resume (the folder does not exist)")
+        return
+    if resume:
+        if not manifest.is_file():
+            raise InputError(f"{out}: --resume: no study.json (not a study folder)")
+        try:
+            old = json.loads(manifest.read_text()).get("spec_sha256")
+        except (OSError, ValueError, AttributeError) as exc:
+            raise InputError(f"{manifest}: unreadable study manifest ({exc})") from None
+        if old != spec.digest:
+            raise InputError(f"{out}: --resume: the folder holds a study of a different "
+                             f"spec (sha256 {str(old)[:12]}, this one {spec.digest[:12]}); "
+                             "--resume continues only the same spec")
+        return
+    if manifest.is_file():
+        raise InputError(f"{out}: holds a study already; pass --resume to continue it, "
+                         "or choose another --out")
+    if any(out.iterdir()):
+        raise InputError(f"{out}: --out exists and is not empty")
+
+
+def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
+              dask: str | None = None, resume: bool = False, quiet: bool = False,
+              executor: Executor | None = None,
+              log: Callable[[str], None] | None = None) -> StudyResult:
+    """Run (or, with ``resume``, continue) ``spec`` into the folder ``out``.
+
+    On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
+    the finished cells stay in ``out/cells`` (each file whole), no partial file is left,
+    a line on stderr says what was kept, and the interrupt propagates.
+    """
+    from rasc.progress import progress
+
+    log = log or (lambda s: print(s, file=sys.stderr))
+    out = Path(out)
+    spec_path = spec.path.resolve()
+    if out.resolve() == spec_path or out.resolve() in spec_path.parents and \
+            spec_path.relative_to(out.resolve()).parts[0] in OUTPUT_NAMES:
+        raise InputError(f"{out}: --out would overwrite the spec {spec.path}")
+    prepare_folder(out, spec, resume)
+    created = not out.exists()
+    cells = spec.cells()
+    owned = executor is None
+    executor = executor or make_executor(workers, dask)
+    for sub in ("cells", "datasets"):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "study.json", _manifest(spec, cells))
+    cells_done = rendered = 0
+    try:
+        # 1. datasets: one per distinct set of render parameters
+        keys = {c.index: dataset_key(c.render_params(), spec.seed) for c in cells}
+        wanted = {}
+        for c in cells:
+            wanted.setdefault(keys[c.index], c.render_params())
+        missing = [k for k in wanted if not (out / "datasets" / f"{k}.json").is_file()]
+        tasks = [{"key": k, "render": wanted[k], "seed": spec.seed,
+                  "model_path": (str(spec.model_path(wanted[k]["model"]))
+                                 if wanted[k]["model"] else None)} for k in missing]
+        if tasks:
+            with progress(total=len(tasks), desc="render datasets", quiet=quiet,
+                          unit="dataset") as bar:
+                for i, doc in executor.map_unordered(render_task, tasks):
+                    write_json_atomic(out / "datasets" / f"{missing[i]}.json", doc)
+                    rendered += 1
+                    bar.update(1)
+        datasets = {}
+        for k in wanted:
+            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+
+        # 2. cells
+        header = SAMPLE_COLUMNS
+        todo = [c for c in cells if not _cell_done(out, c, header)]
+        tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
+                  "samples": spec.samples, "methods": spec.methods} for c in todo]
+        with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
+            bar.update(len(cells) - len(todo))
+            for i, rows in executor.map_unordered(cell_task, tasks):
+                write_text_atomic(_cell_path(out, todo[i]), csv_text(header, rows))
+                cells_done += 1
+                bar.update(1)
+    except RascError:
+        # bad input found only now (a dataset that cannot be rendered or calibrated):
+        # a folder this run created and filled with nothing finished is removed
+        if created and rendered == 0 and cells_done == 0:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    except KeyboardInterrupt:
+        n = sum(_cell_done(out, c, SAMPLE_COLUMNS) for c in cells)
+        log(f"rasc study: interrupted: kept {n} of {len(cells)} finished cells and "
+            f"{len(list((out / 'datasets').glob('*.json')))} dataset(s) in {out}; no "
+            "samples.csv, summary.csv or figures written; continue with --resume")
+        raise
+    finally:
+        if owned:
+            with contextlib.suppress(Exception):
+                executor.close()
+
+    # 3. assemble: tidy samples, summary, figures
+    rows_by_cell = {c.index: _read_cell(out, c) for c in cells}
+    axes = list(spec.axes)
+    sample_rows = [[c.index, *c.axes.values(), *r] for c in cells
+                   for r in rows_by_cell[c.index]]
+    write_text_atomic(out / "samples.csv", csv_text(("cell", *axes, *SAMPLE_COLUMNS),
+                                                    sample_rows))
+    summary = summarise(spec, cells, rows_by_cell)
+    write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
+    from rasc.study.figures import plot_study
+    figures = plot_study(spec, summary, out / "figures")
+    return StudyResult(out, len(cells), cells_done, rendered, out / "samples.csv",
+                       out / "summary.csv", figures)
+
+
+def _cell_path(out: Path, cell: Cell) -> Path:
+    return out / "cells" / f"cell-{cell.index:05d}.csv"
+
+
+def _cell_done(out: Path, cell: Cell, header) -> bool:
+    path = _cell_path(out, cell)
+    if not path.is_file():
+        return False
+    with open(path) as f:
+        return f.readline().rstrip("\n") == ",".join(header)
+
+
+def _read_cell(out: Path, cell: Cell) -> list[list]:
+    """A finished cell's rows, typed as :func:`cell_task` returns them."""
+    with open(_cell_path(out, cell), newline="") as f:
+        reader = csv.reader(f)
+        next(reader)
+        rows = []
+        for r in reader:
+            nums = [float(v) if v != "" else float("nan") for v in r[3:]]
+            rows.append([int(r[0]), r[1], r[2], *nums])
+    return rows
+
+
+__all__ = ["run_study", "StudyResult", "summarise", "cell_task", "render_task", "PARAMS",
+           "dumps_json"]

@@ -1,0 +1,430 @@
+"""A study's specification: a TOML file read with :mod:`tomllib`, checked key by key.
+
+    seed = 0                      # the one seed of the study
+    samples = 30                  # samples per cell
+    methods = ["rasc", "li", "opencv-park"]
+    bootstrap = 1000              # resamples for the confidence interval of each mean
+    confidence = 0.95
+
+    [fixed]                       # parameters shared by every cell (defaults below)
+    noise_model = "literal"
+
+    [axes]                        # one list per swept parameter; cells = their product
+    noise_level = [0, 1, 4, 8]
+    eye = ["left", "right"]
+
+A parameter is either a *sample* parameter (drawn per sample on one rendered dataset's
+measurements: pose-level noise eq. 13-14, corner noise, the eye) or a *render* parameter
+(it changes the images: image noise, blur, distortion, motion range, positions, board
+distance, intrinsics views, the MJCF model); cells with the same render parameters share
+one rendered and calibrated dataset. :data:`PARAMS` lists them with their defaults.
+
+Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
+empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
+been read in full.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import os
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from rasc.errors import InputError
+
+#: version of the study folder layout (``study.json`` ``format``)
+FORMAT = "rasc-study/1"
+#: a spec larger than this is refused before it is parsed
+MAX_SPEC_BYTES = 1 << 20
+#: the paper's noise set k (docs/METHOD.md §8): σ_r = 0.005 k rad, σ_t = k mm
+PAPER_SIGMA_R_PER_LEVEL, PAPER_SIGMA_T_MM_PER_LEVEL = 0.005, 1.0
+LAYOUTS = ("grid", "cross", "ring")
+NOISE_MODELS = ("literal", "exponential")
+EYES = ("left", "right")
+
+
+# ----------------------------------------------------------------- value checkers
+# Each returns the normalised value or raises ValueError with what was expected.
+
+def _number(x) -> float:
+    if isinstance(x, bool) or not isinstance(x, int | float):
+        raise ValueError(f"expected a number, got {_show(x)}")
+    if isinstance(x, int) and abs(x) > 10**15:
+        raise ValueError(f"number too large: {_show(x)}")
+    x = float(x)
+    if not math.isfinite(x):
+        raise ValueError(f"expected a finite number, got {x}")
+    return x
+
+
+def _nonneg(x) -> float:
+    x = _number(x)
+    if x < 0:
+        raise ValueError(f"expected a number >= 0, got {x:g}")
+    return x
+
+
+def _positive(x) -> float:
+    x = _number(x)
+    if x <= 0:
+        raise ValueError(f"expected a number > 0, got {x:g}")
+    return x
+
+
+def _int_at_least(lo: int) -> Callable[[Any], int]:
+    def check(x) -> int:
+        if isinstance(x, bool) or not isinstance(x, int):
+            raise ValueError(f"expected an integer, got {_show(x)}")
+        if not lo <= x <= 10**9:
+            raise ValueError(f"expected an integer from {lo} to 10^9, got {_show(x)}")
+        return int(x)
+    return check
+
+
+def _choice(options: tuple[str, ...]) -> Callable[[Any], str]:
+    def check(x) -> str:
+        if x not in options or not isinstance(x, str):
+            raise ValueError(f"expected one of {', '.join(options)}, got {_show(x)}")
+        return x
+    return check
+
+
+def _coefficients(x) -> tuple[float, ...]:
+    if not isinstance(x, list) or len(x) > 5:
+        raise ValueError(f"expected a list of at most 5 numbers (k1, k2, p1, p2, k3), got "
+                         f"{_show(x)}")
+    return tuple(_number(v) for v in x)
+
+
+def _text(x) -> str:
+    if not isinstance(x, str):
+        raise ValueError(f"expected a string, got {_show(x)}")
+    return x
+
+
+def _show(x) -> str:
+    text = repr(x)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+@dataclass(frozen=True)
+class Param:
+    """One study parameter: its checker, default, kind ("sample" or "render") and unit."""
+
+    check: Callable[[Any], Any]
+    default: Any
+    kind: str
+    help: str
+
+
+#: every parameter a study may fix or sweep
+PARAMS: dict[str, Param] = {
+    "noise_level": Param(_int_at_least(0), None, "sample",
+                         "the paper's noise set k: sigma_r = 0.005k rad, sigma_t = k mm"),
+    "sigma_r": Param(_nonneg, 0.0, "sample", "eq. 13 rotation noise per axis, rad"),
+    "sigma_t_mm": Param(_nonneg, 0.0, "sample", "eq. 14 translation noise per axis, mm"),
+    "noise_model": Param(_choice(NOISE_MODELS), "exponential", "sample",
+                         "eq. 13 as printed (literal) or projected onto SO(3)"),
+    "corner_noise_px": Param(_nonneg, 0.0, "sample",
+                             "Gaussian noise on every detected corner, px (extrinsics "
+                             "re-estimated per sample)"),
+    "eye": Param(_choice(EYES), "left", "sample", "which eye's hand-eye problem"),
+    "image_noise": Param(_nonneg, 0.0, "render", "Gaussian image noise, grey levels"),
+    "blur": Param(_nonneg, 0.0, "render", "Gaussian blur, px"),
+    "distortion": Param(_coefficients, (), "render", "lens distortion k1 k2 p1 p2 k3"),
+    "motion_deg": Param(_positive, 8.0, "render", "largest pan/tilt of the positions, deg"),
+    "layout": Param(_choice(LAYOUTS), "grid", "render",
+                    "grid (k x k), cross (home + arms) or ring (home + circle)"),
+    "positions": Param(_int_at_least(3), 9, "render", "number of pan-tilt positions"),
+    "distance": Param(_positive, 1.0, "render", "board distance in front of the head, m"),
+    "intrinsics_views": Param(_int_at_least(3), 20, "render", "intrinsics views per eye"),
+    "model": Param(_text, "", "render",
+                   "MJCF scene (path relative to the spec; '' = the package's model)"),
+}
+
+TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
+            "samples": _int_at_least(1), "methods": None, "bootstrap": _int_at_least(100),
+            "confidence": None, "fixed": None, "axes": None}
+REQUIRED = ("seed", "samples", "methods")
+
+
+def pose_grid(layout: str, positions: int, motion_deg: float
+              ) -> tuple[tuple[float, float], ...]:
+    """The pan-tilt positions (deg) of a layout; ``ValueError`` if ``positions`` does not fit.
+
+    grid: k x k positions (``positions`` = k², k ≥ 2) on ``linspace(-A, A, k)``, the home
+    view (when k is odd) first, then by decreasing pan and tilt (k = 3, A = 8 gives the
+    paper's nine in its order); cross: the home view and ``(positions - 1) / 4`` steps along
+    each half-axis; ring: the home view and ``positions - 1`` positions on a circle of
+    radius A.
+    """
+    a = motion_deg
+    if layout == "grid":
+        k = math.isqrt(positions)
+        if k * k != positions or k < 2:
+            raise ValueError(f"layout 'grid' needs a square number of positions (4, 9, 16, "
+                             f"...), got {positions}")
+        vals = [a - 2 * a * i / (k - 1) for i in range(k)]
+        vals = [0.0 if abs(v) < 1e-12 else v for v in vals]
+        grid = [(p, t) for p in vals for t in vals]
+        home = [g for g in grid if g == (0.0, 0.0)]
+        return tuple(home + [g for g in grid if g != (0.0, 0.0)])
+    if layout == "cross":
+        if (positions - 1) % 4 or positions < 5:
+            raise ValueError(f"layout 'cross' needs 1 + 4m positions (5, 9, 13, ...), got "
+                             f"{positions}")
+        m = (positions - 1) // 4
+        out = [(0.0, 0.0)]
+        for j in range(1, m + 1):
+            s = a * j / m
+            out += [(s, 0.0), (-s, 0.0), (0.0, s), (0.0, -s)]
+        return tuple(out)
+    n = positions - 1
+    return ((0.0, 0.0),) + tuple(
+        (a * math.cos(2 * math.pi * i / n), a * math.sin(2 * math.pi * i / n))
+        for i in range(n))
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One point of the study's grid: its index, every parameter, and its identity."""
+
+    index: int
+    params: dict[str, Any]          # every parameter of PARAMS, resolved
+    axes: dict[str, Any]            # the swept ones, in the spec's order
+
+    @property
+    def key(self) -> str:
+        """sha256 of the cell's parameters (its identity, independent of its index)."""
+        return _digest(self.params)
+
+    @property
+    def seed_words(self) -> tuple[int, ...]:
+        """Four 32-bit words of :attr:`key`: the cell's part of every sample's seed."""
+        return tuple(int(self.key[i:i + 8], 16) for i in range(0, 32, 8))
+
+    def render_params(self) -> dict[str, Any]:
+        return {k: v for k, v in self.params.items() if PARAMS[k].kind == "render"}
+
+
+@dataclass(frozen=True)
+class Spec:
+    """A checked study specification."""
+
+    path: Path
+    name: str
+    description: str
+    seed: int
+    samples: int
+    methods: tuple[str, ...]
+    bootstrap: int
+    confidence: float
+    fixed: dict[str, Any]
+    axes: dict[str, tuple[Any, ...]]
+    model_digests: dict[str, str]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The normalised spec (what its hash covers; relative model paths resolved to
+        the digest of the model file's bytes)."""
+        return {"name": self.name, "description": self.description, "seed": self.seed,
+                "samples": self.samples, "methods": list(self.methods),
+                "bootstrap": self.bootstrap, "confidence": self.confidence,
+                "fixed": {k: _plain(v) for k, v in self.fixed.items()},
+                "axes": {k: [_plain(v) for v in vs] for k, vs in self.axes.items()},
+                "model_digests": dict(self.model_digests)}
+
+    @property
+    def digest(self) -> str:
+        return _digest(self.to_dict())
+
+    def cells(self) -> list[Cell]:
+        """Every cell: the product of the axes in the order they are written."""
+        names = list(self.axes)
+        out = []
+        for k, values in enumerate(itertools.product(*(self.axes[n] for n in names))):
+            swept = dict(zip(names, values, strict=True))
+            params = {n: p.default for n, p in PARAMS.items()}
+            params.update(self.fixed)
+            params.update(swept)
+            if params["noise_level"] is not None:
+                params["sigma_r"] = PAPER_SIGMA_R_PER_LEVEL * params["noise_level"]
+                params["sigma_t_mm"] = PAPER_SIGMA_T_MM_PER_LEVEL * params["noise_level"]
+            if params["model"]:
+                params["model"] = self.model_digests[params["model"]]
+            out.append(Cell(k, params, swept))
+        return out
+
+    def model_path(self, digest: str) -> Path | None:
+        """The model file whose bytes have ``digest`` ('' → the package's model)."""
+        for rel, d in self.model_digests.items():
+            if d == digest:
+                return (self.path.parent / rel).resolve()
+        return None
+
+
+def _plain(v):
+    return list(v) if isinstance(v, tuple) else v
+
+
+def _digest(obj) -> str:
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_plain)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _method_checker() -> Callable[[str], None]:
+    """The one place a method name is checked: B1's resolver once it exists, else the
+    built-in registry."""
+    from rasc.handeye import methods
+
+    get = getattr(methods, "get_method", None)
+    if get is not None:
+        return get
+
+    def check(name: str) -> None:
+        if name not in methods.METHODS:
+            raise InputError(f"unknown method {name!r}; expected one of "
+                             f"{', '.join(sorted(methods.METHODS))}")
+    return check
+
+
+def check_method(name: str) -> None:
+    """Raise :class:`InputError` unless ``name`` names a hand-eye method."""
+    _method_checker()(name)
+
+
+def load_spec(path: str | os.PathLike) -> Spec:
+    """Read and check a study spec.
+
+    Raises
+    ------
+    rasc.errors.InputError
+        One line naming the file and the key: unreadable or invalid TOML, unknown key,
+        wrong type, empty axis, unknown method, values that do not fit together.
+    """
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise InputError(f"{where}: no such file" if not path.exists()
+                         else f"{where}: not a regular file")
+    if path.stat().st_size > MAX_SPEC_BYTES:
+        raise InputError(f"{where}: larger than {MAX_SPEC_BYTES} bytes; not a study spec")
+    try:
+        doc = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError(f"{where}: not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{where}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{where}: nested too deeply") from None
+
+    def fail(key: str, msg: str):
+        raise InputError(f"{where}: {key}: {msg}")
+
+    for key in doc:
+        if key not in TOP_KEYS:
+            fail(key, f"unknown key (expected {', '.join(TOP_KEYS)})")
+    for key in REQUIRED:
+        if key not in doc:
+            fail(key, "missing")
+    top = {}
+    for key in ("name", "description", "seed", "samples", "bootstrap"):
+        if key in doc:
+            try:
+                top[key] = TOP_KEYS[key](doc[key])
+            except ValueError as exc:
+                fail(key, str(exc))
+    methods = doc["methods"]
+    if not isinstance(methods, list):
+        fail("methods", f"expected a list of method names, got {_show(methods)}")
+    if not methods:
+        fail("methods", "empty list")
+    for k, m in enumerate(methods):
+        if not isinstance(m, str):
+            fail(f"methods[{k}]", f"expected a method name, got {_show(m)}")
+        if methods.index(m) != k:
+            fail(f"methods[{k}]", f"{m!r} given twice")
+        try:
+            check_method(m)
+        except InputError as exc:
+            fail(f"methods[{k}]", str(exc))
+    confidence = doc.get("confidence", 0.95)
+    try:
+        confidence = _number(confidence)
+    except ValueError as exc:
+        fail("confidence", str(exc))
+    if not 0.5 <= confidence < 1:
+        fail("confidence", f"expected a level in [0.5, 1), got {confidence:g}")
+
+    tables = {}
+    for table in ("fixed", "axes"):
+        t = doc.get(table, {})
+        if not isinstance(t, dict):
+            fail(table, f"expected a table [{table}], got {_show(t)}")
+        for key in t:
+            if key not in PARAMS:
+                fail(f"{table}.{key}", f"unknown parameter (expected one of "
+                     f"{', '.join(PARAMS)})")
+        tables[table] = t
+    fixed: dict[str, Any] = {}
+    for key, value in tables["fixed"].items():
+        if key in tables["axes"]:
+            fail(f"fixed.{key}", "also an axis; give it in one table only")
+        try:
+            fixed[key] = PARAMS[key].check(value)
+        except ValueError as exc:
+            fail(f"fixed.{key}", str(exc))
+    axes: dict[str, tuple] = {}
+    for key, values in tables["axes"].items():
+        if not isinstance(values, list):
+            fail(f"axes.{key}", f"expected a list of values, got {_show(values)}")
+        if not values:
+            fail(f"axes.{key}", "empty list")
+        checked = []
+        for k, value in enumerate(values):
+            try:
+                checked.append(PARAMS[key].check(value))
+            except ValueError as exc:
+                fail(f"axes.{key}[{k}]", str(exc))
+            if checked[-1] in checked[:-1]:
+                fail(f"axes.{key}[{k}]", f"{_show(value)} given twice")
+        axes[key] = tuple(checked)
+    given = set(fixed) | set(axes)
+    if "noise_level" in given:
+        for other in ("sigma_r", "sigma_t_mm"):
+            if other in given:
+                table = "axes" if other in axes else "fixed"
+                fail(f"{table}.{other}", "noise_level already sets sigma_r and sigma_t_mm; "
+                     "give one or the other")
+    n_cells = math.prod(len(v) for v in axes.values())
+    if n_cells * top["samples"] > 10**8:
+        fail("samples", f"{n_cells} cells x {top['samples']} samples is more than 10^8")
+
+    # render parameters that must fit together, checked over every combination given
+    pos_layout = [(lay, n, a) for lay in axes.get("layout", (fixed.get("layout", "grid"),))
+                  for n in axes.get("positions", (fixed.get("positions", 9),))
+                  for a in axes.get("motion_deg", (fixed.get("motion_deg", 8.0),))]
+    for lay, n, a in pos_layout:
+        try:
+            pose_grid(lay, n, a)
+        except ValueError as exc:
+            fail("axes.positions" if "positions" in axes else "fixed.positions", str(exc))
+    digests: dict[str, str] = {}
+    models = list(axes.get("model", ())) + ([fixed["model"]] if fixed.get("model") else [])
+    for k, rel in enumerate(m for m in models if m):
+        key = "fixed.model" if "model" in fixed else f"axes.model[{k}]"
+        file = path.parent / rel
+        if not file.is_file():
+            fail(key, f"{file}: no such model file")
+        digests[rel] = "sha256:" + hashlib.sha256(file.read_bytes()).hexdigest()
+    return Spec(path=path, name=top.get("name", path.stem),
+                description=top.get("description", ""), seed=top["seed"],
+                samples=top["samples"], methods=tuple(methods),
+                bootstrap=top.get("bootstrap", 1000), confidence=confidence, fixed=fixed,
+                axes=axes, model_digests=digests)
