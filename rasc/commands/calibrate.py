@@ -76,6 +76,13 @@ def _read_mounts(path: str) -> np.ndarray:
     return validate_rigid_transform(obj["T_ptuL_from_ptuR"], name=f"{path}: T_ptuL_from_ptuR")
 
 
+def _length(value: float, unit: str | None) -> str:
+    """A length for a person: millimetres when the dataset is in metres, else its unit."""
+    if unit == "m":
+        return f"{1000 * value:.3f} mm"
+    return f"{value:.4g} {unit or '(unit of board.square_size)'}"
+
+
 def run(args: argparse.Namespace) -> int:
     from rasc.handeye.advice import solution_warnings
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
@@ -115,6 +122,6 @@ def run(args: argparse.Namespace) -> int:
             if cal.errors:
                 e = cal.errors[eye]["T_cam_from_gaze"]
                 line += (f", T_cam_from_gaze error {e['rotation_deg']:.4f} deg "
-                         f"{1000 * e['translation']:.3f} mm")
+                         f"{_length(e['translation'], cal.length_unit)}")
             log(line)
     return 0

@@ -54,6 +54,10 @@ class EyeResult:
     handeye: Any                       # rasc.handeye.solver.HandEyeResult
     uncertainty: Any = None            # rasc.handeye.solver.HandEyeUncertainty
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
+    #: the detected corners (file → (N, 2), canonical order) the results came from, per
+    #: role ("intrinsics", "pose"): kept so that refinement and experiments never detect
+    #: again; not written to the JSON (which has per-image residual summaries instead)
+    corners: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 @dataclass
@@ -114,46 +118,6 @@ class _Timer:
         self.timings[stage] = self.timings.get(stage, 0.0) + seconds
 
 
-def detect_pose_views(dataset, eye: str, method: str):
-    """Detect the board in ``eye``'s pose images → :class:`rasc.vision.dataset.Detections`.
-
-    Called after the intrinsics views have shown the board, so the board's size is right:
-    unlike :meth:`rasc.vision.dataset.Dataset.detect` (which then suspects ``inner_corners``), a
-    board missing from the pose images is reported as a problem of those images.
-
-    Raises
-    ------
-    InputError
-        No pose images for ``eye``, or the board found in fewer than
-        :data:`rasc.vision.dataset.MIN_POSE_VIEWS` of them.
-    """
-    from rasc.vision.camera import detect_corners
-    from rasc.vision.dataset import MIN_POSE_VIEWS, Detections
-
-    entries = dataset.select(eye, "pose")
-    where = f"{dataset.manifest_path}: {eye} pose images"
-    if len(entries) < MIN_POSE_VIEWS:
-        raise InputError(f"{where}: {len(entries) or 'none'} in the manifest; hand-eye needs "
-                         f"at least {MIN_POSE_VIEWS} images with role 'pose' (pan, tilt, "
-                         "view) at positions that turn about two different axes")
-    corners, not_found = {}, []
-    for e in entries:
-        c = detect_corners(dataset.read(e), dataset.board, method=method)
-        if c is None:
-            not_found.append(e.file)
-        else:
-            corners[e.file] = c
-    if len(corners) < MIN_POSE_VIEWS:
-        nx, ny = dataset.board.inner_corners
-        raise InputError(
-            f"{where}: board {nx}x{ny} found in {len(corners)} of {len(entries)} (first "
-            f"without: {not_found[0]}) though the intrinsics images show it; hand-eye needs "
-            f"at least {MIN_POSE_VIEWS} pan-tilt positions with rotations about two different "
-            f"axes, each with the whole board in view")
-    return Detections(corners=corners, not_found=not_found,
-                      entries={e.file: e for e in entries})
-
-
 def _where(dataset, entry) -> str:
     return f"{dataset.manifest_path}: images[{entry.index}] ({entry.file})"
 
@@ -177,7 +141,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     size = dataset.image_size(eye) if size is None else size
     t0 = time.perf_counter()
     det_i = dataset.detect(eye, "intrinsics", method=options.detector)
-    det_p = detect_pose_views(dataset, eye, options.detector)
+    det_p = dataset.detect(eye, "pose", method=options.detector, board_seen=True)
     timer.add("detection", time.perf_counter() - t0)
     for kind, det in (("intrinsics", det_i), ("pose", det_p)):
         if det.not_found:
@@ -231,7 +195,8 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
                      not_found={"intrinsics": det_i.not_found, "pose": det_p.not_found},
-                     handeye=he, uncertainty=uncertainty, warnings=warnings)
+                     handeye=he, uncertainty=uncertainty, warnings=warnings,
+                     corners={"intrinsics": det_i.corners, "pose": det_p.corners})
 
 
 def _loop_closure(eyes: dict[str, EyeResult]):
@@ -337,11 +302,14 @@ def transform_error(T_est, T_true) -> dict[str, float]:
 
 def errors_against_truth(cal: Calibration, truth: dict,
                          where: str = "ground truth") -> dict[str, Any]:
-    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout), metres.
+    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout).
 
+    Rotations in degrees, lengths in the dataset's ``length_unit`` (``cal.length_unit``;
+    the unit of board.square_size when the manifest does not name it), pixels.
     ``where`` names the ground truth's source in error messages (its file).
     """
-    out: dict[str, Any] = {"units": "degrees; metres; pixels"}
+    unit = cal.length_unit or "unit of board.square_size"
+    out: dict[str, Any] = {"units": f"degrees; {unit}; pixels"}
     try:
         for eye in EYES:
             t = truth[eye]
