@@ -1,0 +1,752 @@
+"""Whole-head refinement: every detected corner of every image, both eyes, jointly.
+
+docs/METHOD.md §10, "Whole-head refinement". The closed form (RASC per eye, eq. 4–10,
+and loop closure, eq. 11–12) is the initial guess; this module minimises the
+reprojection error of every corner in every image — both eyes, the intrinsics views and
+the pose views — with :func:`scipy.optimize.least_squares` over
+
+* per eye: the intrinsics fx, fy, cx, cy, the distortion of the dataset's model
+  (``k1k2``: k1, k2; ``opencv5``: k1 k2 p1 p2 k3; ``none``: nothing), ``T_cam_from_gaze``
+  (6) and the identifiable parameters of its general pan-tilt unit
+  (:class:`rasc.geometry.kinematics.PanTiltUnit`: the encoder scales, the axis angle and
+  the common-normal distance);
+* per head: ``T_ptuL_from_ptuR`` (6);
+* per intrinsics view: its board pose ``T_cam_from_world`` (6);
+* per pose view (one simultaneous placement of the board, the manifest's ``view``): one
+  board pose ``T_ptuL_from_world`` (6) shared by both eyes, which ties the eyes together
+  and determines ``T_ptuL_from_ptuR``.
+
+A corner of eye e at encoder readings (φ_r, τ_r) in pose view v is predicted by eq. 1–2
+with the general unit, distortion and K::
+
+    T_cam_from_world = T_cam_from_gaze · unit.T_gaze_from_ptu(φ_r, τ_r) · T_ptu_from_ptuL · T_ptuL_from_world_v
+
+(``T_ptu_from_ptuL`` = I for the left eye, ``T_ptuL_from_ptuR⁻¹`` for the right).
+
+**Gauge.** The data fix camera poses only; the frames are fixed by convention
+(:func:`rasc.geometry.kinematics.canonical_gauge`): each unit's ptu frame has x along its
+pan axis, its origin at the foot of the common normal on the pan axis, the tilt axis in
+its x–z plane at pan reading 0 (so ``tilt_axis = (cos α, 0, sin α)``,
+``tilt_point = (0, d, 0)``) and zero encoder offsets; the left ptu frame is the frame
+every pose view's board pose is expressed in; the base is the cyclopean frame of
+``T_ptuL_from_ptuR`` (docs/METHOD.md §5). The paper's unit is this gauge with α = 90°,
+d = 0 and unit scales.
+
+**Identifiability.** Nine candidate unit parameters per eye are tested on the Jacobian at
+the initial guess, in the order of :data:`UNIT_PARAMETERS`: a candidate whose column lies
+within :data:`IDENTIFIABILITY_SINE` (sine of the angle, columns normalised) of the span
+of the columns already kept cannot be determined by the corners; it is named, held at
+its gauge value and returned as ``None`` with the reason, never as a number. With free
+mounts this always removes the encoder offsets, the tilt point along the pan and the
+tilt axis, and the turn of the tilt axis about the pan axis (docs/METHOD.md §10).
+
+**Uncertainty.** σ² (JᵀJ)⁻¹ at the optimum, with J by central differences and σ² the
+residual sum of squares over (m − n): the standard deviation of every estimated
+parameter, valid for independent corner noise of equal variance.
+
+**Robustness.** The soft-L1 loss with ``f_scale`` three times the corner noise (estimated
+from the closed form's intrinsics RMS); after the fit, corners whose residual exceeds
+:data:`REJECT_K` robust standard deviations (1.4826 MAD) in either coordinate are
+rejected, reported per image, and the fit is repeated without them.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import least_squares
+
+from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import PanTiltUnit
+from rasc.geometry.transforms import (
+    invert_transform,
+    make_transform,
+    matrix_from_rotvec,
+    rotvec_from_matrix,
+)
+
+#: Candidate unit parameters per eye, in the order they are admitted (observable ones
+#: first): a later candidate is tested against the span of those kept before it.
+#: tilt_axis_x / tilt_axis_y: the x and y components of the (unnormalised) tilt axis
+#: (x, y, 1) — x sets the axis angle, y turns the axis about the pan axis;
+#: tilt_point_*: the point q on the tilt axis.
+UNIT_PARAMETERS = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_point_y",
+                   "tilt_point_x", "tilt_point_z", "tilt_axis_y", "pan_offset", "tilt_offset")
+
+#: Why each parameter is not identifiable when the Jacobian says so (docs/METHOD.md §10).
+REASONS = {
+    "pan_offset": "a pan encoder offset turns the unit's frame about its pan axis, which the "
+                  "mount (T_ptuL_from_ptuR) and the board poses absorb; it needs a measured "
+                  "mount or a known home",
+    "tilt_offset": "a tilt encoder offset turns the gaze frame about the tilt axis, which "
+                   "T_cam_from_gaze absorbs; it needs a known home",
+    "tilt_point_x": "moving the tilt axis along the pan axis commutes with the pan rotation "
+                    "and is absorbed by T_cam_from_gaze and the mount",
+    "tilt_point_z": "moving the point along the tilt axis changes nothing",
+    "tilt_axis_y": "turning the tilt axis about the pan axis is absorbed by T_cam_from_gaze "
+                   "and the mount",
+    "pan_scale": "the pan readings do not vary enough to fix the pan scale",
+    "tilt_scale": "the tilt readings do not vary enough to fix the tilt scale",
+    "tilt_axis_x": "the motions cannot separate the axis angle from the hand-eye rotation",
+    "tilt_point_y": "the motions cannot separate the axis distance from the hand-eye "
+                    "translation",
+}
+
+#: A Jacobian column (normalised) within this sine of the span of the others is not
+#: determined by the data. Exact gauge directions measure ≤ 1e-9 here (central
+#: differences, round-off); the weakest observable unit parameter on the default dataset
+#: (the pan scale from ±8° pans) measures ~1e-2. The threshold sits between, at 1e-6.
+IDENTIFIABILITY_SINE = 1e-6
+
+#: Reject corners farther than this many robust standard deviations (either coordinate).
+REJECT_K = 5.0
+
+DIST_PARAMS = {"k1k2": (0, 1), "opencv5": (0, 1, 2, 3, 4), "none": ()}
+DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
+
+
+# ----------------------------------------------------------------------------- inputs
+
+@dataclass
+class EyeObservations:
+    """One eye's corners and closed-form initial values.
+
+    Attributes
+    ----------
+    K : (3, 3); dist : (5,) k1 k2 p1 p2 k3; image_size : (width, height)
+    intrinsics : dict name → corners (N, 2): the intrinsics views used
+    T_cam_from_world_intrinsics : dict name → (4, 4): their initial board poses
+    pose : dict file → corners (N, 2): the pose views
+    pan_tilt : dict file → (pan, tilt) encoder readings in radians
+    view : dict file → view id (the simultaneous board placement)
+    T_cam_from_world_pose : dict file → (4, 4): per-pose extrinsics (initial values)
+    T_cam_from_gaze : (4, 4) initial hand-eye (RASC)
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    image_size: tuple[int, int]
+    intrinsics: dict[str, np.ndarray]
+    T_cam_from_world_intrinsics: dict[str, np.ndarray]
+    pose: dict[str, np.ndarray]
+    pan_tilt: dict[str, tuple[float, float]]
+    view: dict[str, str]
+    T_cam_from_world_pose: dict[str, np.ndarray]
+    T_cam_from_gaze: np.ndarray
+
+
+@dataclass
+class HeadObservations:
+    """Both eyes' observations, the board's corners in its own frame (N, 3) and the
+    initial ``T_ptuL_from_ptuR`` (loop closure)."""
+
+    board_points: np.ndarray
+    eyes: dict[str, EyeObservations]
+    T_ptuL_from_ptuR: np.ndarray
+    dist_model: str = "k1k2"
+
+
+def observations_from_calibration(cal, board) -> HeadObservations:
+    """The refinement's input from a closed-form :class:`rasc.head.pipeline.Calibration`
+    (which keeps its detected corners)."""
+    eyes = {}
+    for eye in EYES:
+        r = cal.eyes[eye]
+        intr = r.intrinsics
+        used = list(intr.T_cam_from_world)
+        eyes[eye] = EyeObservations(
+            K=intr.K, dist=_dist5(intr.dist), image_size=tuple(intr.image_size),
+            intrinsics={n: r.corners["intrinsics"][n] for n in used},
+            T_cam_from_world_intrinsics=dict(intr.T_cam_from_world),
+            pose={f: r.corners["pose"][f] for f in r.pose_files},
+            pan_tilt={f: (float(pt[0]), float(pt[1]))
+                      for f, pt in zip(r.pose_files, r.pan_tilt, strict=True)},
+            view=dict(zip(r.pose_files, r.views, strict=True)),
+            T_cam_from_world_pose=dict(zip(r.pose_files, r.T_cam_from_world, strict=True)),
+            T_cam_from_gaze=r.handeye.T_cam_from_gaze)
+    T_loop = cal.base.get("loop_closure", {}).get("T_ptuL_from_ptuR", cal.base["T_ptuL_from_ptuR"])
+    return HeadObservations(board_points=board.object_points(), eyes=eyes,
+                            T_ptuL_from_ptuR=np.asarray(T_loop, float),
+                            dist_model=cal.options.dist_model)
+
+
+def _dist5(dist) -> np.ndarray:
+    d = np.zeros(5)
+    dist = np.asarray(dist, float).ravel()[:5]
+    d[:len(dist)] = dist
+    return d
+
+
+# ----------------------------------------------------------------------------- results
+
+@dataclass
+class ImageResidual:
+    """Residuals of one image after the fit: RMS and max (px) over its kept corners,
+    and the indices of its rejected corners."""
+
+    eye: str
+    role: str
+    name: str
+    rms: float
+    max: float
+    rejected: list[int]
+
+    def to_dict(self) -> dict:
+        return {"eye": self.eye, "role": self.role, "file": self.name, "rms": self.rms,
+                "max": self.max, "rejected_corners": self.rejected}
+
+
+@dataclass
+class RefinementResult:
+    """What :func:`refine_head` found.
+
+    Attributes
+    ----------
+    K, dist, T_cam_from_gaze, unit : dict eye → refined value
+    T_ptuL_from_ptuR : (4, 4)
+    parameters : dict eye (or "head") → name → {"value": float | None, "std": float | None,
+        "unit": str}; value and std None for a parameter the data cannot determine
+    not_identifiable : list of {"eye", "parameter", "reason", "sine"}
+    rms_before, rms_after : reprojection RMS (px, OpenCV's definition: sqrt of the mean
+        squared 2-D residual) over every corner, at the initial guess and at the optimum
+        (kept corners)
+    sigma : noise per coordinate (px) from the residuals; images : per-image residuals
+    residuals : dict eye → (M, 2) final residuals of its kept corners, for plots
+    covariance : (n, n) of the estimated parameters (natural units), names : their names
+    """
+
+    K: dict[str, np.ndarray]
+    dist: dict[str, np.ndarray]
+    T_cam_from_gaze: dict[str, np.ndarray]
+    unit: dict[str, PanTiltUnit]
+    T_ptuL_from_ptuR: np.ndarray
+    parameters: dict[str, dict[str, dict[str, Any]]]
+    not_identifiable: list[dict[str, Any]]
+    rms_before: float
+    rms_after: float
+    sigma: float
+    images: list[ImageResidual]
+    n_corners: int
+    n_rejected: int
+    iterations: int
+    seconds: float
+    gauge: str
+    residuals: dict[str, np.ndarray] = field(default_factory=dict)
+    covariance: np.ndarray | None = None
+    names: list[str] = field(default_factory=list)
+
+    def std(self, eye: str) -> dict[str, float | None]:
+        """Name → standard deviation of one eye's parameters (None: not identifiable)."""
+        return {k: v["std"] for k, v in self.parameters[eye].items()}
+
+    def to_dict(self) -> dict:
+        return {"gauge": self.gauge,
+                "rms_before_px": self.rms_before, "rms_after_px": self.rms_after,
+                "sigma_px": self.sigma, "corners": self.n_corners,
+                "rejected_corners": self.n_rejected, "iterations": self.iterations,
+                "seconds": self.seconds,
+                "parameters": self.parameters,
+                "not_identifiable": self.not_identifiable,
+                "T_ptuL_from_ptuR": self.T_ptuL_from_ptuR.tolist(),
+                "images": [im.to_dict() for im in self.images]}
+
+
+GAUGE = ("each unit's ptu frame: x along its pan axis, origin at the foot of the common "
+         "normal on the pan axis, tilt axis in its x-z plane at pan reading 0, encoder "
+         "offsets 0; board poses of pose views in the left ptu frame; base = cyclopean "
+         "frame of T_ptuL_from_ptuR (docs/METHOD.md §5, §10)")
+
+
+# ----------------------------------------------------------------------------- model
+
+def _rodrigues_batch(w: np.ndarray) -> np.ndarray:
+    """exp of rotation vectors (n, 3) → (n, 3, 3), exact at 0."""
+    th = np.linalg.norm(w, axis=-1)
+    small = th < 1e-8
+    safe = np.where(small, 1.0, th)
+    a = np.where(small, 1.0 - th ** 2 / 6.0, np.sin(th) / safe)
+    b = np.where(small, 0.5 - th ** 2 / 24.0, (1.0 - np.cos(th)) / safe ** 2)
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2] = -w[..., 2], w[..., 1]
+    K[..., 1, 0], K[..., 1, 2] = w[..., 2], -w[..., 0]
+    K[..., 2, 0], K[..., 2, 1] = -w[..., 1], w[..., 0]
+    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotations about the unit ``axis`` (3,) by ``angle`` (n,) → (n, 3, 3)."""
+    c, s = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
+    Kx = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
+                   [-axis[1], axis[0], 0.0]])
+    return c * np.eye(3) + s * Kx + (1.0 - c) * np.outer(axis, axis)
+
+
+def _unit_motion(u: dict[str, float], pan: np.ndarray, tilt: np.ndarray):
+    """R (n, 3, 3), t (n, 3) of T_gaze_from_ptu for the refinement's unit parameters."""
+    phi = u["pan_scale"] * pan + u["pan_offset"]
+    tau = u["tilt_scale"] * tilt + u["tilt_offset"]
+    a = np.array([u["tilt_axis_x"], u["tilt_axis_y"], 1.0])
+    a /= np.linalg.norm(a)
+    q = np.array([u["tilt_point_x"], u["tilt_point_y"], u["tilt_point_z"]])
+    R_tilt = _axis_rotation(a, tau)
+    R_pan = _axis_rotation(np.array([1.0, 0.0, 0.0]), -phi)
+    return R_tilt @ R_pan, q - R_tilt @ q
+
+
+UNIT_DEFAULTS = {"pan_scale": 1.0, "tilt_scale": 1.0, "tilt_axis_x": 0.0, "tilt_axis_y": 0.0,
+                 "tilt_point_x": 0.0, "tilt_point_y": 0.0, "tilt_point_z": 0.0,
+                 "pan_offset": 0.0, "tilt_offset": 0.0}
+
+
+def unit_from_parameters(u: dict[str, float]) -> PanTiltUnit:
+    """The :class:`PanTiltUnit` of the refinement's parameters (same motion)."""
+    a = np.array([u["tilt_axis_x"], u["tilt_axis_y"], 1.0])
+    return PanTiltUnit(tilt_axis=tuple(a / np.linalg.norm(a)),
+                       tilt_point=(u["tilt_point_x"], u["tilt_point_y"], u["tilt_point_z"]),
+                       pan_offset=u["pan_offset"], tilt_offset=u["tilt_offset"],
+                       pan_scale=u["pan_scale"], tilt_scale=u["tilt_scale"])
+
+
+class _Problem:
+    """Parameter layout, residuals and Jacobian structure of one refinement."""
+
+    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]]):
+        self.obs = obs
+        self.dist_idx = DIST_PARAMS[obs.dist_model]
+        P = obs.board_points
+        # length scale for translations: the median camera-to-board distance
+        depths = [T[2, 3] for e in obs.eyes.values()
+                  for T in (*e.T_cam_from_world_intrinsics.values(),
+                            *e.T_cam_from_world_pose.values())]
+        L = float(np.median(depths))
+        self.length_scale = L
+        names, scales, x0 = [], [], []
+
+        def add(name, value, scale):
+            names.append(name)
+            scales.append(scale)
+            x0.append(value)
+
+        self.eye_cols: dict[str, dict[str, int]] = {}
+        for eye in EYES:
+            e = obs.eyes[eye]
+            start = len(names)
+            for k, n in enumerate(("fx", "fy", "cx", "cy")):
+                add(f"{eye}.{n}", (e.K[0, 0], e.K[1, 1], e.K[0, 2], e.K[1, 2])[k], 100.0)
+            for i in self.dist_idx:
+                add(f"{eye}.{DIST_NAMES[i]}", e.dist[i], 1.0)
+            n_intr = len(names) - start
+            for k in range(3):
+                add(f"{eye}.T_cam_from_gaze.rot{'xyz'[k]}", 0.0, 0.1)
+            for k in range(3):
+                add(f"{eye}.T_cam_from_gaze.t{'xyz'[k]}", e.T_cam_from_gaze[k, 3], 0.1 * L)
+            for n in unit_free[eye]:
+                s = 0.1 * L if n.startswith("tilt_point") else (1.0 if n.endswith("scale")
+                                                                 else 0.1)
+                add(f"{eye}.unit.{n}", UNIT_DEFAULTS[n], s)
+            self.eye_cols[eye] = {"start": start, "n_intr": n_intr, "stop": len(names)}
+        self.head_start = len(names)
+        for k in range(3):
+            add(f"T_ptuL_from_ptuR.rot{'xyz'[k]}", 0.0, 0.1)
+        for k in range(3):
+            add(f"T_ptuL_from_ptuR.t{'xyz'[k]}", obs.T_ptuL_from_ptuR[k, 3], 0.1 * L)
+        self.n_global = len(names)
+        # board poses: rotation as a perturbation exp(w)·R0, translation absolute
+        pose_R0, pose_t0, pose_names = [], [], []
+        for eye in EYES:
+            for n, T in obs.eyes[eye].T_cam_from_world_intrinsics.items():
+                pose_names.append(f"{eye}:{n}")
+                pose_R0.append(T[:3, :3])
+                pose_t0.append(T[:3, 3])
+        # one board pose for every pose view: the target stays put while the units move,
+        # as hand-eye (eq. 4-7) and loop closure (eq. 11-12) assume; initial value from the
+        # first pose image (left eye if any), with the ideal unit
+        T_pLpR = obs.T_ptuL_from_ptuR
+        T = None
+        for eye in EYES:
+            e = obs.eyes[eye]
+            if not e.pose:
+                continue
+            f = next(iter(e.pose))
+            R, t = _unit_motion(UNIT_DEFAULTS, np.array([e.pan_tilt[f][0]]),
+                                np.array([e.pan_tilt[f][1]]))
+            T = invert_transform(make_transform(R[0], t[0])) \
+                @ invert_transform(e.T_cam_from_gaze) @ e.T_cam_from_world_pose[f]
+            if eye == "right":
+                T = T_pLpR @ T
+            break
+        if T is None:
+            raise InputError("refinement: no pose images")
+        pose_names.append("pose views")
+        pose_R0.append(T[:3, :3])
+        pose_t0.append(T[:3, 3])
+        self.pose_names = pose_names
+        self.pose_R0 = np.array(pose_R0)
+        n_poses = len(pose_names)
+        for i, pn in enumerate(pose_names):
+            for k in range(3):
+                add(f"board[{pn}].rot{'xyz'[k]}", 0.0, 0.1)
+            for k in range(3):
+                add(f"board[{pn}].t{'xyz'[k]}", pose_t0[i][k], 0.1 * L)
+        self.names = names
+        self.scale = np.array(scales)
+        self.p0 = np.array(x0)
+        self.n_poses = n_poses
+        self.R0_cg = {eye: obs.eyes[eye].T_cam_from_gaze[:3, :3] for eye in EYES}
+        self.R0_pLpR = T_pLpR[:3, :3]
+        self.unit_free = unit_free
+        # images
+        img_eye, img_role, img_name, img_pose, pan, tilt, corners = [], [], [], [], [], [], []
+        pose_view_index = len(pose_names) - 1
+        for ei, eye in enumerate(EYES):
+            e = obs.eyes[eye]
+            for n, c in e.intrinsics.items():
+                img_eye.append(ei)
+                img_role.append(0)
+                img_name.append(n)
+                img_pose.append(pose_names.index(f"{eye}:{n}"))
+                pan.append(0.0)
+                tilt.append(0.0)
+                corners.append(c)
+            for f, c in e.pose.items():
+                img_eye.append(ei)
+                img_role.append(1)
+                img_name.append(f)
+                img_pose.append(pose_view_index)
+                pan.append(e.pan_tilt[f][0])
+                tilt.append(e.pan_tilt[f][1])
+                corners.append(c)
+        self.img_eye = np.array(img_eye)
+        self.img_role = np.array(img_role)
+        self.img_name = img_name
+        self.img_pose = np.array(img_pose)
+        self.pan, self.tilt = np.array(pan), np.array(tilt)
+        self.corners = np.array(corners, dtype=float)          # (n_img, N, 2)
+        self.P = np.asarray(P, float)
+        self.mask = np.ones(self.corners.shape[:2], bool)
+        self.pose_images = {ei: np.flatnonzero((self.img_eye == ei) & (self.img_role == 1))
+                            for ei in range(2)}
+
+    # ---- parameters -----------------------------------------------------------------
+
+    def unpack(self, x: np.ndarray) -> dict[str, Any]:
+        p = self.p0 + self.scale * x
+        out: dict[str, Any] = {}
+        for ei, eye in enumerate(EYES):
+            c = self.eye_cols[eye]
+            i = c["start"]
+            fx, fy, cx, cy = p[i:i + 4]
+            d = np.zeros(5)
+            for k, j in enumerate(self.dist_idx):
+                d[j] = p[i + 4 + k]
+            j = i + c["n_intr"]
+            R = _rodrigues_batch(p[j:j + 3][None])[0] @ self.R0_cg[eye]
+            T_cg = make_transform(R, p[j + 3:j + 6])
+            u = dict(UNIT_DEFAULTS)
+            for k, n in enumerate(self.unit_free[eye]):
+                u[n] = p[j + 6 + k]
+            out[eye] = {"K": (fx, fy, cx, cy), "dist": d, "T_cam_from_gaze": T_cg, "unit": u}
+        h = self.head_start
+        R = _rodrigues_batch(p[h:h + 3][None])[0] @ self.R0_pLpR
+        out["T_ptuL_from_ptuR"] = make_transform(R, p[h + 3:h + 6])
+        b = p[self.n_global:].reshape(self.n_poses, 6)
+        out["pose_R"] = _rodrigues_batch(b[:, :3]) @ self.pose_R0
+        out["pose_t"] = b[:, 3:]
+        return out
+
+    # ---- prediction -----------------------------------------------------------------
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """Predicted pixels (n_img, N, 2)."""
+        s = self.unpack(x)
+        R = s["pose_R"][self.img_pose].copy()
+        t = s["pose_t"][self.img_pose].copy()
+        T_pRpL = invert_transform(s["T_ptuL_from_ptuR"])
+        for ei, eye in enumerate(EYES):
+            idx = self.pose_images[ei]
+            if len(idx) == 0:
+                continue
+            Rg, tg = _unit_motion(s[eye]["unit"], self.pan[idx], self.tilt[idx])
+            T_cg = s[eye]["T_cam_from_gaze"]
+            M = np.eye(4) if eye == "left" else T_pRpL
+            # chain A = T_cg · T_gp · M, then A · T_board
+            RA = T_cg[:3, :3] @ Rg @ M[:3, :3]
+            tA = T_cg[:3, :3] @ (Rg @ M[:3, 3] + tg)[..., None]
+            tA = tA[..., 0] + T_cg[:3, 3]
+            t[idx] = np.einsum("nij,nj->ni", RA, t[idx]) + tA
+            R[idx] = RA @ R[idx]
+        pc = np.einsum("nij,kj->nki", R, self.P) + t[:, None, :]
+        x_, y_ = pc[..., 0] / pc[..., 2], pc[..., 1] / pc[..., 2]
+        Kp = np.array([s[eye]["K"] for eye in EYES])[self.img_eye]      # (n_img, 4)
+        D = np.array([s[eye]["dist"] for eye in EYES])[self.img_eye]    # (n_img, 5)
+        k1, k2, p1, p2, k3 = (D[:, i:i + 1] for i in range(5))
+        r2 = x_ * x_ + y_ * y_
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x_ * radial + 2.0 * p1 * x_ * y_ + p2 * (r2 + 2.0 * x_ * x_)
+        yd = y_ * radial + p1 * (r2 + 2.0 * y_ * y_) + 2.0 * p2 * x_ * y_
+        u = Kp[:, 0:1] * xd + Kp[:, 2:3]
+        v = Kp[:, 1:2] * yd + Kp[:, 3:4]
+        return np.stack([u, v], axis=-1)
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return (self.predict(x) - self.corners)[self.mask].ravel()
+
+    def all_residuals(self, x: np.ndarray) -> np.ndarray:
+        """(n_img, N, 2), rejected corners included."""
+        return self.predict(x) - self.corners
+
+    # ---- Jacobian -------------------------------------------------------------------
+
+    def column_images(self) -> list[np.ndarray]:
+        """For every parameter, the images whose corners it moves."""
+        cols = []
+        for ei, eye in enumerate(EYES):
+            c = self.eye_cols[eye]
+            all_e = np.flatnonzero(self.img_eye == ei)
+            cols += [all_e] * c["n_intr"]
+            cols += [self.pose_images[ei]] * (c["stop"] - c["start"] - c["n_intr"])
+        cols += [self.pose_images[1]] * 6
+        for i in range(self.n_poses):
+            cols += [np.flatnonzero(self.img_pose == i)] * 6
+        return cols
+
+    def sparsity(self) -> sp.csr_matrix:
+        """(m, n) structure: a corner depends on its eye's and its view's parameters."""
+        row_of_image = self._rows_of_images()
+        rows, cols = [], []
+        for j, imgs in enumerate(self.column_images()):
+            r = np.concatenate([row_of_image[i] for i in imgs]) if len(imgs) else \
+                np.zeros(0, int)
+            rows.append(r)
+            cols.append(np.full(len(r), j))
+        m = int(self.mask.sum()) * 2
+        return sp.csr_matrix((np.ones(sum(len(r) for r in rows)),
+                              (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(m, len(self.names)))
+
+    def _rows_of_images(self) -> list[np.ndarray]:
+        counts = self.mask.sum(axis=1) * 2
+        ends = np.cumsum(counts)
+        return [np.arange(e - c, e) for c, e in zip(counts, ends, strict=True)]
+
+    def jacobian(self, x: np.ndarray, h: float = 1e-5) -> sp.csr_matrix:
+        """Central differences, one evaluation pair per global parameter and one per
+        board-pose coordinate (all views at once: their corners are disjoint)."""
+        rows_of = self._rows_of_images()
+        n = len(self.names)
+        data_r, data_c, data_v = [], [], []
+        groups = [[j] for j in range(self.n_global)]
+        for k in range(6):
+            groups.append([self.n_global + 6 * i + k for i in range(self.n_poses)])
+        col_imgs = self.column_images()
+        for g in groups:
+            dx = np.zeros(n)
+            dx[g] = h
+            d = (self.residuals(x + dx) - self.residuals(x - dx)) / (2 * h)
+            for j in g:
+                imgs = col_imgs[j]
+                r = np.concatenate([rows_of[i] for i in imgs]) if len(imgs) else \
+                    np.zeros(0, int)
+                data_r.append(r)
+                data_c.append(np.full(len(r), j))
+                data_v.append(d[r])
+        m = int(self.mask.sum()) * 2
+        return sp.csr_matrix((np.concatenate(data_v),
+                              (np.concatenate(data_r), np.concatenate(data_c))), shape=(m, n))
+
+
+# ----------------------------------------------------------------------------- identifiability
+
+def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dict[str, Any]]]:
+    """Decide, from the Jacobian at the initial guess, which unit parameters the corners
+    determine (see the module docstring). Raises :class:`DegenerateDataError` when the
+    basic parameters (intrinsics, hand-eye, mounts, board poses) are not determined."""
+    full = {eye: list(UNIT_PARAMETERS) for eye in EYES}
+    prob = _Problem(obs, full)
+    J = prob.jacobian(np.zeros(len(prob.names)))
+    Jd = J.toarray()
+    d = np.linalg.norm(Jd, axis=0)
+    Jn = Jd / np.where(d > 0, d, 1.0)
+    unit_cols = {}
+    for eye in EYES:
+        c = prob.eye_cols[eye]
+        first = c["start"] + c["n_intr"] + 6
+        for k, n in enumerate(UNIT_PARAMETERS):
+            unit_cols[(eye, n)] = first + k
+    base = [j for j in range(len(prob.names)) if j not in set(unit_cols.values())]
+    for j in base:
+        if d[j] == 0:
+            raise DegenerateDataError(f"refinement: parameter {prob.names[j]} moves no corner")
+    # orthonormal basis of the basic parameters' columns (QR: conditioning not squared)
+    Q, Rq = np.linalg.qr(Jn[:, base])
+    rdiag = np.abs(np.diag(Rq))
+    if rdiag.min() < IDENTIFIABILITY_SINE:
+        j = base[int(np.argmin(rdiag))]
+        raise DegenerateDataError(
+            f"refinement: the corners cannot determine {prob.names[j]} (and the parameters "
+            "it trades with); add pose views that turn about both axes and intrinsics "
+            "views tilted 20-45 degrees")
+    free: dict[str, list[str]] = {eye: [] for eye in EYES}
+    dropped = []
+    for eye in EYES:
+        for n in UNIT_PARAMETERS:
+            j = unit_cols[(eye, n)]
+            r = Jn[:, j] - Q @ (Q.T @ Jn[:, j])
+            r -= Q @ (Q.T @ r)                       # re-orthogonalise once
+            sine = float(np.linalg.norm(r)) if d[j] > 0 else 0.0
+            if sine < IDENTIFIABILITY_SINE:
+                dropped.append({"eye": eye, "parameter": n, "reason": REASONS[n],
+                                "sine": sine})
+            else:
+                Q = np.column_stack([Q, r / sine])
+                free[eye].append(n)
+    return free, dropped
+
+
+# ----------------------------------------------------------------------------- the fit
+
+def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
+                reject_k: float = REJECT_K, max_nfev: int = 200) -> RefinementResult:
+    """Refine the whole head from its corners (see the module docstring).
+
+    Parameters
+    ----------
+    obs : HeadObservations
+        Corners and the closed form's initial values.
+    sigma0 : float, optional
+        Expected corner noise per coordinate (px) for the robust loss's scale; default
+        from the intrinsics views' residuals at the initial guess.
+    reject_k : float
+        Rejection threshold in robust standard deviations.
+
+    Returns
+    -------
+    RefinementResult
+
+    Raises
+    ------
+    DegenerateDataError
+        The corners cannot determine the basic parameters.
+    """
+    t_start = time.perf_counter()
+    if obs.dist_model not in DIST_PARAMS:
+        raise InputError(f"refinement: unknown dist_model {obs.dist_model!r}")
+    free, dropped = _identifiable(obs)
+    prob = _Problem(obs, free)
+    x0 = np.zeros(len(prob.names))
+    r0 = prob.all_residuals(x0)
+    rms_before = float(np.sqrt(np.mean(np.sum(r0 ** 2, axis=-1))))
+    if sigma0 is None:
+        intr = r0[prob.img_role == 0]
+        sigma0 = float(np.sqrt(np.mean(intr ** 2))) if intr.size else 0.1
+    sigma0 = max(sigma0, 1e-3)
+    iterations = 0
+    x = x0
+    for _ in range(2):   # fit; reject; refit once without the rejected corners
+        res = least_squares(prob.residuals, x, jac_sparsity=prob.sparsity(), method="trf",
+                            loss="soft_l1", f_scale=3.0 * sigma0, x_scale="jac",
+                            tr_solver="lsmr", max_nfev=max_nfev, xtol=1e-8, ftol=1e-8,
+                            tr_options={"atol": 1e-12, "btol": 1e-12, "regularize": False})
+        x = res.x
+        iterations += int(res.nfev)
+        r = prob.all_residuals(x)
+        kept_r = r[prob.mask]
+        sig = 1.4826 * float(np.median(np.abs(kept_r - np.median(kept_r, axis=0))))
+        bad = np.any(np.abs(r) > reject_k * max(sig, 1e-6), axis=-1) & prob.mask
+        if not bad.any():
+            break
+        prob.mask &= ~bad
+    # uncertainty: σ² (JᵀJ)⁻¹, J by central differences, plain least squares at the optimum
+    r = prob.all_residuals(x)
+    rk = r[prob.mask]
+    m, n = rk.size, len(prob.names)
+    sigma = float(np.sqrt(np.sum(rk ** 2) / max(m - n, 1)))
+    J = prob.jacobian(x)
+    G = (J.T @ J).toarray()
+    D = np.sqrt(np.diag(G))
+    cov_x = np.linalg.inv(G / np.outer(D, D)) / np.outer(D, D) * sigma ** 2
+    cov = cov_x * np.outer(prob.scale, prob.scale)
+    std = np.sqrt(np.diag(cov))
+    p = prob.p0 + prob.scale * x
+    s = prob.unpack(x)
+    # parameters, by eye, in natural units
+    params: dict[str, dict[str, dict[str, Any]]] = {eye: {} for eye in EYES}
+    params["head"] = {}
+    unit_of = {"fx": "px", "fy": "px", "cx": "px", "cy": "px"}
+    for j, name in enumerate(prob.names[:prob.n_global]):
+        group, _, pname = name.partition(".")
+        if group not in params:
+            group, pname = "head", name
+        if ".rot" in pname:
+            value = None      # a perturbation: the refined transform is reported whole
+            u = "deg"
+            entry = {"value": value, "std": float(np.degrees(std[j])), "unit": u}
+        else:
+            u = unit_of.get(pname, "length" if (".t" in pname or "tilt_point" in pname)
+                            else ("rad" if pname.startswith("unit.") and
+                                  ("axis" in pname or "offset" in pname) else "1"))
+            entry = {"value": float(p[j]), "std": float(std[j]), "unit": u}
+        params[group][pname] = entry
+    for eye in EYES:
+        uv = s[eye]["unit"]
+        a = np.array([uv["tilt_axis_x"], uv["tilt_axis_y"], 1.0])
+        a /= np.linalg.norm(a)
+        # derived: non-orthogonality (deg) and its std from tilt_axis_x
+        key = "unit.tilt_axis_x"
+        if key in params[eye]:
+            ax = params[eye][key]["value"]
+            dangle = 1.0 / (1.0 + ax * ax)       # d asin(ax/sqrt(1+ax²))/d ax (ay = 0)
+            params[eye]["unit.axis_angle_deg"] = {
+                "value": float(90.0 - np.degrees(np.arcsin(a[0]))),
+                "std": float(np.degrees(dangle * params[eye][key]["std"])), "unit": "deg"}
+        for dd in dropped:
+            if dd["eye"] == eye:
+                params[eye][f"unit.{dd['parameter']}"] = {"value": None, "std": None,
+                                                          "reason": dd["reason"]}
+    # per-image residuals
+    images = []
+    residuals: dict[str, list[np.ndarray]] = {eye: [] for eye in EYES}
+    for i, name in enumerate(prob.img_name):
+        keep = prob.mask[i]
+        ri = r[i][keep]
+        eye = EYES[prob.img_eye[i]]
+        residuals[eye].append(ri)
+        nrm = np.linalg.norm(ri, axis=1)
+        images.append(ImageResidual(
+            eye=eye, role="intrinsics" if prob.img_role[i] == 0 else "pose", name=name,
+            rms=float(np.sqrt(np.mean(nrm ** 2))) if len(nrm) else float("nan"),
+            max=float(nrm.max()) if len(nrm) else float("nan"),
+            rejected=[int(k) for k in np.flatnonzero(~keep)]))
+    rms_after = float(np.sqrt(np.mean(np.sum(rk.reshape(-1, 2) ** 2, axis=-1))))
+    return RefinementResult(
+        K={eye: np.array([[s[eye]["K"][0], 0, s[eye]["K"][2]], [0, s[eye]["K"][1],
+                                                                 s[eye]["K"][3]], [0, 0, 1.0]])
+           for eye in EYES},
+        dist={eye: s[eye]["dist"] for eye in EYES},
+        T_cam_from_gaze={eye: s[eye]["T_cam_from_gaze"] for eye in EYES},
+        unit={eye: unit_from_parameters(s[eye]["unit"]) for eye in EYES},
+        T_ptuL_from_ptuR=s["T_ptuL_from_ptuR"], parameters=params,
+        not_identifiable=dropped, rms_before=rms_before, rms_after=rms_after, sigma=sigma,
+        images=images, n_corners=int(prob.mask.size), n_rejected=int((~prob.mask).sum()),
+        iterations=iterations, seconds=time.perf_counter() - t_start, gauge=GAUGE,
+        residuals={eye: np.concatenate(v) if v else np.zeros((0, 2))
+                   for eye, v in residuals.items()},
+        covariance=cov, names=list(prob.names))
+
+
+def rotvec_std_deg(result: RefinementResult, name: str) -> np.ndarray:
+    """Standard deviations (deg) of the three rotation-vector components of a refined
+    transform (``"left.T_cam_from_gaze"``, ``"T_ptuL_from_ptuR"``)."""
+    idx = [result.names.index(f"{name}.rot{c}") for c in "xyz"]
+    return np.degrees(np.sqrt(np.diag(result.covariance)[idx]))
+
+
+__all__ = ["EyeObservations", "HeadObservations", "RefinementResult", "refine_head",
+           "observations_from_calibration", "unit_from_parameters", "UNIT_PARAMETERS",
+           "IDENTIFIABILITY_SINE", "REJECT_K", "GAUGE", "rotvec_from_matrix",
+           "matrix_from_rotvec"]
