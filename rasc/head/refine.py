@@ -12,14 +12,17 @@ the pose views — with :func:`scipy.optimize.least_squares` over
   the common-normal distance);
 * per head: ``T_ptuL_from_ptuR`` (6);
 * per intrinsics view: its board pose ``T_cam_from_world`` (6);
-* per pose view (one simultaneous placement of the board, the manifest's ``view``): one
-  board pose ``T_ptuL_from_world`` (6) shared by both eyes, which ties the eyes together
-  and determines ``T_ptuL_from_ptuR``.
+* for the pose views: one board pose ``T_ptuL_from_world`` (6) shared by every pose
+  image of both eyes. The target stays put while the units move, as hand-eye (eq. 4–7)
+  and loop closure (eq. 11–12) already assume; sharing it ties the eyes together and
+  determines ``T_ptuL_from_ptuR``. (A board pose per view, free, would let each view
+  absorb the kinematics: the hand-eye would then be seen only through the other eye.)
 
-A corner of eye e at encoder readings (φ_r, τ_r) in pose view v is predicted by eq. 1–2
-with the general unit, distortion and K::
+A corner of eye e at encoder readings (φ_r, τ_r) is predicted by eq. 1–2 with the
+general unit, distortion and K::
 
-    T_cam_from_world = T_cam_from_gaze · unit.T_gaze_from_ptu(φ_r, τ_r) · T_ptu_from_ptuL · T_ptuL_from_world_v
+    T_cam_from_world = T_cam_from_gaze · unit.T_gaze_from_ptu(φ_r, τ_r)
+                       · T_ptu_from_ptuL · T_ptuL_from_world
 
 (``T_ptu_from_ptuL`` = I for the left eye, ``T_ptuL_from_ptuR⁻¹`` for the right).
 
@@ -63,12 +66,7 @@ from scipy.optimize import least_squares
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PanTiltUnit
-from rasc.geometry.transforms import (
-    invert_transform,
-    make_transform,
-    matrix_from_rotvec,
-    rotvec_from_matrix,
-)
+from rasc.geometry.transforms import invert_transform, make_transform
 
 #: Candidate unit parameters per eye, in the order they are admitted (observable ones
 #: first): a later candidate is tested against the span of those kept before it.
@@ -437,7 +435,7 @@ class _Problem:
     def unpack(self, x: np.ndarray) -> dict[str, Any]:
         p = self.p0 + self.scale * x
         out: dict[str, Any] = {}
-        for ei, eye in enumerate(EYES):
+        for eye in EYES:
             c = self.eye_cols[eye]
             i = c["start"]
             fx, fy, cx, cy = p[i:i + 4]
@@ -748,5 +746,4 @@ def rotvec_std_deg(result: RefinementResult, name: str) -> np.ndarray:
 
 __all__ = ["EyeObservations", "HeadObservations", "RefinementResult", "refine_head",
            "observations_from_calibration", "unit_from_parameters", "UNIT_PARAMETERS",
-           "IDENTIFIABILITY_SINE", "REJECT_K", "GAUGE", "rotvec_from_matrix",
-           "matrix_from_rotvec"]
+           "IDENTIFIABILITY_SINE", "REJECT_K", "GAUGE"]
