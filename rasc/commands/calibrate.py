@@ -1,8 +1,9 @@
 """``rasc calibrate DATASET [--out FILE]``: calibrate the whole head from a dataset.
 
-detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → one JSON
-calibration (``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the
-dataset, also the errors against it. Written atomically; on any error, no file.
+detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → (``--model
+general``, the default) whole-head refinement → one JSON calibration
+(``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the dataset,
+also the errors against it. Written atomically; on any error, no file.
 """
 
 from __future__ import annotations
@@ -46,6 +47,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "board's square_size; optional \"format\": \"rasc-mounts/1\", "
                         "\"description\"); used instead of loop closure, and compared "
                         "with it")
+    p.add_argument("--model", default="general", choices=("paper", "general"),
+                   help="pan-tilt model: 'paper' = the closed form with the paper's unit "
+                        "(eq. 3); 'general' = the closed form refined over every corner "
+                        "with a general unit per eye, each parameter with its standard "
+                        "deviation (default general)")
+    p.add_argument("--plots", metavar="DIR",
+                   help="with --model general: write residual plots residuals_left.png, "
+                        "residuals_right.png into DIR")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -90,12 +99,19 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out:
         check_writable(args.out)
+        if Path(args.out).resolve() == (Path(args.dataset) / "manifest.json").resolve():
+            raise InputError(f"--out {args.out}: is the dataset's manifest (an input)")
+    if args.plots and args.model != "general":
+        raise InputError("--plots: residual plots come from the whole-head refinement; "
+                         "use them with --model general")
+    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
+        raise InputError(f"--plots {args.plots}: exists and is not a folder")
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
-                                 T_ptuL_from_ptuR_measured=mounts)
+                                 T_ptuL_from_ptuR_measured=mounts, model=args.model)
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -108,6 +124,11 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         sys.stdout.write(dumps_json(doc))
+    if args.plots and cal.refinement is not None:
+        from rasc.head.plots import residual_plots
+
+        for path in residual_plots(cal.refinement, args.plots):
+            log(f"wrote {path}")
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):
@@ -124,4 +145,18 @@ def run(args: argparse.Namespace) -> int:
                 line += (f", T_cam_from_gaze error {e['rotation_deg']:.4f} deg "
                          f"{_length(e['translation'], cal.length_unit)}")
             log(line)
+        res = cal.refinement
+        if res is not None:
+            log(f"refinement: reprojection RMS {res.rms_before:.3f} px (closed form) -> "
+                f"{res.rms_after:.4f} px over {res.n_corners - res.n_rejected} corners, "
+                f"{res.n_rejected} rejected, {res.seconds:.2f} s")
+            for eye in ("left", "right"):
+                u = res.parameters[eye]
+                d, a = u.get("unit.tilt_point_y"), u.get("unit.axis_angle_deg")
+                if d and d["value"] is not None and a and a["value"] is not None:
+                    log(f"{eye} unit: axis distance {_length(d['value'], cal.length_unit)} "
+                        f"± {_length(d['std'], cal.length_unit)}, axis angle "
+                        f"{a['value']:.4f} ± {a['std']:.4f} deg")
+            held = sorted({f"{x['eye']} {x['parameter']}" for x in res.not_identifiable})
+            log("not identifiable (held at the gauge, not reported): " + ", ".join(held))
     return 0

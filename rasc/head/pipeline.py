@@ -4,6 +4,9 @@ dataset → corner detection → intrinsics (dedicated views) → per-pose extri
 the intrinsics fixed → hand-eye per eye (RASC by default) → base-to-ptu (loop closure
 from simultaneous views, or measured mounts) → cyclopean base → one
 :class:`rasc.head.model.HeadCalibration`, with every per-view figure and diagnostic.
+The paper's unit model is checked against the pose views (:mod:`rasc.head.fit`); with
+``model="general"`` the closed form then initialises the whole-head refinement
+(:mod:`rasc.head.refine`), which estimates a general pan-tilt unit per eye.
 
 Nothing here knows whether the images were rendered; when the dataset names a
 ground-truth file, :func:`errors_against_truth` compares the result with it.
@@ -20,7 +23,7 @@ import numpy as np
 
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.kinematics import PanTiltUnit, T_gaze_from_ptu, canonical_gauge
 from rasc.geometry.transforms import rotation_error_deg, validate_rigid_transform
 from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
 from rasc.head.base_to_ptu import T_ptuL_from_ptuR_loop_closure, cyclopean_base, mount_errors
@@ -38,6 +41,12 @@ class CalibrationOptions:
     dist_model: str = "k1k2"           # rasc.vision.camera.DIST_MODELS
     exclude_outliers: bool = True      # drop intrinsics views flagged as outliers
     T_ptuL_from_ptuR_measured: np.ndarray | None = None   # measured mounts (docs/METHOD.md §5)
+    #: "paper": the closed form (eq. 3 units); "general": the closed form refined over
+    #: every corner with a general unit per eye (rasc.head.refine)
+    model: str = "paper"
+
+
+MODELS = ("paper", "general")
 
 
 @dataclass
@@ -70,6 +79,8 @@ class Calibration:
     errors: dict[str, Any] | None = None
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
     length_unit: str | None = None     # the dataset's (the unit of board.square_size)
+    model_fit: dict[str, Any] | None = None     # eye → rasc.head.fit.EyeFit (paper model)
+    refinement: Any = None             # rasc.head.refine.RefinementResult (model "general")
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -103,8 +114,13 @@ class Calibration:
                "base_to_ptu": self.base,
                "options": {"method": self.options.method, "detector": self.options.detector,
                            "dist_model": self.options.dist_model,
-                           "exclude_outliers": self.options.exclude_outliers},
+                           "exclude_outliers": self.options.exclude_outliers,
+                           "model": self.options.model},
                "timings_s": self.timings}
+        if self.model_fit is not None:
+            out["paper_model_fit"] = {eye: f.to_dict() for eye, f in self.model_fit.items()}
+        if self.refinement is not None:
+            out["refinement"] = self.refinement.to_dict()
         if self.errors is not None:
             out["errors_against_truth"] = self.errors
         return out
@@ -285,12 +301,62 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                             T_ptu_from_base=T_pb[eye], image_size=sizes[eye])
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
-                      timings=dict(timer.timings), warnings=warnings,
+                      timings=timer.timings, warnings=warnings,
                       length_unit=dataset.length_unit)
+    _check_and_refine(cal, dataset, options, timer, log, sizes)
+    cal.timings = dict(timer.timings)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
                                           where=str(dataset.ground_truth))
     return cal
+
+
+def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
+                      log: Callable[[str], None], sizes) -> None:
+    """The paper model's fit check (always) and, for ``model="general"``, the whole-head
+    refinement, which replaces ``cal.head`` and the base's ``T_ptuL_from_ptuR``."""
+    from rasc.head.fit import calibration_fit, misfit_warning
+    from rasc.head.refine import observations_from_calibration, refine_head
+
+    if options.model not in MODELS:
+        raise InputError(f"model: expected one of {', '.join(MODELS)}, got {options.model!r}")
+    t0 = time.perf_counter()
+    cal.model_fit = calibration_fit(cal, dataset.board.object_points())
+    timer.add("model-fit check", time.perf_counter() - t0)
+    if options.model == "paper":
+        w = misfit_warning(cal.model_fit)
+        if w is not None:
+            cal.warnings.append(w)
+        return
+    log("whole-head refinement (model general)")
+    t0 = time.perf_counter()
+    try:
+        res = refine_head(observations_from_calibration(cal, dataset.board))
+    except RascError as exc:
+        raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
+    timer.add("refinement", time.perf_counter() - t0)
+    cal.refinement = res
+    T_pLpR = res.T_ptuL_from_ptuR
+    if options.T_ptuL_from_ptuR_measured is not None:
+        cal.base["measured_vs_refinement"] = _compare_mounts(
+            validate_rigid_transform(options.T_ptuL_from_ptuR_measured,
+                                     name="measured T_ptuL_from_ptuR"), T_pLpR, cal.warnings)
+    cal.base["refinement"] = {"T_ptuL_from_ptuR": T_pLpR.tolist()}
+    cal.base["T_ptuL_from_ptuR"] = T_pLpR.tolist()
+    cal.base["source"] = "whole-head refinement (initialised by " + cal.base["source"] + ")"
+    T_pb = dict(zip(EYES, cyclopean_base(T_pLpR), strict=True))
+    cal.head = HeadCalibration(**{
+        eye: EyeCalibration(K=res.K[eye], dist=res.dist[eye],
+                            T_cam_from_gaze=res.T_cam_from_gaze[eye],
+                            T_ptu_from_base=T_pb[eye], image_size=sizes[eye],
+                            unit=res.unit[eye], std=_eye_std(res, eye))
+        for eye in EYES})
+
+
+def _eye_std(res, eye: str) -> dict[str, float | None]:
+    """The standard deviations stored with an eye (rasc-head/1 ``std``): every estimated
+    parameter's, None for those the data cannot determine."""
+    return {name: entry["std"] for name, entry in res.parameters[eye].items()}
 
 
 def transform_error(T_est, T_true) -> dict[str, float]:
@@ -310,13 +376,20 @@ def errors_against_truth(cal: Calibration, truth: dict,
     """
     unit = cal.length_unit or "unit of board.square_size"
     out: dict[str, Any] = {"units": f"degrees; {unit}; pixels"}
+    T_pb_true = {}
     try:
         for eye in EYES:
             t = truth[eye]
             est = getattr(cal.head, eye)
             K_t = np.asarray(t["K"], float)
-            he = transform_error(est.T_cam_from_gaze, t["T_cam_from_gaze"])
-            pb = transform_error(est.T_ptu_from_base, t["T_ptu_from_base"])
+            T_cg_t = np.asarray(t["T_cam_from_gaze"], float)
+            T_pb_t = np.asarray(t["T_ptu_from_base"], float)
+            if "unit" in t:   # a general unit: compare in the gauge both share (METHOD §10)
+                _, T_cg_t, T_pb_t = canonical_gauge(
+                    PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"), T_cg_t, T_pb_t)
+            T_pb_true[eye] = T_pb_t
+            he = transform_error(est.T_cam_from_gaze, T_cg_t)
+            pb = transform_error(est.T_ptu_from_base, T_pb_t)
             out[eye] = {
                 "T_cam_from_gaze": he, "T_ptu_from_base": pb,
                 "K": {"fx": float(est.K[0, 0] - K_t[0, 0]), "fy": float(est.K[1, 1] - K_t[1, 1]),
@@ -330,14 +403,16 @@ def errors_against_truth(cal: Calibration, truth: dict,
                 out[eye]["pose_extrinsics_max"] = {
                     "rotation_deg": max(e["rotation_deg"] for e in errs),
                     "translation": max(e["translation"] for e in errs)}
-        me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float),
-                          np.asarray(truth["T_ptuL_from_ptuR"], float))
+        T_pLpR_true = np.asarray(truth["T_ptuL_from_ptuR"], float)
+        if any("unit" in truth[eye] for eye in EYES):
+            T_pLpR_true = T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])
+        me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float), T_pLpR_true)
         out["T_ptuL_from_ptuR"] = {"rotation_deg": me.rotation_deg,
                                    "translation": me.translation,
                                    "baseline_length": me.baseline_length}
         if "loop_closure" in cal.base:
             ml = mount_errors(np.asarray(cal.base["loop_closure"]["T_ptuL_from_ptuR"], float),
-                              np.asarray(truth["T_ptuL_from_ptuR"], float))
+                              T_pLpR_true)
             out["loop_closure"] = {"rotation_deg": ml.rotation_deg,
                                    "translation": ml.translation}
     except KeyError as exc:

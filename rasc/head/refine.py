@@ -49,8 +49,9 @@ parameter, valid for independent corner noise of equal variance.
 
 **Robustness.** The soft-L1 loss with ``f_scale`` three times the corner noise (estimated
 from the closed form's intrinsics RMS); after the fit, corners whose residual exceeds
-:data:`REJECT_K` robust standard deviations (1.4826 MAD) in either coordinate are
-rejected, reported per image, and the fit is repeated without them.
+both :data:`REJECT_K` robust standard deviations (1.4826 MAD) and
+:data:`REJECT_FLOOR_PX` in either coordinate are rejected, reported per image, and the
+fit is repeated once without them.
 """
 
 from __future__ import annotations
@@ -101,8 +102,12 @@ REASONS = {
 #: (the pan scale from ±8° pans) measures ~1e-2. The threshold sits between, at 1e-6.
 IDENTIFIABILITY_SINE = 1e-6
 
-#: Reject corners farther than this many robust standard deviations (either coordinate).
+#: Reject corners farther than this many robust standard deviations (either coordinate)
+#: and farther than REJECT_FLOOR_PX: below a tenth of a pixel a residual is the
+#: detector's ordinary error (rendered corners have σ ≈ 0.01 px with heavier tails than
+#: a Gaussian: 5σ alone rejected 5 % of them), not a gross error.
 REJECT_K = 5.0
+REJECT_FLOOR_PX = 0.1
 
 DIST_PARAMS = {"k1k2": (0, 1), "opencv5": (0, 1, 2, 3, 4), "none": ()}
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
@@ -567,24 +572,41 @@ def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dic
     full = {eye: list(UNIT_PARAMETERS) for eye in EYES}
     prob = _Problem(obs, full)
     J = prob.jacobian(np.zeros(len(prob.names)))
-    Jd = J.toarray()
-    d = np.linalg.norm(Jd, axis=0)
-    Jn = Jd / np.where(d > 0, d, 1.0)
+    d = np.sqrt(np.asarray(J.multiply(J).sum(axis=0)).ravel())
     unit_cols = {}
     for eye in EYES:
         c = prob.eye_cols[eye]
         first = c["start"] + c["n_intr"] + 6
         for k, n in enumerate(UNIT_PARAMETERS):
             unit_cols[(eye, n)] = first + k
-    base = [j for j in range(len(prob.names)) if j not in set(unit_cols.values())]
-    for j in base:
-        if d[j] == 0:
+    for j in range(len(prob.names)):
+        if d[j] == 0 and j not in set(unit_cols.values()):
             raise DegenerateDataError(f"refinement: parameter {prob.names[j]} moves no corner")
-    # orthonormal basis of the basic parameters' columns (QR: conditioning not squared)
-    Q, Rq = np.linalg.qr(Jn[:, base])
+    Jn = (J @ sp.diags(1.0 / np.where(d > 0, d, 1.0))).tocsc()
+    # The intrinsics views' board poses act on their own image's rows only: project each
+    # image's rows onto the complement of its six pose columns (a 2N x 6 QR each), which
+    # leaves the angles between the remaining columns and the span of all the others
+    # unchanged; then one QR of the global columns (intrinsics, hand-eye, mounts, the pose
+    # views' board pose) — no dense QR of the whole Jacobian, and no squared condition
+    # number as with JᵀJ.
+    glob = list(range(prob.n_global)) + list(range(len(prob.names) - 6, len(prob.names)))
+    G = Jn[:, glob].toarray()
+    rows_of = prob._rows_of_images()
+    for i in np.flatnonzero(prob.img_role == 0):
+        k = prob.n_global + 6 * int(prob.img_pose[i])
+        rows = rows_of[i]
+        B = Jn[rows][:, k:k + 6].toarray()
+        Qi, Ri = np.linalg.qr(B)
+        if np.abs(np.diag(Ri)).min() < IDENTIFIABILITY_SINE:
+            raise DegenerateDataError(f"refinement: the board pose of intrinsics view "
+                                      f"{prob.img_name[i]} is not determined by its corners")
+        G[rows] -= Qi @ (Qi.T @ G[rows])
+    col = {j: m for m, j in enumerate(glob)}
+    base = [col[j] for j in glob if j not in set(unit_cols.values())]
+    Q, Rq = np.linalg.qr(G[:, base])
     rdiag = np.abs(np.diag(Rq))
     if rdiag.min() < IDENTIFIABILITY_SINE:
-        j = base[int(np.argmin(rdiag))]
+        j = glob[base[int(np.argmin(rdiag))]]
         raise DegenerateDataError(
             f"refinement: the corners cannot determine {prob.names[j]} (and the parameters "
             "it trades with); add pose views that turn about both axes and intrinsics "
@@ -594,7 +616,8 @@ def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dic
     for eye in EYES:
         for n in UNIT_PARAMETERS:
             j = unit_cols[(eye, n)]
-            r = Jn[:, j] - Q @ (Q.T @ Jn[:, j])
+            v = G[:, col[j]]
+            r = v - Q @ (Q.T @ v)
             r -= Q @ (Q.T @ r)                       # re-orthogonalise once
             sine = float(np.linalg.norm(r)) if d[j] > 0 else 0.0
             if sine < IDENTIFIABILITY_SINE:
@@ -655,7 +678,7 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
         r = prob.all_residuals(x)
         kept_r = r[prob.mask]
         sig = 1.4826 * float(np.median(np.abs(kept_r - np.median(kept_r, axis=0))))
-        bad = np.any(np.abs(r) > reject_k * max(sig, 1e-6), axis=-1) & prob.mask
+        bad = np.any(np.abs(r) > max(reject_k * sig, REJECT_FLOOR_PX), axis=-1) & prob.mask
         if not bad.any():
             break
         prob.mask &= ~bad
