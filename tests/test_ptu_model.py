@@ -257,3 +257,17 @@ def test_canonical_gauge_of_the_ideal_unit_is_itself():
     assert canon == IDEAL
     np.testing.assert_array_equal(T_cg, T_CG)
     np.testing.assert_array_equal(T_pb, T_PB)
+
+
+def test_canonical_parameters_round_trip():
+    np.testing.assert_allclose(PanTiltUnit.canonical().T_gaze_from_ptu(PAN, TILT),
+                               T_gaze_from_ptu(PAN, TILT), rtol=0, atol=1e-15)
+    canon, _, _ = canonical_gauge(IMPERFECT, T_CG, T_PB)
+    alpha, d, s_pan, s_tilt = canon.canonical_parameters
+    assert np.degrees(alpha) == pytest.approx(IMPERFECT.axis_angle_deg, abs=1e-12)
+    assert abs(d) == pytest.approx(IMPERFECT.axis_distance, abs=1e-15)
+    again = PanTiltUnit.canonical(alpha, d, s_pan, s_tilt)
+    np.testing.assert_allclose(again.T_gaze_from_ptu(PAN, TILT), canon.T_gaze_from_ptu(PAN, TILT),
+                               rtol=0, atol=1e-15)
+    with pytest.raises(InputError, match="not in the canonical gauge"):
+        _ = IMPERFECT.canonical_parameters

@@ -10,6 +10,7 @@ when complete, so an interrupted run leaves no partial dataset.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import sys
@@ -29,6 +30,36 @@ def _floats(text: str, flag: str) -> tuple[float, ...]:
         return tuple(float(v) for v in text.split(","))
     except ValueError:
         raise InputError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+
+
+def _finite_floats(text: str, flag: str, count: int, what: str) -> tuple[float, ...]:
+    values = _floats(text, flag)
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{flag}: expected {what}, {count} finite numbers, got {text!r}")
+    return values
+
+
+def _units(args: argparse.Namespace) -> dict | None:
+    """{eye: UnitBuild} from ``--unit FILE`` and the convenience options, or None."""
+    from rasc.sim.units import IDEAL_BUILD, MAX_SKEW_DEG, merge, read_unit_file
+
+    units = read_unit_file(args.unit) if args.unit else None
+    changes: dict = {}
+    if args.tilt_axis_offset.strip():
+        changes["tilt_axis_offset_mm"] = _finite_floats(
+            args.tilt_axis_offset, "--tilt-axis-offset", 3, "X,Y,Z in millimetres")
+    if args.axis_skew is not None:
+        if not abs(args.axis_skew) < MAX_SKEW_DEG:
+            raise InputError(f"--axis-skew: expected a finite angle within "
+                             f"±{MAX_SKEW_DEG:g} degrees, got {args.axis_skew}")
+        changes["axis_skew_deg"] = args.axis_skew
+    if args.encoder_zero.strip():
+        changes["pan_zero_deg"], changes["tilt_zero_deg"] = _finite_floats(
+            args.encoder_zero, "--encoder-zero", 2, "PAN,TILT in degrees")
+    if changes:
+        units = {eye: merge((units or {}).get(eye, IDEAL_BUILD), **changes)
+                 for eye in ("left", "right")}
+    return units
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -54,6 +85,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
                    help="lens distortion applied by warping the renders (OpenCV model), "
                         "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
+    p.add_argument("--unit", metavar="FILE",
+                   help="TOML file of pan-tilt unit imperfections, tables [both], [left], "
+                        "[right] (README 'rasc render'); default: the model's ideal units")
+    p.add_argument("--tilt-axis-offset", default="", metavar="X,Y,Z",
+                   help="both units: a point of the tilt axis in the tilt link's frame (x up, "
+                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit)")
+    p.add_argument("--axis-skew", type=float, default=None, metavar="DEG",
+                   help="both units: tilt axis turned towards the pan axis, degrees (the "
+                        "axes meet at 90 - DEG degrees; overrides --unit)")
+    p.add_argument("--encoder-zero", default="", metavar="PAN,TILT",
+                   help="both units: encoder zero offsets in degrees, joint angle = reading + "
+                        "offset (overrides --unit)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -75,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
                             n_intrinsics=args.intrinsics_views, target_distance=args.distance,
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
                             dist=_floats(args.distortion, "--distortion"))
+    units = _units(args)
     t0 = time.perf_counter()
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
@@ -86,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         umask = os.umask(0)
         os.umask(umask)
         tmp.chmod(0o777 & ~umask)
-        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet)
+        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units)
         if out.exists():
             out.rmdir()
         tmp.rename(out)

@@ -89,7 +89,7 @@ def _as_vector(value, name: str, where: str) -> tuple[float, float, float]:
     if len(value) != 3 or any(isinstance(v, (bool, str, bytes)) for v in value):
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}")
     try:
-        out = tuple(float(v) for v in value)
+        out = tuple(float(v) + 0.0 for v in value)   # + 0.0: no -0.0 in JSON
     except (TypeError, ValueError):
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}") from None
     if not all(np.isfinite(out)):
@@ -100,7 +100,7 @@ def _as_vector(value, name: str, where: str) -> tuple[float, float, float]:
 def _as_scalar(value, name: str, where: str) -> float:
     if isinstance(value, (bool, str, bytes)) or not isinstance(value, (int, float, np.number)):
         raise InputError(f"{where}{name}: expected a number, got {value!r}")
-    out = float(value)
+    out = float(value) + 0.0
     if not np.isfinite(out):
         raise InputError(f"{where}{name}: value must be finite, got {value!r}")
     return out
@@ -234,6 +234,29 @@ class PanTiltUnit:
     def is_ideal(self) -> bool:
         """True when the unit is exactly the paper's (eq. 3)."""
         return self == IDEAL
+
+    @classmethod
+    def canonical(cls, axis_angle: float = np.pi / 2, axis_offset: float = 0.0,
+                  pan_scale: float = 1.0, tilt_scale: float = 1.0) -> PanTiltUnit:
+        """The unit in the canonical gauge (:func:`canonical_gauge`) from its four
+        observable parameters: ``axis_angle`` α (radians) between the axes, the signed
+        common-normal offset d (``tilt_point = (0, d, 0)``) and the two scales.
+        ``canonical(π/2, 0, 1, 1)`` is :data:`IDEAL` to round-off (cos(π/2) = 6e-17)."""
+        return cls(tilt_axis=(float(np.cos(axis_angle)), 0.0, float(np.sin(axis_angle))),
+                   tilt_point=(0.0, float(axis_offset), 0.0), pan_scale=pan_scale,
+                   tilt_scale=tilt_scale)
+
+    @property
+    def canonical_parameters(self) -> tuple[float, float, float, float]:
+        """(α radians, d, s_φ, s_τ) of a unit in the canonical gauge, the inverse of
+        :meth:`canonical`. Raises InputError for a unit in another gauge."""
+        x, y, z = self.tilt_axis
+        if (self.pan_axis != (1.0, 0.0, 0.0) or y != 0.0 or z <= 0.0
+                or self.tilt_point[0] != 0.0 or self.tilt_point[2] != 0.0
+                or self.pan_offset != 0.0 or self.tilt_offset != 0.0):
+            raise InputError("PanTiltUnit: not in the canonical gauge; use canonical_gauge() "
+                             "first")
+        return float(np.arctan2(z, x)), self.tilt_point[1], self.pan_scale, self.tilt_scale
 
     # ---- serialisation ------------------------------------------------------------------
 

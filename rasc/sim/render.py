@@ -151,16 +151,23 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
-    board is still found). Returns the smallest square (px).
+    board is still found), and the ground truth agreeing with MuJoCo's camera frames at
+    each (:meth:`rasc.sim.scene.StereoHeadSim.check_ground_truth`). Returns the smallest
+    square (px).
 
     Raises
     ------
     InputError
-        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully.
+        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully,
+        or the eye and pose where the ground truth disagrees with the model.
     """
     board, size = sim.board, sim.image_size
     d = options.target_distance
     smallest = math.inf
+    for eye in EYES:  # the intrinsics views are taken at home
+        sim.set_angles(eye, 0.0, 0.0)
+    for eye in EYES:
+        sim.check_ground_truth(eye, "home (the intrinsics views)")
     for k, (pan, tilt) in enumerate(options.poses_deg):
         for eye in EYES:
             try:
@@ -168,6 +175,7 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
             except InputError as exc:
                 raise InputError(f"--poses: item {k} ({pan:g},{tilt:g}): {exc}") from None
         for eye in EYES:
+            sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
                 raise InputError(
@@ -232,9 +240,14 @@ class _Progress:
 
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
-                   model_path: str | Path | None = None, quiet: bool = False) -> Path:
+                   model_path: str | Path | None = None, quiet: bool = False,
+                   units: dict | None = None) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
 
+    ``units`` ({eye: :class:`rasc.sim.units.UnitBuild`}) makes the pan-tilt units
+    imperfect; the pose views' ``pan``/``tilt`` are then encoder readings. At every
+    rendered pose the ground truth is checked against MuJoCo's camera frame; a
+    disagreement raises :class:`InputError` before ``ground_truth.json`` is written.
     Returns the manifest path. Images are written as 8-bit grey PNG.
     """
     from rasc.sim.scene import (
@@ -252,7 +265,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
-    with StereoHeadSim(model_path) as sim:
+    with StereoHeadSim(model_path, units=units) as sim:
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -283,6 +296,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         (out / "poses").mkdir(exist_ok=True)
 
         def shoot(eye: str, name: str, entry: dict) -> None:
+            sim.check_ground_truth(eye, name)
             image = sim.render_grey(eye)
             if distorted:  # as rasc.sim.scene.degrade: distortion, then blur, then noise
                 image = warp[eye](image)

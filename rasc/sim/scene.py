@@ -7,9 +7,16 @@ compiled model, never retyped:
 
 * per eye ``T_cam_from_gaze`` (hand-eye, ``T_cg``), ``T_ptu_from_base`` (``T_pb``), ``K``
   (OpenCV pixel convention, centres at integers) and the image size;
+* per eye the pan-tilt unit as the general model :class:`rasc.geometry.kinematics.PanTiltUnit`
+  (eq. 3 for the stock model), read from the joints' anchors and axes, and all three in
+  the canonical gauge (:func:`rasc.geometry.kinematics.canonical_gauge`);
 * at the current state, ``T_cam_from_world`` (the target) and ``T_cam_from_base``, so that
-  eq. 1–2 hold: ``T_cam_from_base = T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @
-  T_ptu_from_base`` with eq. 3 for the middle factor.
+  eq. 1–2 hold: ``T_cam_from_base = T_cam_from_gaze @ unit.T_gaze_from_ptu(pan, tilt) @
+  T_ptu_from_base`` (checked against MuJoCo's camera frame by
+  :meth:`StereoHeadSim.check_ground_truth`, at every pose ``rasc render`` renders).
+
+Imperfect units (tilt-axis offset, axis skew, encoder zeros and scales, camera placement)
+come from :class:`rasc.sim.units.UnitBuild`.
 
 MuJoCo's global frame is called ``scene`` here (z up), to keep ``world`` for the target
 (the chessboard frame w of docs/CONTRACTS.md). Only this module imports ``mujoco``, and
@@ -31,7 +38,14 @@ import numpy as np
 
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.geometry.transforms import invert_transform, make_transform, validate_rigid_transform
+from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge
+from rasc.geometry.transforms import (
+    invert_transform,
+    make_transform,
+    rotation_angle,
+    validate_rigid_transform,
+)
+from rasc.sim.units import IDEAL_BUILD, UnitBuild
 from rasc.vision.board import DEFAULT_BOARD, Board
 
 #: The repository's model folder (the package is installed editable from the repository).
@@ -41,6 +55,13 @@ SCENE_XML = MODELS_DIR / "scene.xml"
 
 #: OpenCV camera axes from MuJoCo camera axes (x right; y up → down; z back → forward).
 _CV_FROM_MJ = np.diag([1.0, -1.0, -1.0])
+
+#: Largest element of ``T_cam_from_base`` by which the ground truth (unit, hand-eye,
+#: mount) may differ from MuJoCo's own camera frame. The chain of a dozen float64
+#: transforms of entries ≤ 2 (metres) agrees to ~1e-15; MuJoCo's float64 kinematics
+#: likewise. 1e-9 (1 nm, 1e-9 rad) is six orders above round-off and six below any
+#: modelling error worth a calibration (0.001 mm).
+GROUND_TRUTH_TOL = 1e-9
 
 # ---------------------------------------------------------------------------------------
 # OpenGL backend
@@ -229,6 +250,12 @@ def T_base_from_world_facing(board: Board = DEFAULT_BOARD, distance: float = 1.0
 # ---------------------------------------------------------------------------------------
 # The simulator
 
+#: What ground_truth.json says about its gauge.
+GAUGE = ("canonical (rasc.geometry.kinematics.canonical_gauge): pan axis = ptu x, tilt axis "
+         "in the ptu x-z plane, tilt point on the common normal (0, d, 0), no encoder "
+         "offsets; T_cam_from_base(readings) = T_cam_from_gaze . unit.T_gaze_from_ptu(readings)"
+         " . T_ptu_from_base")
+
 
 def _pose(xpos: np.ndarray, xmat: np.ndarray) -> np.ndarray:
     """``T_scene_from_x`` (4, 4) from MuJoCo's position (3,) and flattened axes (9,)."""
@@ -263,16 +290,28 @@ class StereoHeadSim:
         Head model for ``board`` (default ``rasc/sim/models/stereo_head.xml``).
     image_size : (width, height), optional
         Render size; default the cameras' ``resolution`` (1280×960). K scales with it.
+    units : {"left": UnitBuild, "right": UnitBuild}, optional
+        How each pan-tilt unit is built (:class:`rasc.sim.units.UnitBuild`): tilt-axis
+        offset, axis skew, camera placement (applied to the MJCF through ``MjSpec``) and
+        encoder zero offsets and scales (applied by :meth:`set_angles`). Default: the
+        model as written (the stock model: the paper's ideal unit).
 
-    Angles are radians. Use as a context manager or call :meth:`close`.
+    Angles are radians. :meth:`set_angles` takes encoder *readings*; the joints turn to
+    ``scale · reading + zero``. Each unit is read from the compiled model into the
+    general model :class:`rasc.geometry.kinematics.PanTiltUnit` (joint anchors and axes),
+    and reported in the canonical gauge (:func:`rasc.geometry.kinematics.canonical_gauge`);
+    :meth:`check_ground_truth` compares it with MuJoCo's camera frame. Use as a context
+    manager or call :meth:`close`.
     """
 
     def __init__(self, model_path: str | os.PathLike | None = None, *,
                  board: Board | None = None, head_path: str | os.PathLike | None = None,
-                 image_size: tuple[int, int] | None = None) -> None:
+                 image_size: tuple[int, int] | None = None,
+                 units: dict[str, UnitBuild] | None = None) -> None:
         mujoco = import_mujoco()
         self._renderer = None
         self.scene_xml: str | None = None
+        self.units = self._check_units(units)
         if board is not None:
             if model_path is not None:
                 raise InputError("StereoHeadSim: give model_path or board, not both")
@@ -280,8 +319,9 @@ class StereoHeadSim:
                 raise InputError(f"{head_path}: head model file not found")
             self.model_file = Path(HEAD_XML if head_path is None else head_path).resolve()
             self.scene_xml = scene_xml(board, self.model_file)
-            self.model = self._load(lambda: mujoco.MjModel.from_xml_string(self.scene_xml),
-                                    self.model_file)
+            self.model = self._load(lambda: self._compile(
+                lambda: mujoco.MjSpec.from_string(self.scene_xml),
+                lambda: mujoco.MjModel.from_xml_string(self.scene_xml)), self.model_file)
         else:
             if model_path is None:
                 if not SCENE_XML.is_file():
@@ -292,10 +332,12 @@ class StereoHeadSim:
             self.model_file = Path(model_path).resolve()
             if not self.model_file.is_file():
                 raise InputError(f"{model_path}: model file not found")
-            self.model = self._load(lambda: mujoco.MjModel.from_xml_path(str(self.model_file)),
-                                    self.model_file)
+            self.model = self._load(lambda: self._compile(
+                lambda: mujoco.MjSpec.from_file(str(self.model_file)),
+                lambda: mujoco.MjModel.from_xml_path(str(self.model_file))), self.model_file)
         self.data = mujoco.MjData(self.model)
         self._ids = self._lookup_names()
+        self._readings = {eye: (0.0, 0.0) for eye in EYES}
         self.board = self._read_board()
         self.image_size = self._check_image_size(image_size)
         self._read_constants()
@@ -304,6 +346,45 @@ class StereoHeadSim:
             self.set_target(T_base_from_world_facing(self.board))
 
     # -- loading -------------------------------------------------------------------------
+
+    @staticmethod
+    def _check_units(units) -> dict[str, UnitBuild]:
+        units = {} if units is None else dict(units)
+        for eye, build in units.items():
+            if eye not in EYES:
+                raise InputError(f"units: expected the eyes 'left' and 'right', got {eye!r}")
+            if not isinstance(build, UnitBuild):
+                raise InputError(f"units[{eye!r}]: expected a rasc.sim.units.UnitBuild, got "
+                                 f"{type(build).__name__}")
+        return {eye: units.get(eye, IDEAL_BUILD) for eye in EYES}
+
+    def _compile(self, spec_from, model_from):
+        """The model as written, or, when a unit build moves joints or cameras, edited
+        through ``MjSpec`` (which compiles the unedited model to the same arrays)."""
+        if not any(b.edits_model for b in self.units.values()):
+            return model_from()
+        mujoco = import_mujoco()
+        spec = spec_from()
+        to_angle = 1.0 if spec.compiler.degree else np.pi / 180.0
+        for eye, build in self.units.items():
+            def find(kind, name, eye=eye):
+                element = getattr(spec, kind)(name)
+                if element is None:
+                    raise InputError(f"{self.model_file}: no {kind} named {name!r} for the "
+                                     f"{eye} unit's build (rasc.sim.units)")
+                return element
+            if build.tilt_axis_offset_mm is not None:
+                find("joint", f"{eye}_tilt_joint").pos = np.array(build.tilt_axis_offset_mm) / 1e3
+            if build.axis_skew_deg is not None:
+                d = np.radians(build.axis_skew_deg)   # MuJoCo axis = −ẑ' (eq. 3's sign)
+                find("joint", f"{eye}_tilt_joint").axis = [-np.sin(d), 0.0, -np.cos(d)]
+            if build.camera_position_mm is not None:
+                find("body", f"{eye}_camera_link").pos = np.array(build.camera_position_mm) / 1e3
+            if build.camera_euler_deg is not None:
+                cam = find("camera", f"{eye}_camera")
+                cam.alt.type = mujoco.mjtOrientation.mjORIENTATION_EULER
+                cam.alt.euler = np.array(build.camera_euler_deg) * to_angle
+        return spec.compile()
 
     @staticmethod
     def _load(compile_model, where: Path):
@@ -371,21 +452,93 @@ class StereoHeadSim:
         return (w, h)
 
     def _read_constants(self) -> None:
-        """Constant transforms from the model at home (a scratch MjData at qpos0)."""
+        """Constant transforms and each unit's kinematics from the compiled model at home.
+
+        The mount ``T_ptu_from_base`` comes from the body frames (a scratch MjData at
+        qpos0). The unit is read from the model's local data (``body_pos/quat``,
+        ``jnt_pos/axis``, ``cam_pos/quat``, exact for identity rotations): the pan and tilt
+        joints' anchors and axes in the ptu frame give the general unit (the tilt joint may
+        sit off the pan axis, the tilt body anywhere on the pan link), and the camera's pose
+        in the ptu frame at home gives ``T_cam_from_gaze`` (the gaze frame equals ptu at
+        readings (0, 0)). Both are then put in the canonical gauge.
+        """
         mujoco = import_mujoco()
         d = mujoco.MjData(self.model)
         mujoco.mj_forward(self.model, d)
         ids = self._ids
         self.T_scene_from_base = _pose(d.xpos[ids["base_link"]], d.xmat[ids["base_link"]])
-        self._T_cam_from_gaze, self._T_ptu_from_base = {}, {}
+        self._as_built: dict[str, tuple[PanTiltUnit, np.ndarray, np.ndarray]] = {}
+        self._unit, self._T_cam_from_gaze, self._T_ptu_from_base = {}, {}, {}
         for eye in EYES:
-            b_ptu, b_gaze = ids[f"{eye}_ptu_link"], ids[f"{eye}_tilt_link"]
-            cam = ids[f"{eye}_camera"]
+            b_ptu = ids[f"{eye}_ptu_link"]
             T_scene_from_ptu = _pose(d.xpos[b_ptu], d.xmat[b_ptu])
-            T_scene_from_gaze = _pose(d.xpos[b_gaze], d.xmat[b_gaze])
-            T_cam_from_scene = T_cam_from_scene_mujoco(d.cam_xpos[cam], d.cam_xmat[cam])
-            self._T_cam_from_gaze[eye] = T_cam_from_scene @ T_scene_from_gaze
-            self._T_ptu_from_base[eye] = invert_transform(T_scene_from_ptu) @ self.T_scene_from_base
+            T_ptu_from_base = invert_transform(T_scene_from_ptu) @ self.T_scene_from_base
+            unit, T_cam_from_ptu0, anchor = self._read_unit(eye)
+            # pan axis through the anchor a, not the ptu origin: work in ptu shifted by a
+            T_cg = T_cam_from_ptu0 @ make_transform(np.eye(3), anchor)
+            T_pb = make_transform(np.eye(3), -anchor) @ T_ptu_from_base
+            self._as_built[eye] = (unit, T_cg, T_pb)
+            canon = canonical_gauge(unit, T_cg, T_pb)
+            self._unit[eye], self._T_cam_from_gaze[eye], self._T_ptu_from_base[eye] = canon
+
+    def _local_chain(self, top: int, body: int, eye: str, what: str) -> list[int]:
+        """Bodies from ``top`` (excluded) down to ``body`` (included); ``body`` must lie
+        below ``top``."""
+        m, chain, b = self.model, [], body
+        while b != top:
+            if b == 0:
+                raise InputError(f"{self.model_file}: {what} is not inside body "
+                                 f"{eye}_ptu_link: rasc.sim.scene needs the {eye} unit's "
+                                 f"joints and camera below it")
+            chain.append(b)
+            b = int(m.body_parentid[b])
+        return chain[::-1]
+
+    def _read_unit(self, eye: str) -> tuple[PanTiltUnit, np.ndarray, np.ndarray]:
+        """(unit with the pan axis through the origin, T_cam_from_ptu at qpos0 with the
+        origin moved to the pan anchor undone, pan anchor (3,)) of one eye, ptu frame."""
+        mujoco = import_mujoco()
+        m, ids = self.model, self._ids
+        j_pan, j_tilt = ids[f"{eye}_pan_joint"], ids[f"{eye}_tilt_joint"]
+        cam = ids[f"{eye}_camera"]
+        chain = self._local_chain(ids[f"{eye}_ptu_link"], int(m.cam_bodyid[cam]), eye,
+                                  f"camera {eye}_camera")
+        joints = [j for b in chain for j in range(m.body_jntadr[b],
+                                                  m.body_jntadr[b] + m.body_jntnum[b])]
+        if joints != [j_pan, j_tilt] or m.jnt_bodyid[j_pan] == m.jnt_bodyid[j_tilt]:
+            raise InputError(f"{self.model_file}: between body {eye}_ptu_link and camera "
+                             f"{eye}_camera there must be exactly {eye}_pan_joint, then "
+                             f"{eye}_tilt_joint on a body below it")
+
+        def local(pos, quat) -> np.ndarray:
+            R = np.empty(9)
+            mujoco.mju_quat2Mat(R, np.asarray(quat, dtype=float))
+            return make_transform(R.reshape(3, 3), np.asarray(pos, dtype=float))
+
+        T_ptu_from = {}
+        T = np.eye(4)
+        for b in chain:
+            T = T @ local(m.body_pos[b], m.body_quat[b])
+            T_ptu_from[b] = T
+
+        def axis_and_anchor(j):
+            T_b = T_ptu_from[int(m.jnt_bodyid[j])]
+            return T_b[:3, :3] @ m.jnt_axis[j], T_b[:3, :3] @ m.jnt_pos[j] + T_b[:3, 3]
+
+        pan_axis, pan_anchor = axis_and_anchor(j_pan)
+        tilt_axis, tilt_anchor = axis_and_anchor(j_tilt)
+        build = self.units[eye]
+        # MuJoCo turns the tilt body by +τ about its axis w: T_gaze_from_ptu has Rot(−w, τ)
+        unit = PanTiltUnit(pan_axis=tuple(pan_axis), tilt_axis=tuple(-tilt_axis),
+                           tilt_point=tuple(tilt_anchor - pan_anchor),
+                           pan_offset=np.radians(build.pan_zero_deg),
+                           tilt_offset=np.radians(build.tilt_zero_deg),
+                           pan_scale=build.pan_scale, tilt_scale=build.tilt_scale)
+        T_ptu_from_mjcam = T_ptu_from[int(m.cam_bodyid[cam])] @ local(m.cam_pos[cam],
+                                                                      m.cam_quat[cam])
+        T_cam_from_ptu = make_transform(_CV_FROM_MJ, np.zeros(3)) @ invert_transform(
+            T_ptu_from_mjcam)
+        return unit, T_cam_from_ptu, pan_anchor
 
     # -- constants (ground truth) --------------------------------------------------------
 
@@ -396,12 +549,25 @@ class StereoHeadSim:
         return eye
 
     def T_cam_from_gaze(self, eye: str) -> np.ndarray:
-        """Hand-eye transform ``T_cg`` (4, 4) of ``eye``, read from the model."""
+        """Hand-eye transform ``T_cg`` (4, 4) of ``eye``, read from the model, canonical
+        gauge (the model's own for the ideal unit)."""
         return self._T_cam_from_gaze[self._eye(eye)].copy()
 
     def T_ptu_from_base(self, eye: str) -> np.ndarray:
-        """Mount ``T_pb`` (4, 4) of ``eye``'s unit on the base, read from the model."""
+        """Mount ``T_pb`` (4, 4) of ``eye``'s unit on the base, read from the model,
+        canonical gauge."""
         return self._T_ptu_from_base[self._eye(eye)].copy()
+
+    def unit(self, eye: str) -> PanTiltUnit:
+        """``eye``'s pan-tilt unit, canonical gauge: ``T_cam_from_base(readings) =
+        T_cam_from_gaze · unit.T_gaze_from_ptu(readings) · T_ptu_from_base``."""
+        return self._unit[self._eye(eye)]
+
+    def unit_as_built(self, eye: str) -> tuple[PanTiltUnit, np.ndarray, np.ndarray]:
+        """(unit, T_cam_from_gaze, T_ptu_from_base) as the model builds them: ptu frame =
+        body ``{eye}_ptu_link`` moved to the pan joint's anchor, encoder offsets as set."""
+        unit, T_cg, T_pb = self._as_built[self._eye(eye)]
+        return unit, T_cg.copy(), T_pb.copy()
 
     def T_ptuL_from_ptuR(self) -> np.ndarray:
         """Right unit's frame in the left unit's (eq. 11–12's loop), (4, 4)."""
@@ -429,7 +595,8 @@ class StereoHeadSim:
         return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
 
     def joint_range(self, eye: str) -> tuple[tuple[float, float], tuple[float, float]]:
-        """((pan_min, pan_max), (tilt_min, tilt_max)) in radians, from the model."""
+        """((pan_min, pan_max), (tilt_min, tilt_max)) in radians, from the model (joint
+        positions ``qpos``: the joint angle plus the joint's ``ref``, 0 in the stock model)."""
         r = self.model.jnt_range
         return tuple(tuple(float(v) for v in r[self._ids[f"{self._eye(eye)}_{j}_joint"]])
                      for j in ("pan", "tilt"))
@@ -437,21 +604,73 @@ class StereoHeadSim:
     # -- state ---------------------------------------------------------------------------
 
     def set_angles(self, eye: str, pan: float, tilt: float) -> None:
-        """Command ``eye``'s unit to (pan, tilt), radians, inside the joint ranges."""
-        for j, value, (lo, hi) in zip(("pan", "tilt"), (pan, tilt), self.joint_range(eye),
-                                      strict=True):
-            value = float(value)
-            if not (np.isfinite(value) and lo - 1e-12 <= value <= hi + 1e-12):
+        """Command ``eye``'s unit to the encoder readings (pan, tilt), radians.
+
+        The joints turn to ``scale · reading + zero`` (the unit's encoder model; the
+        readings themselves for the ideal unit), which must lie inside the joint ranges.
+        """
+        unit = self._as_built[self._eye(eye)][0]
+        readings = (float(pan), float(tilt))
+        angles = tuple(float(a) for a in unit.angles(*readings))
+        adrs = [self.model.jnt_qposadr[self._ids[f"{eye}_{j}_joint"]] for j in ("pan", "tilt")]
+        qpos = [self.model.qpos0[adr] + angle for adr, angle in zip(adrs, angles, strict=True)]
+        for j, reading, angle, q, (lo, hi) in zip(("pan", "tilt"), readings, angles, qpos,
+                                                  self.joint_range(eye), strict=True):
+            if not (np.isfinite(q) and lo - 1e-12 <= q <= hi + 1e-12):
+                joint = "" if angle == reading else \
+                    f" (joint angle {np.degrees(angle):.6g} deg)"
                 raise InputError(
-                    f"{eye} {j} = {np.degrees(value):.6g} deg is outside the joint range "
-                    f"[{np.degrees(lo):.6g}, {np.degrees(hi):.6g}] deg")
-            self.data.qpos[self.model.jnt_qposadr[self._ids[f"{eye}_{j}_joint"]]] = value
+                    f"{eye} {j} = {np.degrees(reading):.6g} deg{joint} is outside the joint "
+                    f"range [{np.degrees(lo):.6g}, {np.degrees(hi):.6g}] deg")
+        for adr, q in zip(adrs, qpos, strict=True):
+            self.data.qpos[adr] = q
+        self._readings[eye] = readings
         self._dirty = True
 
     def angles(self, eye: str) -> tuple[float, float]:
-        """(pan, tilt) of ``eye``, radians."""
-        return tuple(float(self.data.qpos[self.model.jnt_qposadr[
-            self._ids[f"{self._eye(eye)}_{j}_joint"]]]) for j in ("pan", "tilt"))
+        """(pan, tilt) readings of ``eye`` last commanded, radians."""
+        return self._readings[self._eye(eye)]
+
+    def joint_angles(self, eye: str) -> tuple[float, float]:
+        """(φ, τ) of ``eye``'s joints, radians (``qpos − qpos0``)."""
+        return tuple(float(self.data.qpos[a] - self.model.qpos0[a]) for a in (
+            self.model.jnt_qposadr[self._ids[f"{self._eye(eye)}_{j}_joint"]]
+            for j in ("pan", "tilt")))
+
+    def check_ground_truth(self, eye: str, where: str = "") -> float:
+        """Compare the ground truth with MuJoCo's own camera frame at the current state.
+
+        ``T_cam_from_gaze · unit.T_gaze_from_ptu(readings) · T_ptu_from_base`` against
+        ``T_cam_from_base`` from ``data.cam_xpos/cam_xmat`` after ``mj_forward``.
+
+        Returns
+        -------
+        float
+            The largest element of the difference of the two 4×4 transforms.
+
+        Raises
+        ------
+        InputError
+            Above :data:`GROUND_TRUTH_TOL`, naming the eye, ``where`` (e.g. the pose) and
+            the disagreement in degrees and millimetres.
+        """
+        pan, tilt = self.angles(eye)
+        T_truth = (self._T_cam_from_gaze[eye] @ self._unit[eye].T_gaze_from_ptu(pan, tilt)
+                   @ self._T_ptu_from_base[eye])
+        T_model = self.T_cam_from_base(eye)
+        worst = float(np.abs(T_truth - T_model).max())
+        if not worst <= GROUND_TRUTH_TOL:
+            deg = float(np.degrees(rotation_angle(T_truth[:3, :3] @ T_model[:3, :3].T)))
+            mm = 1e3 * float(np.linalg.norm(invert_transform(T_truth)[:3, 3]
+                                            - invert_transform(T_model)[:3, 3]))
+            at = f" at {where}" if where else ""
+            raise InputError(
+                f"{self.model_file.name}: the {eye} ground truth disagrees with MuJoCo's "
+                f"{eye}_camera frame{at} (readings pan {np.degrees(pan):.6g}, tilt "
+                f"{np.degrees(tilt):.6g} deg) by {deg:.3g} deg, {mm:.3g} mm (largest element "
+                f"{worst:.2g} > {GROUND_TRUTH_TOL:g}); the model is not the unit read from it, "
+                f"nothing written")
+        return worst
 
     def _require_board(self) -> Board:
         if self.board is None:
@@ -558,7 +777,9 @@ class StereoHeadSim:
     # -- ground truth --------------------------------------------------------------------
 
     def ground_truth(self) -> dict[str, Any]:
-        """JSON-ready constants: per eye K, dist, T_cam_from_gaze, T_ptu_from_base, size."""
+        """JSON-ready constants: per eye K, dist, size, and the kinematics in the canonical
+        gauge (``T_cam_from_gaze``, ``unit``, ``T_ptu_from_base``; ``T_ptuL_from_ptuR`` from
+        the same mounts), plus ``unit_as_built`` (the model's own frames and the build)."""
         gt: dict[str, Any] = {
             "model_file": str(self.model_file),
             "generated_scene": self.scene_xml is not None,
@@ -567,12 +788,18 @@ class StereoHeadSim:
             "T_ptuL_from_ptuR": self.T_ptuL_from_ptuR().tolist(),
             "T_scene_from_base": self.T_scene_from_base.tolist(),
             "units": "metres, radians; pixels with centres at integers (OpenCV)",
+            "gauge": GAUGE,
         }
         for eye in EYES:
+            unit, T_cg, T_pb = self.unit_as_built(eye)
             gt[eye] = {"K": self.K(eye).tolist(), "dist": [0.0] * 5,
                        "image_size": list(self.image_size),
                        "T_cam_from_gaze": self.T_cam_from_gaze(eye).tolist(),
                        "T_ptu_from_base": self.T_ptu_from_base(eye).tolist(),
+                       "unit": self.unit(eye).to_dict(),
+                       "unit_as_built": {"unit": unit.to_dict(), "T_cam_from_gaze": T_cg.tolist(),
+                                         "T_ptu_from_base": T_pb.tolist(),
+                                         "build": self.units[eye].to_dict()},
                        "joint_range": [list(r) for r in self.joint_range(eye)]}
         return gt
 
