@@ -14,6 +14,7 @@ ground-truth file, :func:`errors_against_truth` compares the result with it.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -351,6 +352,34 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
                             T_ptu_from_base=T_pb[eye], image_size=sizes[eye],
                             unit=res.unit[eye], std=_eye_std(res, eye))
         for eye in EYES})
+
+
+def refine_calibration(cal: Calibration, dataset,
+                       log: Callable[[str], None] = lambda s: None) -> Calibration:
+    """A closed-form (``model="paper"``) calibration refined with the general model, as
+    ``calibrate_dataset(dataset, options with model="general")`` would give, without
+    detecting or solving the closed form again. ``cal`` is left unchanged."""
+    import copy
+
+    from rasc.geometry.frames import EYES as eyes
+
+    options = dataclasses.replace(cal.options, model="general")
+    out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
+                      options=options, warnings=list(cal.warnings),
+                      length_unit=cal.length_unit)
+    # the paper model's misfit warning is answered by the refinement: drop it
+    from rasc.head.fit import REMEDY
+    out.warnings = [w for w in out.warnings if not w.endswith(REMEDY)]
+    timer = _Timer()
+    timer.timings = dict(cal.timings)
+    timer.timings.pop("model-fit check", None)
+    sizes = {eye: cal.head.__getattribute__(eye).image_size for eye in eyes}
+    _check_and_refine(out, dataset, options, timer, log, sizes)
+    out.timings = dict(timer.timings)
+    if dataset.ground_truth is not None:
+        out.errors = errors_against_truth(out, dataset.load_ground_truth(),
+                                          where=str(dataset.ground_truth))
+    return out
 
 
 def _eye_std(res, eye: str) -> dict[str, float | None]:
