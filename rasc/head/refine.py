@@ -252,7 +252,6 @@ class RefinementResult:
                 "rms_before_px": self.rms_before, "rms_after_px": self.rms_after,
                 "sigma_px": self.sigma, "corners": self.n_corners,
                 "rejected_corners": self.n_rejected, "iterations": self.iterations,
-                "seconds": self.seconds,
                 "parameters": self.parameters,
                 "not_identifiable": self.not_identifiable,
                 "T_ptuL_from_ptuR": self.T_ptuL_from_ptuR.tolist(),
