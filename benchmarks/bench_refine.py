@@ -85,13 +85,16 @@ def section_models(args, tmp: Path) -> Path:
     return first
 
 
-def spread_table(label: str, runs: list) -> None:
+def spread_table(label: str, runs: list, scale: float = 1.0) -> None:
+    """``scale``: the share of the predicted std that the spread can show (re-noising:
+    the rendered corners' own error is the same in every run, only the added noise
+    varies)."""
     print(f"\n{label}\n")
     print("| parameter | predicted std | observed spread | ratio |")
     print("| --- | --- | --- | --- |")
     for name in WATCH:
         vals = np.array([r[0][name] for r in runs])
-        pred = np.mean([r[1][name] for r in runs])
+        pred = scale * np.mean([r[1][name] for r in runs])
         obs = float(np.std(vals, ddof=1))
         print(f"| {name} | {pred:.3g} | {obs:.3g} | {pred / obs:.2f} |")
 
@@ -135,7 +138,7 @@ def section_renoised(args, folder: Path) -> None:
     base = observations_from_calibration(cal, ds.board)
     sigma = refine_head(base).sigma
     rng = np.random.default_rng(args.seed + 1)
-    runs = []
+    runs, sigmas = [], []
     for _ in range(args.renoised):
         obs = observations_from_calibration(cal, ds.board)
         for eye in EYES:
@@ -143,9 +146,14 @@ def section_renoised(args, folder: Path) -> None:
             for d in (e.intrinsics, e.pose):
                 for k in d:
                     d[k] = d[k] + rng.normal(0.0, sigma, d[k].shape)
-        runs.append(_record(refine_head(obs)))
+        res = refine_head(obs)
+        sigmas.append(res.sigma)
+        runs.append(_record(res))
+    # each run's σ is sqrt(σ_render² + σ_added²); only the added part varies between runs
+    share = sigma / float(np.mean(sigmas))
     spread_table(f"## 2. {args.renoised} re-noised refinements of the rendered corners "
-                 f"(+ N(0, {sigma:.4f}²) px, the refinement's own σ)", runs)
+                 f"(+ N(0, {sigma:.4f}²) px, the refinement's own σ); predicted std scaled "
+                 f"by σ_added/σ_run = {share:.3f}, the part the spread can show", runs, share)
 
 
 def section_rerenders(args, tmp: Path) -> None:
