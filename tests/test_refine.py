@@ -33,9 +33,10 @@ IMPERFECT = PanTiltUnit(tilt_axis=(np.sin(np.radians(0.5)), 0.0, np.cos(np.radia
                         pan_offset=np.radians(0.3), tilt_offset=np.radians(-0.2))
 
 
-def _refined(unit, seed=0, noise_px=0.0):
+def _refined(unit, seed=0, noise_px=0.0, estimate_scales=True):
     ds = corner_dataset(default_head(unit), seed=seed, noise_px=noise_px)
-    cal = calibrate_dataset(ds, CalibrationOptions(model="general"))
+    cal = calibrate_dataset(ds, CalibrationOptions(model="general",
+                                                   estimate_scales=estimate_scales))
     return ds, cal
 
 
@@ -90,6 +91,27 @@ def test_gauge_parameters_are_named_held_and_never_numbers():
     doc = json.loads(dumps_json(cal.to_dict()))
     left_std = doc["head"]["left"]["std"]
     assert left_std["unit.pan_offset"] is None and left_std["unit.tilt_point_y"] > 0
+
+
+def test_scales_are_held_at_one_unless_asked():
+    ds, cal = _refined(PanTiltUnit(tilt_point=(0.0, 0.01, 0.0)), noise_px=0.03,
+                       estimate_scales=False)
+    res = cal.refinement
+    assert res.held == ["pan_scale", "tilt_scale"]
+    for eye in EYES:
+        for name in ("pan_scale", "tilt_scale"):
+            entry = res.parameters[eye][f"unit.{name}"]
+            assert entry["value"] == 1.0 and entry["std"] is None and "held" in entry
+        assert getattr(cal.head, eye).unit.pan_scale == 1.0
+        assert not any(f"{eye}.unit.pan_scale" == n for n in res.names)
+    # a unit whose pan scale is off by 1 %: estimated (the default) it is found; held, it
+    # goes into the hand-eye translation (~10 mm): why the default estimates
+    ds, cal = _refined(PanTiltUnit(pan_scale=1.01), noise_px=0.03, estimate_scales=True)
+    assert abs(cal.head.left.unit.pan_scale - 1.01) < 1e-3
+    T_true = _canonical_truth(ds.truth, "left")[1]
+    assert transform_error(cal.head.left.T_cam_from_gaze, T_true)["translation"] < 1.5e-3
+    ds, cal = _refined(PanTiltUnit(pan_scale=1.01), noise_px=0.03, estimate_scales=False)
+    assert transform_error(cal.head.left.T_cam_from_gaze, T_true)["translation"] > 5e-3
 
 
 @pytest.mark.parametrize("model", ["paper", "general"])
@@ -150,7 +172,7 @@ def test_predicted_std_matches_the_spread_of_20_renoised_refinements():
             for d in (e.intrinsics, e.pose):
                 for k in d:
                     d[k] = d[k] + rng.normal(0.0, 0.03, d[k].shape)
-        res = refine_head(obs)
+        res = refine_head(obs, estimate_scales=True)
         idx = [res.names.index(n) for n in names]
         p = np.array([res.parameters[n.split(".")[0] if n.split(".")[0] in EYES else "head"]
                       [n.split(".", 1)[1] if n.split(".")[0] in EYES else n]["value"]

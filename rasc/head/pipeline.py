@@ -45,6 +45,9 @@ class CalibrationOptions:
     #: "paper": the closed form (eq. 3 units); "general": the closed form refined over
     #: every corner with a general unit per eye (rasc.head.refine)
     model: str = "paper"
+    #: with model "general": estimate the encoder scales (default), or hold them at 1
+    #: (rasc.head.refine.SCALES says what each costs)
+    estimate_scales: bool = True
 
 
 MODELS = ("paper", "general")
@@ -116,7 +119,8 @@ class Calibration:
                "options": {"method": self.options.method, "detector": self.options.detector,
                            "dist_model": self.options.dist_model,
                            "exclude_outliers": self.options.exclude_outliers,
-                           "model": self.options.model},
+                           "model": self.options.model,
+                           "estimate_scales": self.options.estimate_scales},
                "timings_s": self.timings}
         if self.model_fit is not None:
             out["paper_model_fit"] = {eye: f.to_dict() for eye, f in self.model_fit.items()}
@@ -312,6 +316,13 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     return cal
 
 
+#: After refinement, pose-view RMS above this multiple of the intrinsics views' RMS is
+#: warned (readings that are not the images', a unit the model cannot express).
+#: Measured on the default renders: 1.6-2.0 (the pose views' board is farther, its
+#: corners a little noisier); on projected corners with equal noise: 1.0-1.2.
+POSE_RMS_WARN_RATIO = 4.0
+
+
 def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
                       log: Callable[[str], None], sizes) -> None:
     """The paper model's fit check (always) and, for ``model="general"``, the whole-head
@@ -332,11 +343,21 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
     log("whole-head refinement (model general)")
     t0 = time.perf_counter()
     try:
-        res = refine_head(observations_from_calibration(cal, dataset.board))
+        res = refine_head(observations_from_calibration(cal, dataset.board),
+                          estimate_scales=options.estimate_scales)
     except RascError as exc:
         raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
     timer.add("refinement", time.perf_counter() - t0)
     cal.refinement = res
+    ratio = res.rms_by_role["pose"] / res.rms_by_role["intrinsics"]
+    if ratio > POSE_RMS_WARN_RATIO:
+        cal.warnings.append(
+            f"after the whole-head refinement the pose views fit {ratio:.3g} times worse than "
+            f"the intrinsics views ({res.rms_by_role['pose']:.3g} px against "
+            f"{res.rms_by_role['intrinsics']:.3g} px RMS): check that the pan/tilt readings "
+            "are those of the images"
+            + ("" if options.estimate_scales else
+               " and do not hold the encoder scales (--hold-scales)"))
     T_pLpR = res.T_ptuL_from_ptuR
     if options.T_ptuL_from_ptuR_measured is not None:
         cal.base["measured_vs_refinement"] = _compare_mounts(
@@ -355,15 +376,17 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
 
 
 def refine_calibration(cal: Calibration, dataset,
-                       log: Callable[[str], None] = lambda s: None) -> Calibration:
+                       log: Callable[[str], None] = lambda s: None,
+                       **overrides) -> Calibration:
     """A closed-form (``model="paper"``) calibration refined with the general model, as
     ``calibrate_dataset(dataset, options with model="general")`` would give, without
-    detecting or solving the closed form again. ``cal`` is left unchanged."""
+    detecting or solving the closed form again. ``cal`` is left unchanged; ``overrides``
+    change :class:`CalibrationOptions` fields (e.g. ``estimate_scales=True``)."""
     import copy
 
     from rasc.geometry.frames import EYES as eyes
 
-    options = dataclasses.replace(cal.options, model="general")
+    options = dataclasses.replace(cal.options, model="general", **overrides)
     out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
                       options=options, warnings=list(cal.warnings),
                       length_unit=cal.length_unit)

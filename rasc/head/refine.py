@@ -239,6 +239,8 @@ class RefinementResult:
     seconds: float
     gauge: str
     residuals: dict[str, np.ndarray] = field(default_factory=dict)
+    rms_by_role: dict[str, float] = field(default_factory=dict)
+    held: list[str] = field(default_factory=list)
     covariance: np.ndarray | None = None
     names: list[str] = field(default_factory=list)
 
@@ -250,6 +252,7 @@ class RefinementResult:
         return {"gauge": self.gauge,
                 "rms_before_px": self.rms_before, "rms_after_px": self.rms_after,
                 "sigma_px": self.sigma, "corners": self.n_corners,
+                "rms_by_role_px": self.rms_by_role, "held_at_nominal": self.held,
                 "rejected_corners": self.n_rejected, "iterations": self.iterations,
                 "parameters": self.parameters,
                 "not_identifiable": self.not_identifiable,
@@ -590,11 +593,14 @@ class _Problem:
 
 # ----------------------------------------------------------------------------- identifiability
 
-def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dict[str, Any]]]:
+def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
+                  ) -> tuple[dict[str, list[str]], list[dict[str, Any]]]:
     """Decide, from the Jacobian at the initial guess, which unit parameters the corners
-    determine (see the module docstring). Raises :class:`DegenerateDataError` when the
-    basic parameters (intrinsics, hand-eye, mounts, board poses) are not determined."""
-    full = {eye: list(UNIT_PARAMETERS) for eye in EYES}
+    determine (see the module docstring); ``hold``: candidates not estimated at all.
+    Raises :class:`DegenerateDataError` when the basic parameters (intrinsics, hand-eye,
+    mounts, board poses) are not determined."""
+    candidates = [n for n in UNIT_PARAMETERS if n not in hold]
+    full = {eye: list(candidates) for eye in EYES}
     prob = _Problem(obs, full)
     J = prob.jacobian(np.zeros(len(prob.names)))
     d = np.sqrt(np.asarray(J.multiply(J).sum(axis=0)).ravel())
@@ -602,7 +608,7 @@ def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dic
     for eye in EYES:
         c = prob.eye_cols[eye]
         first = c["start"] + c["n_intr"] + 6
-        for k, n in enumerate(UNIT_PARAMETERS):
+        for k, n in enumerate(candidates):
             unit_cols[(eye, n)] = first + k
     for j in range(len(prob.names)):
         if d[j] == 0 and j not in set(unit_cols.values()):
@@ -639,7 +645,7 @@ def _identifiable(obs: HeadObservations) -> tuple[dict[str, list[str]], list[dic
     free: dict[str, list[str]] = {eye: [] for eye in EYES}
     dropped = []
     for eye in EYES:
-        for n in UNIT_PARAMETERS:
+        for n in candidates:
             j = unit_cols[(eye, n)]
             v = G[:, col[j]]
             r = v - Q @ (Q.T @ v)
@@ -715,8 +721,20 @@ def _levenberg_marquardt(prob: _Problem, x: np.ndarray, *, f_scale: float,
     return x, it
 
 
+#: The unit parameters ``estimate_scales=False`` holds at their nominal value (1). The
+#: paper's ±8° pose views fix an encoder scale to ~2e-4 (1σ, measured on renders), and
+#: between two eyes verging at 1.7 m that uncertainty moves triangulated depth by
+#: ~0.3 mm: on the default renders the triangulation mean error was 0.45-0.57 mm with the
+#: scales estimated against 0.16-0.25 mm held (ideal head), 0.41-0.55 against
+#: 0.22-0.34 mm (30 mm offset). But a scale error that is held hides in the hand-eye
+#: almost without a trace (pan scale 1.01 held: 10 mm hand-eye error, pose-view RMS up by
+#: only 17 %), so they are estimated unless the encoders are known to be exact.
+SCALES = ("pan_scale", "tilt_scale")
+
+
 def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
-                reject_k: float = REJECT_K, max_iter: int = 100) -> RefinementResult:
+                reject_k: float = REJECT_K, max_iter: int = 100,
+                estimate_scales: bool = True) -> RefinementResult:
     """Refine the whole head from its corners (see the module docstring).
 
     Parameters
@@ -728,6 +746,8 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
         from the intrinsics views' residuals at the initial guess.
     reject_k : float
         Rejection threshold in robust standard deviations.
+    estimate_scales : bool
+        Estimate the encoder scales (default); False holds them at 1 (:data:`SCALES`).
 
     Returns
     -------
@@ -744,14 +764,16 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
     # second thread on a busy 2-core machine was measured to cost 0.3-0.5 s per solve
     # (against 1 ms on one thread).
     with threadpool_limits(1, user_api="blas"):
-        return _refine_head(obs, sigma0=sigma0, reject_k=reject_k, max_iter=max_iter)
+        return _refine_head(obs, sigma0=sigma0, reject_k=reject_k, max_iter=max_iter,
+                            hold=() if estimate_scales else SCALES)
 
 
-def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter) -> RefinementResult:
+def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
+                 hold: tuple[str, ...]) -> RefinementResult:
     t_start = time.perf_counter()
     if obs.dist_model not in DIST_PARAMS:
         raise InputError(f"refinement: unknown dist_model {obs.dist_model!r}")
-    free, dropped = _identifiable(obs)
+    free, dropped = _identifiable(obs, hold)
     prob = _Problem(obs, free)
     x0 = np.zeros(len(prob.names))
     r0 = prob.all_residuals(x0)
@@ -819,6 +841,9 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter) -> Refine
             if dd["eye"] == eye:
                 params[eye][f"unit.{dd['parameter']}"] = {"value": None, "std": None,
                                                           "reason": dd["reason"]}
+        for n in hold:
+            params[eye][f"unit.{n}"] = {"value": UNIT_DEFAULTS[n], "std": None, "unit": "1",
+                                        "held": "nominal, not estimated (--hold-scales)"}
     # per-image residuals
     images = []
     residuals: dict[str, list[np.ndarray]] = {eye: [] for eye in EYES}
@@ -834,7 +859,13 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter) -> Refine
             max=float(nrm.max()) if len(nrm) else float("nan"),
             rejected=[int(k) for k in np.flatnonzero(~keep)]))
     rms_after = float(np.sqrt(np.mean(np.sum(rk.reshape(-1, 2) ** 2, axis=-1))))
+    rms_role = {}
+    for role, code in (("intrinsics", 0), ("pose", 1)):
+        m = prob.mask & (prob.img_role == code)[:, None]
+        rms_role[role] = float(np.sqrt(np.mean(np.sum(r[m] ** 2, axis=-1)))) if m.any() \
+            else float("nan")
     return RefinementResult(
+        rms_by_role=rms_role, held=list(hold),
         K={eye: np.array([[s[eye]["K"][0], 0, s[eye]["K"][2]], [0, s[eye]["K"][1],
                                                                  s[eye]["K"][3]], [0, 0, 1.0]])
            for eye in EYES},
