@@ -6,7 +6,8 @@ head below, the MuJoCo head is rendered (``rasc.sim.render.render_dataset`` with
 ``rasc.sim.units.UnitBuild`` per eye: the same imperfection on both units), calibrated
 by the pipeline with the paper's model (closed form: RASC + loop closure) and then with
 the general model (whole-head refinement, ``rasc.head.pipeline.refine_calibration``),
-and scored:
+with the encoder scales estimated (``general``, the default) and held at 1
+(``general_held``, ``--hold-scales``), and scored:
 
 * hand-eye error: ``T_cam_from_gaze`` against the ground truth, both in the canonical
   gauge (docs/METHOD.md §10), rotation (deg) and translation (mm), per eye;
@@ -69,7 +70,7 @@ POSE_OFFSET_DEG = (3.0, 4.0)      # second pose per plane: pan, tilt added to bo
 HALF_BASELINE_M = 0.15
 SYNTHETIC_NOISE_PX = 0.015        # the saddle detector's error on renders (camera.py)
 EYES = ("left", "right")
-MODELS = ("paper", "general")
+MODELS = ("paper", "general", "general_held")   # held: encoder scales held at 1
 
 
 # ----------------------------------------------------------------------------- geometry
@@ -157,9 +158,10 @@ def run_case(task: tuple) -> dict:
         truth = dataset.load_ground_truth()
     cal_p = calibrate_dataset(dataset)
     cal_g = refine_calibration(cal_p, dataset)
+    cal_h = refine_calibration(cal_p, dataset, estimate_scales=False)
     true = true_head(truth)
     out = {"case": case, "fields": fields, "seed": seed, "models": {}}
-    for model, cal in (("paper", cal_p), ("general", cal_g)):
+    for model, cal in (("paper", cal_p), ("general", cal_g), ("general_held", cal_h)):
         e = cal.errors
         out["models"][model] = {
             "handeye": {eye: {"rotation_deg": e[eye]["T_cam_from_gaze"]["rotation_deg"],
@@ -258,8 +260,8 @@ def figure(results: list[dict], folder: Path) -> Path:
         he = [max(r["models"][model]["handeye"][e]["translation_mm"] for e in EYES)
               for r in results]
         tri = [_mean_tri(r, model) for r in results]
-        ax.bar(x + (k - 0.5) * 0.4, he, 0.4, label=model)
-        bx.bar(x + (k - 0.5) * 0.4, tri, 0.4, label=model)
+        ax.bar(x + (k - 1) * 0.27, he, 0.27, label=model)
+        bx.bar(x + (k - 1) * 0.27, tri, 0.27, label=model)
     for axis, title in ((ax, "hand-eye translation error, worse eye (mm)"),
                         (bx, "triangulation mean error, 1.6–1.9 m (mm)")):
         axis.set_yscale("log")
@@ -293,8 +295,8 @@ def markdown(results: list[dict], args, folder: Path) -> str:
              "from two poses each, projected through the true head without noise. F: the "
              f"paper model's misfit statistic (warned above {MISFIT_F_WARN:g}).", "",
              "| case | F (L / R) | hand-eye paper (L; R) | hand-eye general (L; R) | "
-             "triangulation mean paper | general |",
-             "| --- | --- | --- | --- | --- | --- |"]
+             "triangulation mean: paper | general | general, scales held |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         def he(model, r=r):
             return "; ".join(f"{r['models'][model]['handeye'][e]['rotation_deg']:.4f}° "
@@ -302,7 +304,8 @@ def markdown(results: list[dict], args, folder: Path) -> str:
                              for e in EYES)
         lines.append(f"| {labels[r['case']]} | {r['F']['left']:.3g} / {r['F']['right']:.3g} "
                      f"| {he('paper')} | {he('general')} | {_mean_tri(r, 'paper'):.3f} mm "
-                     f"| {_mean_tri(r, 'general'):.3f} mm |")
+                     f"| {_mean_tri(r, 'general'):.3f} mm "
+                     f"| {_mean_tri(r, 'general_held'):.3f} mm |")
     lines += ["", "Refined unit parameters (left eye, value ± std):", "",
               "| case | axis distance (mm) | axis angle (°) | pan scale | tilt scale |",
               "| --- | --- | --- | --- | --- |"]

@@ -51,8 +51,8 @@ def test_outputs(results, tmp_path):
     md = e7.markdown(results, Namespace(seed=0, synthetic=True), tmp_path)
     with open(tmp_path / "cases.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == 2 * 2 * 2 and {r["model"] for r in rows} == {"paper", "general"}
+    assert len(rows) == 2 * 3 * 2 and {r["model"] for r in rows} == set(e7.MODELS)
     with open(tmp_path / "triangulation.csv", newline="") as f:
-        assert len(list(csv.DictReader(f))) == 2 * 2 * 3
+        assert len(list(csv.DictReader(f))) == 2 * 3 * 3
     assert (tmp_path / "fig_model_mismatch.png").stat().st_size > 1000
     assert md.startswith("## E7") and "not renders" in md
