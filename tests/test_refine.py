@@ -185,3 +185,19 @@ def test_predicted_std_matches_the_spread_of_20_renoised_refinements():
     # 20 samples: the sample std is within ±32 % of the truth at 95 % (chi-square, 19 dof),
     # so a correct prediction lands in 0.5-2 with a wide margin
     assert np.all((ratio > 0.5) & (ratio < 2.0)), dict(zip(names, ratio.round(2), strict=True))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--model", "paper", "--plots", "p"], "--plots: residual plots come from the whole-head "
+                                           "refinement; use them with --model general"),
+    (["--model", "paper", "--hold-scales"], "--hold-scales: only the whole-head refinement "
+                                            "estimates scales; use it with --model general"),
+])
+def test_cli_refuses_refinement_options_with_the_paper_model(tmp_path, capsys, argv, message):
+    from rasc.cli import main
+    capsys.readouterr()
+    code = main(["calibrate", str(tmp_path / "ds"), *argv])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.splitlines() == [f"rasc calibrate: error: {message}"]
+    assert list(tmp_path.iterdir()) == []

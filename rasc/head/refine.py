@@ -816,9 +816,11 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         if group not in params:
             group, pname = "head", name
         if ".rot" in pname:
-            value = None      # a perturbation: the refined transform is reported whole
-            u = "deg"
-            entry = {"value": value, "std": float(np.degrees(std[j])), "unit": u}
+            # a small rotation about this axis (left perturbation): the refined rotation
+            # itself is in the transform, reported whole
+            entry = {"value": None, "std": float(np.degrees(std[j])), "unit": "deg",
+                     "note": "std of a small rotation about this axis; the value is the "
+                             "transform's rotation"}
         else:
             u = unit_of.get(pname, "length" if (".t" in pname or "tilt_point" in pname)
                             else ("rad" if pname.startswith("unit.") and
