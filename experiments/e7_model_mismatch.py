@@ -6,8 +6,9 @@ head below, the MuJoCo head is rendered (``rasc.sim.render.render_dataset`` with
 ``rasc.sim.units.UnitBuild`` per eye: the same imperfection on both units), calibrated
 by the pipeline with the paper's model (closed form: RASC + loop closure) and then with
 the general model (whole-head refinement, ``rasc.head.pipeline.refine_calibration``),
-with the encoder scales estimated (``general``, the default) and held at 1
-(``general_held``, ``--hold-scales``), and scored:
+with the encoder scales decided by the data (``general``: ``--scales auto``, the
+default) and always estimated (``general_estimated``: ``--scales estimate``), and
+scored:
 
 * hand-eye error: ``T_cam_from_gaze`` against the ground truth, both in the canonical
   gauge (docs/METHOD.md §10), rotation (deg) and translation (mm), per eye;
@@ -70,7 +71,7 @@ POSE_OFFSET_DEG = (3.0, 4.0)      # second pose per plane: pan, tilt added to bo
 HALF_BASELINE_M = 0.15
 SYNTHETIC_NOISE_PX = 0.015        # the saddle detector's error on renders (camera.py)
 EYES = ("left", "right")
-MODELS = ("paper", "general", "general_held")   # held: encoder scales held at 1
+MODELS = ("paper", "general", "general_estimated")   # general: --scales auto (default)
 
 
 # ----------------------------------------------------------------------------- geometry
@@ -158,10 +159,10 @@ def run_case(task: tuple) -> dict:
         truth = dataset.load_ground_truth()
     cal_p = calibrate_dataset(dataset)
     cal_g = refine_calibration(cal_p, dataset)
-    cal_h = refine_calibration(cal_p, dataset, estimate_scales=False)
+    cal_h = refine_calibration(cal_p, dataset, scales="estimate")
     true = true_head(truth)
     out = {"case": case, "fields": fields, "seed": seed, "models": {}}
-    for model, cal in (("paper", cal_p), ("general", cal_g), ("general_held", cal_h)):
+    for model, cal in (("paper", cal_p), ("general", cal_g), ("general_estimated", cal_h)):
         e = cal.errors
         out["models"][model] = {
             "handeye": {eye: {"rotation_deg": e[eye]["T_cam_from_gaze"]["rotation_deg"],
@@ -179,6 +180,7 @@ def run_case(task: tuple) -> dict:
                            for eye in EYES}
     out["true_unit"] = {eye: truth[eye].get("unit") for eye in EYES}
     out["refinement_rms_px"] = [res.rms_before, res.rms_after]
+    out["scales"] = res.scales
     if not synthetic:
         tmp.cleanup()
     return out
@@ -295,7 +297,7 @@ def markdown(results: list[dict], args, folder: Path) -> str:
              "from two poses each, projected through the true head without noise. F: the "
              f"paper model's misfit statistic (warned above {MISFIT_F_WARN:g}).", "",
              "| case | F (L / R) | hand-eye paper (L; R) | hand-eye general (L; R) | "
-             "triangulation mean: paper | general | general, scales held |",
+             "triangulation mean: paper | general | general, scales estimated |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in results:
         def he(model, r=r):
@@ -305,18 +307,21 @@ def markdown(results: list[dict], args, folder: Path) -> str:
         lines.append(f"| {labels[r['case']]} | {r['F']['left']:.3g} / {r['F']['right']:.3g} "
                      f"| {he('paper')} | {he('general')} | {_mean_tri(r, 'paper'):.3f} mm "
                      f"| {_mean_tri(r, 'general'):.3f} mm "
-                     f"| {_mean_tri(r, 'general_held'):.3f} mm |")
-    lines += ["", "Refined unit parameters (left eye, value ± std):", "",
+                     f"| {_mean_tri(r, 'general_estimated'):.3f} mm |")
+    lines += ["", "Refined unit parameters, default model (left eye, value ± std; scales "
+              "held at 1 unless the F test of `--scales auto` rejects 1):", "",
               "| case | axis distance (mm) | axis angle (°) | pan scale | tilt scale |",
               "| --- | --- | --- | --- | --- |"]
+    def pm(entry, k=1.0, d=5):
+        if entry["std"] is None:
+            return f"{k * entry['value']:.{d}f} (held)"
+        return f"{k * entry['value']:.{d}f} ± {k * entry['std']:.{d}f}"
+
     for r in results:
         u = r["refined_unit"]["left"]
-        lines.append(
-            f"| {labels[r['case']]} | {1000 * u['tilt_point_y']['value']:.3f} ± "
-            f"{1000 * u['tilt_point_y']['std']:.3f} | {u['axis_angle_deg']['value']:.4f} ± "
-            f"{u['axis_angle_deg']['std']:.4f} | {u['pan_scale']['value']:.5f} ± "
-            f"{u['pan_scale']['std']:.5f} | {u['tilt_scale']['value']:.5f} ± "
-            f"{u['tilt_scale']['std']:.5f} |")
+        lines.append(f"| {labels[r['case']]} | {pm(u['tilt_point_y'], 1000, 3)} | "
+                     f"{pm(u['axis_angle_deg'], 1, 4)} | {pm(u['pan_scale'])} | "
+                     f"{pm(u['tilt_scale'])} |")
     lines += ["", "Encoder zero offsets are absorbed by the gauge in both models (docs/METHOD.md "
               "§10): the paper model fits them exactly and F stays low, rightly. A tilt axis "
               "that misses the pan axis or is not orthogonal to it is what the paper model "

@@ -52,10 +52,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "(eq. 3); 'general' = the closed form refined over every corner "
                         "with a general unit per eye, each parameter with its standard "
                         "deviation (default general)")
-    p.add_argument("--hold-scales", action="store_true",
-                   help="with --model general: hold the pan and tilt encoder scales at 1 "
-                        "instead of estimating them (for encoders known to be exact: "
-                        "better triangulation; a scale error held goes into the hand-eye)")
+    p.add_argument("--scales", choices=("auto", "estimate", "hold"), default=None,
+                   help="with --model general, the pan and tilt encoder scales: 'auto' "
+                        "(default) holds them at 1 unless the corners reject 1 (an F "
+                        "test), 'estimate', or 'hold' at 1")
     p.add_argument("--plots", metavar="DIR",
                    help="with --model general: write residual plots residuals_left.png, "
                         "residuals_right.png into DIR")
@@ -105,8 +105,8 @@ def run(args: argparse.Namespace) -> int:
         check_writable(args.out)
         if Path(args.out).resolve() == (Path(args.dataset) / "manifest.json").resolve():
             raise InputError(f"--out {args.out}: is the dataset's manifest (an input)")
-    if args.hold_scales and args.model != "general":
-        raise InputError("--hold-scales: only the whole-head refinement estimates scales; "
+    if args.scales is not None and args.model != "general":
+        raise InputError("--scales: only the whole-head refinement estimates scales; "
                          "use it with --model general")
     if args.plots and args.model != "general":
         raise InputError("--plots: residual plots come from the whole-head refinement; "
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
                                  T_ptuL_from_ptuR_measured=mounts, model=args.model,
-                                 estimate_scales=not args.hold_scales)
+                                 scales=args.scales or "auto")
 
     def log(msg: str) -> None:
         if not args.quiet:

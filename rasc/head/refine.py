@@ -241,6 +241,10 @@ class RefinementResult:
     residuals: dict[str, np.ndarray] = field(default_factory=dict)
     rms_by_role: dict[str, float] = field(default_factory=dict)
     held: list[str] = field(default_factory=list)
+    rss: float = float("nan")          # residual sum of squares over the kept corners, px²
+    dof: int = 0                       # residuals − estimated parameters
+    kept: np.ndarray | None = None     # (n_img, N) mask of the kept corners
+    scales: dict[str, Any] = field(default_factory=dict)   # how the scales were decided
     covariance: np.ndarray | None = None
     names: list[str] = field(default_factory=list)
 
@@ -253,6 +257,7 @@ class RefinementResult:
                 "rms_before_px": self.rms_before, "rms_after_px": self.rms_after,
                 "sigma_px": self.sigma, "corners": self.n_corners,
                 "rms_by_role_px": self.rms_by_role, "held_at_nominal": self.held,
+                "scales": self.scales,
                 "rejected_corners": self.n_rejected, "iterations": self.iterations,
                 "parameters": self.parameters,
                 "not_identifiable": self.not_identifiable,
@@ -798,6 +803,7 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     r = prob.all_residuals(x)
     rk = r[prob.mask]
     m, n = rk.size, len(prob.names)
+    dof = int(m - n)
     sigma = float(np.sqrt(np.sum(rk ** 2) / max(m - n, 1)))
     J = prob.jacobian(x)
     G = (J.T @ J).toarray()
@@ -845,7 +851,7 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
                                                           "reason": dd["reason"]}
         for n in hold:
             params[eye][f"unit.{n}"] = {"value": UNIT_DEFAULTS[n], "std": None, "unit": "1",
-                                        "held": "nominal, not estimated (--hold-scales)"}
+                                        "held": "nominal, not estimated (--scales)"}
     # per-image residuals
     images = []
     residuals: dict[str, list[np.ndarray]] = {eye: [] for eye in EYES}
@@ -863,11 +869,12 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     rms_after = float(np.sqrt(np.mean(np.sum(rk.reshape(-1, 2) ** 2, axis=-1))))
     rms_role = {}
     for role, code in (("intrinsics", 0), ("pose", 1)):
-        m = prob.mask & (prob.img_role == code)[:, None]
-        rms_role[role] = float(np.sqrt(np.mean(np.sum(r[m] ** 2, axis=-1)))) if m.any() \
-            else float("nan")
+        sel = prob.mask & (prob.img_role == code)[:, None]
+        rms_role[role] = float(np.sqrt(np.mean(np.sum(r[sel] ** 2, axis=-1)))) \
+            if sel.any() else float("nan")
     return RefinementResult(
-        rms_by_role=rms_role, held=list(hold),
+        rms_by_role=rms_role, held=list(hold), rss=float(np.sum(rk ** 2)), dof=dof,
+        kept=prob.mask.copy(),
         K={eye: np.array([[s[eye]["K"][0], 0, s[eye]["K"][2]], [0, s[eye]["K"][1],
                                                                  s[eye]["K"][3]], [0, 0, 1.0]])
            for eye in EYES},
