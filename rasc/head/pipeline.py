@@ -373,7 +373,7 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
     try:
         if options.scales == "auto":
             res_h = refine_head(obs, estimate_scales=False)
-            res_e = refine_head(obs, estimate_scales=True)
+            res_e = refine_head(obs, estimate_scales=True, start=res_h)
             F = _scales_F(res_h, res_e)
             res = res_e if not np.isfinite(F) or F > SCALES_F_ESTIMATE else res_h
             res.scales = {"mode": "auto", "F": F, "threshold_F": SCALES_F_ESTIMATE,

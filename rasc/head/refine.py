@@ -245,6 +245,8 @@ class RefinementResult:
     dof: int = 0                       # residuals − estimated parameters
     kept: np.ndarray | None = None     # (n_img, N) mask of the kept corners
     scales: dict[str, Any] = field(default_factory=dict)   # how the scales were decided
+    values: np.ndarray | None = None   # the estimated parameters (names), natural units
+    identifiability: tuple | None = None   # (free, dropped) over all candidates
     covariance: np.ndarray | None = None
     names: list[str] = field(default_factory=list)
 
@@ -739,7 +741,8 @@ SCALES = ("pan_scale", "tilt_scale")
 
 def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
                 reject_k: float = REJECT_K, max_iter: int = 100,
-                estimate_scales: bool = True) -> RefinementResult:
+                estimate_scales: bool = True,
+                start: RefinementResult | None = None) -> RefinementResult:
     """Refine the whole head from its corners (see the module docstring).
 
     Parameters
@@ -753,6 +756,9 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
         Rejection threshold in robust standard deviations.
     estimate_scales : bool
         Estimate the encoder scales (default); False holds them at 1 (:data:`SCALES`).
+    start : RefinementResult, optional
+        A refinement of the same observations to start from (its identifiability test,
+        parameter values and kept corners are re-used).
 
     Returns
     -------
@@ -770,15 +776,21 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
     # (against 1 ms on one thread).
     with threadpool_limits(1, user_api="blas"):
         return _refine_head(obs, sigma0=sigma0, reject_k=reject_k, max_iter=max_iter,
-                            hold=() if estimate_scales else SCALES)
+                            hold=() if estimate_scales else SCALES, start=start)
 
 
 def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
-                 hold: tuple[str, ...]) -> RefinementResult:
+                 hold: tuple[str, ...], start: RefinementResult | None = None
+                 ) -> RefinementResult:
     t_start = time.perf_counter()
     if obs.dist_model not in DIST_PARAMS:
         raise InputError(f"refinement: unknown dist_model {obs.dist_model!r}")
-    free, dropped = _identifiable(obs, hold)
+    if start is not None and start.identifiability is not None:
+        # the same data: the null directions are the same; only the held ones differ
+        free_all, dropped = start.identifiability
+    else:
+        free_all, dropped = _identifiable(obs, ())
+    free = {eye: [n for n in names if n not in hold] for eye, names in free_all.items()}
     prob = _Problem(obs, free)
     x0 = np.zeros(len(prob.names))
     r0 = prob.all_residuals(x0)
@@ -788,7 +800,16 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         sigma0 = float(np.sqrt(np.mean(intr ** 2))) if intr.size else 0.1
     sigma0 = max(sigma0, 1e-3)
     iterations = 0
-    x = x0
+    x = x0.copy()
+    if start is not None:
+        # warm start from another refinement of the same observations (same initial
+        # rotations, so every parameter, perturbations included, carries over by name)
+        known = dict(zip(start.names, start.values, strict=True))
+        for j, name in enumerate(prob.names):
+            if name in known:
+                x[j] = (known[name] - prob.p0[j]) / prob.scale[j]
+        if start.kept is not None:
+            prob.mask &= start.kept
     for _ in range(2):   # fit; reject; refit once without the rejected corners
         x, nit = _levenberg_marquardt(prob, x, f_scale=3.0 * sigma0, max_iter=max_iter)
         iterations += nit
@@ -887,7 +908,8 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         iterations=iterations, seconds=time.perf_counter() - t_start, gauge=GAUGE,
         residuals={eye: np.concatenate(v) if v else np.zeros((0, 2))
                    for eye, v in residuals.items()},
-        covariance=cov, names=list(prob.names))
+        covariance=cov, names=list(prob.names), values=p.copy(),
+        identifiability=(free_all, dropped))
 
 
 def rotvec_std_deg(result: RefinementResult, name: str) -> np.ndarray:
