@@ -47,7 +47,7 @@ def test_readme_refinement_example(tmp_path, monkeypatch):
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         exec(compile(py, "README.md", "exec"), {})
-    expected = [m.group(1).split(":")[0].strip()
+    expected = [m.group(1).split(":")[0].split(" (")[0].strip()
                 for m in re.finditer(r"#\s*(.+)$", py, re.M)]
     printed = out.getvalue().splitlines()
     # the comments give each printed line (the last comment is the whole list)
