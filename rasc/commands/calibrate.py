@@ -157,7 +157,8 @@ def run(args: argparse.Namespace) -> int:
         if res is not None:
             log(f"refinement: reprojection RMS {res.rms_before:.3f} px (closed form) -> "
                 f"{res.rms_after:.4f} px over {res.n_corners - res.n_rejected} corners, "
-                f"{res.n_rejected} rejected, {res.seconds:.2f} s")
+                f"{res.n_rejected} rejected, {cal.timings.get('refinement', res.seconds):.2f} s; "
+                f"encoder scales {'estimated' if res.scales.get('estimated') else 'held at 1'}")
             for eye in ("left", "right"):
                 u = res.parameters[eye]
                 d, a = u.get("unit.tilt_point_y"), u.get("unit.axis_angle_deg")
