@@ -21,12 +21,14 @@ $(STAMP): pyproject.toml constraints.txt
 reproduce: $(STAMP)
 	$(PY) experiments/reproduce.py --out $(OUT)
 
+# --dist loadscope: each module on one worker, so that its module-scoped fixtures (whole
+# experiment runs) are computed once, not once per worker.
 test: $(STAMP)
-	$(PY) -m pytest -q -n $(JOBS)
+	$(PY) -m pytest -q -n $(JOBS) --dist loadscope
 
 # The quick loop while developing: everything not marked slow.
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -n $(JOBS) -m "not slow"
+	$(PY) -m pytest -q -n $(JOBS) --dist loadscope -m "not slow"
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check rasc tests experiments benchmarks examples

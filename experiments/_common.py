@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from rasc.io import write_json_atomic, write_text_atomic
+from rasc.io import read_json_document, write_json_atomic, write_text_atomic
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -205,9 +205,8 @@ class Context:
 
     def truth(self) -> dict:
         if self._truth is None:
-            import json
-            with open(self.dataset_dir() / "ground_truth.json") as f:
-                self._truth = json.load(f)
+            self._truth = read_json_document(self.dataset_dir() / "ground_truth.json",
+                                             "ground truth")
         return self._truth
 
 

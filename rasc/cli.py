@@ -2,8 +2,23 @@
 
 Each sub-command lives in its own module under :mod:`rasc.commands` and exposes
 ``add_parser(subparsers)`` (which sets ``func`` on its parser) and is imported here.
-Errors: any :class:`rasc.errors.RascError` is printed as one line,
-``rasc <command>: error: <message>``, and the exit status is 2.
+
+One path for every way a command ends (README, "What rasc refuses and what it warns"):
+
+* any :class:`rasc.errors.RascError` is printed as one line,
+  ``rasc <command>: error: <message>``, and the exit status is 2;
+* SIGINT (Ctrl-C) and SIGTERM (``timeout``, process managers), also during start-up
+  while the libraries load, print one line, ``rasc <command>: interrupted: <what was
+  kept and removed>``, exit status 130, no traceback (commands clean their temporaries
+  and say so through :class:`rasc.interrupt.Interrupted`);
+* numpy's RuntimeWarnings (overflow, invalid value, ...) never print beside the error
+  line: with an error they are dropped (the error speaks), on success each distinct one
+  becomes one ``rasc <command>: warning: numerical trouble ...`` line;
+* standard output that cannot be written (a full device) is the one error line.
+
+This module imports only the standard library and :mod:`rasc.errors` /
+:mod:`rasc.interrupt` at the top, so that the console script reaches :func:`main`
+(and its interrupt handling) before numpy, scipy or OpenCV load.
 """
 
 from __future__ import annotations
@@ -11,13 +26,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 from rasc import __version__
 from rasc.errors import RascError
-from rasc.interrupt import signals_as_interrupt
+from rasc.interrupt import Interrupted, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate")
+COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -46,19 +62,53 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _command_name(argv: list[str]) -> str:
+    """The sub-command named in ``argv`` (for messages before the parser exists)."""
+    names = {name.replace("_", "-") for name in COMMANDS}
+    return next((a for a in argv if a in names), "")
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    prog = f"rasc {_command_name(argv)}".rstrip()
     try:
-        with signals_as_interrupt():
-            return int(args.func(args) or 0)
+        with signals_as_interrupt(), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            parser = build_parser()          # imports numpy, scipy, OpenCV: may be interrupted
+            args = parser.parse_args(argv)
+            prog = f"rasc {args.command}"
+            status = int(args.func(args) or 0)
     except RascError as exc:
         msg = str(exc).replace("\n", " ")
-        print(f"rasc {args.command}: error: {msg}", file=sys.stderr)
+        print(f"{prog}: error: {msg}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"rasc {args.command}: interrupted", file=sys.stderr)
+    except Exception as exc:
+        if type(exc).__module__ != "cv2" or type(exc).__name__ != "error":
+            raise
+        # OpenCV's assertion on data no validation caught: still one line, no traceback
+        why = str(exc).strip().splitlines()[-1] if str(exc).strip() else "failed"
+        print(f"{prog}: error: OpenCV could not process the input ({why})", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as exc:
+        note = exc.note if isinstance(exc, Interrupted) else "nothing written"
+        print(f"{prog}: interrupted: {note}", file=sys.stderr)
         return 130
+    _numerical_warnings(prog, caught)
+    return status
+
+
+def _numerical_warnings(prog: str, caught: list[warnings.WarningMessage]) -> None:
+    """Each distinct RuntimeWarning of a command that succeeded, as one warning line."""
+    seen = set()
+    for w in caught:
+        if not issubclass(w.category, RuntimeWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+            continue
+        text = str(w.message).replace("\n", " ")
+        if text not in seen:
+            seen.add(text)
+            print(f"{prog}: warning: numerical trouble during the computation ({text}); "
+                  "check the result", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -37,3 +37,35 @@ def signals_as_interrupt() -> Iterator[None]:
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+class Interrupted(KeyboardInterrupt):
+    """An interrupt after the command cleaned up; ``note`` says what was kept and removed,
+    e.g. ``"nothing written (removed the partial dataset out/.ds.x.tmp)"``. The command
+    line prints ``rasc <command>: interrupted: <note>`` and exits 130."""
+
+    def __init__(self, note: str):
+        super().__init__(note)
+        self.note = note
+
+
+@contextlib.contextmanager
+def shielded(reraise: bool = True) -> Iterator[None]:
+    """Within the block (cleaning up after an interrupt), SIGINT and SIGTERM are held
+    back, so a second Ctrl-C cannot leave half-removed temporaries; one that arrived is
+    raised as KeyboardInterrupt when the block ends (``reraise``; not when the block
+    already cleans up after one). A no-op outside the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+    previous = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    for s in previous:
+        signal.signal(s, lambda signum, frame: arrived.append(signum))
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+    if arrived and reraise:
+        raise KeyboardInterrupt(signal.Signals(arrived[0]).name)

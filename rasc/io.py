@@ -1,11 +1,29 @@
-"""Atomic file output: a result file either appears whole or not at all."""
+"""Files in and out, by one set of rules (README, "What rasc refuses and what it warns").
+
+* :func:`read_json_document`: the ONE reader of every JSON input document (the handeye
+  input, the dataset manifest, ``--mounts``, ``ground_truth.json``). Regular files only,
+  at most :data:`MAX_DOCUMENT_BYTES`, UTF-8, no duplicate keys, nesting at most
+  :data:`MAX_DEPTH`, integers of at most :data:`MAX_INT_DIGITS` digits, every number
+  finite and at most :data:`MAX_MAGNITUDE` in size. Every refusal is one
+  :class:`~rasc.errors.InputError` line naming the file and where (line:column for
+  syntax, a JSON pointer such as ``/images/3/pan`` for values).
+* :func:`check_output`: the ONE output rule, checked before any long work: an output path
+  never resolves (symbolic links followed, hard links compared) to an input, to an
+  existing file inside an input folder, or to a folder where a file is expected.
+* :func:`write_bytes_atomic` / :func:`write_json_atomic`: a result file appears whole or
+  not at all; :func:`write_stdout`: standard output that cannot be written (a full
+  device) is one error line.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import re
+import stat
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -38,6 +56,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
         if isinstance(exc, OSError):
             raise InputError(f"{path}: cannot write: {exc.strerror or exc}") from None
         raise
+
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
@@ -84,3 +103,293 @@ def check_writable(path: str | os.PathLike) -> None:
         raise InputError(f"{path}: cannot write: folder {folder} does not exist")
     if not os.access(folder, os.W_OK):
         raise InputError(f"{path}: cannot write: folder {folder} is not writable")
+
+
+def write_stdout(text: str) -> None:
+    """Write ``text`` to standard output and flush it; a full device or a closed pipe is
+    an :class:`InputError` (one line) instead of a traceback at exit."""
+    try:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    except OSError as exc:
+        _silence_stdout()
+        raise InputError(f"standard output: cannot write: {exc.strerror or exc}") from None
+
+
+def _silence_stdout() -> None:
+    """Point file descriptor 1 at /dev/null, so that Python's flush at exit cannot fail
+    a second time (and print "Exception ignored ...") after the error line."""
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+
+
+# ------------------------------------------------------------------------ reading JSON
+
+#: Largest input document read (bytes). Far above any real one: a manifest lists about
+#: 120 bytes per image (a 100 000-image manifest is 12 MB), a handeye position about 500.
+#: A larger file (or a device such as /dev/zero named by mistake) is refused unread.
+MAX_DOCUMENT_BYTES = 64 * 1024 * 1024
+
+#: Deepest nesting of arrays and objects accepted. The deepest valid document is 4
+#: (a 4x4 matrix inside a position inside a list inside the top object); Python's
+#: parser itself gives up near 1000 with a RecursionError.
+MAX_DEPTH = 32
+
+#: Longest integer accepted (digits). Every integer rasc reads (board corners, counts,
+#: seeds, angles written as whole numbers) has far fewer; Python refuses to parse more
+#: than 4300 digits, and numbers beyond 10**308 cannot become floats.
+MAX_INT_DIGITS = 20
+
+#: Largest magnitude of any non-integer number accepted (integers are exact and bounded
+#: by MAX_INT_DIGITS instead, so that seeds up to 2**64 pass). Products of up to three
+#: such numbers (a 3x3 determinant, a transform applied to a point, a jackknife's squared
+#: deviations) stay below float overflow (1.8e308), so no later arithmetic turns an
+#: accepted input into infinity; and no value a rasc document holds comes near it (a
+#: solver's condition number, the largest, stays below 1e17 in double precision).
+#: Whether a value is plausible (an angle within a full turn, a positive square size)
+#: is the business of each field's validation.
+MAX_MAGNITUDE = 1e100
+
+
+class _Bad:
+    """A number the JSON parser met that the reader refuses once it knows where it is."""
+
+    __slots__ = ("problem",)
+
+    def __init__(self, problem: str):
+        self.problem = problem
+
+
+class _Pairs(list):
+    """A JSON object as the parser saw it: (key, value) pairs, duplicates kept."""
+
+
+def _parse_int(text: str):
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        return _Bad(f"an integer of {digits} digits (at most {MAX_INT_DIGITS} accepted)")
+    return int(text)
+
+
+def _parse_float(text: str):
+    value = float(text)
+    if not math.isfinite(value):
+        return _Bad(f"{text[:24]} overflows to infinity")
+    return value
+
+
+def _parse_constant(text: str):
+    return _Bad(f"{text} is not a finite number")
+
+
+def _pointer(path: tuple) -> str:
+    """RFC 6901 JSON pointer of ``path`` (keys and indices); "" (the whole document) as "/"."""
+    if not path:
+        return "/"
+    # control characters (a newline in a key) escaped as JSON writes them: one line
+    return "".join("/" + json.dumps(str(p))[1:-1].replace("~", "~0").replace("/", "~1")
+                   for p in path)
+
+
+def _validated(node, path: tuple, depth: int, where: str):
+    """Pairs → dicts (duplicate keys refused), bad numbers refused, depth bounded."""
+    if depth >= MAX_DEPTH and isinstance(node, list):    # _Pairs is a list too
+        raise InputError(f"{where}: {_pointer(path)}: nested deeper than {MAX_DEPTH} levels")
+    if isinstance(node, _Bad):
+        raise InputError(f"{where}: {_pointer(path)}: {node.problem}")
+    if isinstance(node, _Pairs):
+        out: dict = {}
+        for key, value in node:
+            if key in out:
+                raise InputError(f"{where}: {_pointer(path)}: duplicate key {key!r} (a JSON "
+                                 "object names each key once; which one was meant?)")
+            out[key] = _validated(value, (*path, key), depth + 1, where)
+        return out
+    if isinstance(node, list):
+        return [_validated(v, (*path, k), depth + 1, where) for k, v in enumerate(node)]
+    if isinstance(node, float) and abs(node) > MAX_MAGNITUDE:
+        raise InputError(f"{where}: {_pointer(path)}: {node:.6g} is larger in size than "
+                         f"{MAX_MAGNITUDE:g}, too large to compute with")
+    return node
+
+
+def parse_json_text(text: str, where: str, what: str = "document") -> Any:
+    """Parse JSON ``text`` by :func:`read_json_document`'s rules; ``where`` names it."""
+    if text.startswith("\ufeff"):          # a byte-order mark some editors write
+        text = text[1:]
+    try:
+        node = json.loads(text, object_pairs_hook=_Pairs, parse_int=_parse_int,
+                          parse_float=_parse_float, parse_constant=_parse_constant)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{where}: malformed JSON at line {exc.lineno}, column {exc.colno}: "
+                         f"{exc.msg}") from None
+    except RecursionError:
+        raise InputError(f"{where}: arrays or objects nested deeper than {MAX_DEPTH} "
+                         f"levels; not a {what}") from None
+    return _validated(node, (), 0, where)
+
+
+def read_json_document(path: str | os.PathLike, what: str = "document", *,
+                       top: type | None = dict) -> Any:
+    """Read the JSON input document ``path`` (a ``what``: "manifest", "mounts file", ...).
+
+    Parameters
+    ----------
+    path : the file (symbolic links followed)
+    what : what the file is, for messages
+    top : the required type of the top-level value (``dict``: a JSON object), or None
+
+    Returns
+    -------
+    The document as dicts, lists, str, int, float (finite, at most MAX_MAGNITUDE in
+    size), bool and None.
+
+    Raises
+    ------
+    InputError
+        One line starting with the path: missing, a folder, not a regular file (a
+        device, FIFO or socket is refused before anything is read), larger than
+        MAX_DOCUMENT_BYTES, unreadable, not UTF-8 (with the byte offset), malformed JSON
+        (line, column), duplicate keys, nesting deeper than MAX_DEPTH, integers longer
+        than MAX_INT_DIGITS digits, NaN, Infinity, numbers that overflow or exceed
+        MAX_MAGNITUDE (each with its JSON pointer), or the wrong top-level type.
+    """
+    path = Path(path)
+    where = str(path)
+    if where in ("", "."):
+        raise InputError(f"{what}: empty path")
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file (the {what})") from None
+    except OSError as exc:
+        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{where}: is a folder, not a {what} file")
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{where}: not a regular file (a device, pipe or socket); the "
+                         f"{what} must be a file")
+    if st.st_size > MAX_DOCUMENT_BYTES:
+        raise InputError(f"{where}: {st.st_size} bytes, more than the {MAX_DOCUMENT_BYTES} "
+                         f"bytes a {what} may have")
+    try:
+        # O_NONBLOCK: a FIFO swapped in after the check cannot block the open
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                raise InputError(f"{where}: not a regular file; the {what} must be a file")
+            data = f.read(MAX_DOCUMENT_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_DOCUMENT_BYTES:
+        raise InputError(f"{where}: more than the {MAX_DOCUMENT_BYTES} bytes a {what} may "
+                         "have")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the {what} "
+                         "as UTF-8") from None
+    doc = parse_json_text(text, where, what)
+    if top is dict and not isinstance(doc, dict):
+        raise InputError(f"{where}: the {what} must be a JSON object {{...}} at the top "
+                         f"level, got {_json_type(doc)}")
+    if top is list and not isinstance(doc, list):
+        raise InputError(f"{where}: the {what} must be a JSON array at the top level, "
+                         f"got {_json_type(doc)}")
+    return doc
+
+
+def _json_type(value: Any) -> str:
+    return {dict: "an object", list: "an array", str: "a string", bool: "a boolean",
+            int: "a number", float: "a number", type(None): "null"}.get(type(value),
+                                                                       type(value).__name__)
+
+
+# ------------------------------------------------------------------------- output rule
+
+def _identity(path: str | os.PathLike) -> tuple[int, int] | None:
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return st.st_dev, st.st_ino
+
+
+def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
+                 kind: str = "file", flag: str = "--out") -> Path:
+    """The output rule, checked before any long work; returns ``path`` as a Path.
+
+    Parameters
+    ----------
+    path : the output path as the user gave it
+    inputs : every input file of the command (documents, images, ...), any order
+    input_folders : input folders (a dataset): no existing file inside one may be an output
+    kind : "file" (a result file, written atomically) or "folder" (a new folder)
+    flag : the option's name, for messages
+
+    Raises
+    ------
+    InputError
+        One line: an empty path, ``.``, a file path that is a folder (or a link to one) or
+        not a regular file (a device: atomic writing would replace it), a path that
+        resolves to an input (symbolic links followed, hard links compared) or to an
+        existing file inside an input folder, a folder path that exists as a file or is a
+        symbolic link, a missing or unwritable parent folder. An existing output file
+        that is no input is replaced (atomically).
+    """
+    if path is None or str(path).strip() == "":
+        raise InputError(f"{flag}: empty path; name a {kind}")
+    text = os.fspath(path)
+    p = Path(text)
+    if kind not in ("file", "folder"):
+        raise ValueError(f"kind must be 'file' or 'folder', got {kind!r}")
+    if kind == "file":
+        if text.endswith(("/", os.sep)) or p.name in ("", ".", ".."):
+            raise InputError(f"{flag} {text}: names a folder; give a file name")
+        if p.is_dir():
+            link = " (a symbolic link to a folder)" if p.is_symlink() else ""
+            raise InputError(f"{text}: cannot write: it is a folder{link}; give {flag} a "
+                             "file name")
+        if p.exists() and not p.is_file():
+            raise InputError(f"{flag} {text}: not a regular file (a device or pipe); write "
+                             "to standard output and redirect it instead")
+    else:
+        if p.name in ("", ".", "..") or os.path.realpath(text) == os.path.realpath("."):
+            raise InputError(f"{flag} {text}: the current or parent folder; name a new "
+                             "folder for the output")
+        if p.is_symlink():
+            raise InputError(f"{flag} {text}: is a symbolic link; name the folder itself")
+        if p.exists() and not p.is_dir():
+            raise InputError(f"{flag} {text}: exists as a file; name a new folder")
+    out_real = os.path.realpath(text)
+    out_id = _identity(text)
+    for inp in inputs:
+        if inp is None:
+            continue
+        same = os.path.realpath(inp) == out_real or (out_id is not None
+                                                      and _identity(inp) == out_id)
+        if same:
+            also = "" if os.fspath(inp) == text else f" ({inp})"
+            raise InputError(f"{flag} {text} is the input file{also}; choose another path")
+        if kind == "folder" and Path(inp).is_file() and \
+                os.path.realpath(inp).startswith(out_real.rstrip(os.sep) + os.sep):
+            raise InputError(f"{flag} {text}: holds an input of this command ({inp}); "
+                             "choose another folder")
+    for folder in input_folders:
+        if folder is None:
+            continue
+        root = os.path.realpath(folder).rstrip(os.sep) + os.sep
+        if kind == "file" and out_real.startswith(root) and os.path.lexists(text):
+            raise InputError(f"{flag} {text}: is a file of the input dataset {folder}; "
+                             "choose a new file name")
+        if kind == "folder" and (out_real + os.sep).startswith(root):
+            raise InputError(f"{flag} {text}: is inside the input folder {folder}; choose "
+                             "another folder")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"{text}: cannot write: folder {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{text}: cannot write: folder {parent} is not writable")
+    return p

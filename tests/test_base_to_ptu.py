@@ -24,9 +24,7 @@ from rasc.head.base_to_ptu import (
     perturb_mounts,
 )
 
-#: Nominal camera on a gaze frame (x up, y forward, z left): optical axis (cam z) = gaze y,
-#: cam x (right) = −gaze z, cam y (down) = −gaze x.
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import R_CAM_FROM_GAZE_NOMINAL
 
 
 def _truth(rng):

@@ -1,5 +1,7 @@
 """Camera pipeline on synthetic truth: rendered boards, projected corners, known poses."""
 
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -12,6 +14,7 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import invert_transform, make_transform, rotation_error_deg
 from rasc.vision.camera import (
     Board,
+    _opencv_threads,
     calibrate_intrinsics,
     colour_score,
     detect_corners,
@@ -201,6 +204,7 @@ def test_colour_rule_undecidable_gives_none():
     assert order_corners(truth, flat, BOARD, order_by=None) is not None
 
 
+@pytest.mark.slow
 def test_not_found_is_reported_not_raised():
     rng = np.random.default_rng(3)
     T = board_pose(20, [1, 0, 0], 0.5)
@@ -275,6 +279,39 @@ def test_read_image_and_header_size(tmp_path):
 
 
 # ----------------------------------------------------------------------- intrinsics
+
+@pytest.mark.slow
+def test_opencv_thread_count_is_set_only_inside_rasc_calls(monkeypatch):
+    """Importing rasc.vision.camera leaves OpenCV's thread count alone (it used to set it
+    to 1 for the whole process); rasc's own calls run single-threaded and restore the
+    caller's setting, also when they raise."""
+    seen = []
+    real = cv2.calibrateCamera
+
+    def spy(*args, **kwargs):
+        seen.append(cv2.getNumThreads())
+        return real(*args, **kwargs)
+
+    code = ("import cv2; cv2.setNumThreads(3); import rasc.vision.camera; "
+            "print(cv2.getNumThreads())")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert proc.stdout.split() == ["3"]
+    rng = np.random.default_rng(10)
+    views = projected_views(spread_poses(6, rng), rng, sigma=0.0)
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(3)
+        monkeypatch.setattr(cv2, "calibrateCamera", spy)
+        calibrate_intrinsics(views, BOARD, (640, 480))
+        assert seen == [1] and cv2.getNumThreads() == 3
+        with pytest.raises(ZeroDivisionError), _opencv_threads(1):
+            assert cv2.getNumThreads() == 1
+            _ = 1 / 0
+        assert cv2.getNumThreads() == 3
+    finally:
+        cv2.setNumThreads(before)
+
 
 def test_intrinsics_exact_without_noise():
     rng = np.random.default_rng(10)
@@ -428,6 +465,7 @@ def test_extrinsics_match_calibration_and_invert():
         np.testing.assert_allclose(invert_transform(T) @ T, np.eye(4), atol=1e-12)
 
 
+@pytest.mark.slow
 def test_detection_speed_classic_vs_sb_1280x960():
     """Measured, not asserted tightly: prints the per-image times (run with -s)."""
     K = np.array([[1600.0, 0, 639.5], [0, 1600.0, 479.5], [0, 0, 1]])

@@ -199,13 +199,13 @@ def test_missing_folder_and_manifest(tmp_path):
 
 def test_malformed_json(folder):
     (folder / "manifest.json").write_text('{"format": "rasc-dataset/1",\n "board": }')
-    with pytest.raises(InputError, match="manifest.json: malformed JSON.*line 2 column 11"):
+    with pytest.raises(InputError, match="manifest.json: malformed JSON.*line 2, column 11"):
         load_dataset(folder)
     (folder / "manifest.json").write_text("[1, 2]")
-    with pytest.raises(InputError, match="top level, got list"):
+    with pytest.raises(InputError, match="top level, got an array"):
         load_dataset(folder)
     (folder / "manifest.json").write_bytes(b"\xff\xfe{")
-    with pytest.raises(InputError, match="manifest.json: cannot read"):
+    with pytest.raises(InputError, match="manifest.json: not UTF-8 text"):
         load_dataset(folder)
 
 

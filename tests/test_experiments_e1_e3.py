@@ -29,14 +29,16 @@ from rasc.handeye.li import solve_li  # noqa: E402
 from rasc.handeye.noise import VARIANTS, perturb_one_view, perturb_T_cam_from_world  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 QUICK_LEVELS = [0, *e1.QUICK_LEVELS]
 
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("base")
-    return Context.from_argv(e1.__doc__, ["--quick", "--out", str(out), "--workers", "1"]
-                             ).dataset_dir()
+def dataset(default_dataset) -> Path:
+    """The default dataset (seed 0, as ``Context.dataset_dir`` renders it): conftest's,
+    rendered once per test run."""
+    return default_dataset
 
 
 def make_ctx(root: Path, dataset: Path, workers: int = 1, seed: int = 0) -> Context:

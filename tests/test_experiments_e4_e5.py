@@ -32,6 +32,8 @@ from rasc.head.base_to_ptu import T_ptuL_from_ptuR_loop_closure, perturb_mounts 
 from rasc.head.model import EyeCalibration, HeadCalibration  # noqa: E402
 from rasc.sim.scene import T_base_from_world_facing  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 RESULT_SUFFIXES = (".csv", ".json")
 
 

@@ -31,12 +31,14 @@ from rasc.geometry.transforms import make_transform, matrix_from_rotvec  # noqa:
 from rasc.handeye.methods import METHODS  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("base")
-    return Context.from_argv(e6a.__doc__, ["--quick", "--out", str(out), "--workers", "1"]
-                             ).dataset_dir()
+def dataset(default_dataset) -> Path:
+    """The default dataset (seed 0, as ``Context.dataset_dir`` renders it): conftest's,
+    rendered once per test run."""
+    return default_dataset
 
 
 def make_ctx(root: Path, dataset: Path, workers: int = 1, quick: bool = True) -> Context:

@@ -17,6 +17,7 @@ from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
+    project_to_rotation,
     rotation_angle,
     rotation_error_deg,
     rotvec_from_matrix,
@@ -28,6 +29,8 @@ from rasc.handeye.solver import (
     WEAK_AXIS_SPREAD,
     HandEyeDiagnostics,
     HandEyeResult,
+    _polar_rotation,
+    _polar_rotation_many,
     diagnose,
     pair_rotvecs,
     quality_eq10,
@@ -35,9 +38,7 @@ from rasc.handeye.solver import (
     solve_rasc_batch,
 )
 
-# Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
-# = −gaze x (up), cam z (optical axis) = gaze y (forward).
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import PAPER, pan_tilt, random_rigid, rig
 
 # Noise-free tolerance, 1e-9 (the brief's): every result is a few hundred double
 # operations from exact data; measured errors are 1e-15..1e-14, and the worst
@@ -46,35 +47,9 @@ R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.
 EXACT = 1e-9
 
 
-def rig(rng):
-    """A realistic eye: camera a few cm from the unit's centre, board ~1 m ahead.
-
-    Returns (T_cam_from_gaze, T_ptu_from_world)."""
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)])
-    return X, Y
-
-
-def random_rigid(rng, n, max_angle=np.pi, t_scale=1.0):
-    axis = rng.normal(size=(n, 3))
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    angle = rng.uniform(0, max_angle, (n, 1))
-    return make_transform(matrix_from_rotvec(axis * angle), rng.normal(0, t_scale, (n, 3)))
-
-
-def pan_tilt(poses_deg):
-    p = np.radians(np.asarray(poses_deg, dtype=float))
-    return T_gaze_from_ptu(p[:, 0], p[:, 1])
-
-
 def grid(half_deg, k):
     a = np.linspace(-half_deg, half_deg, k)
     return [(p, t) for p in a for t in a]
-
-
-PAPER = pan_tilt(PAPER_POSES_DEG)
 
 
 def reference_solve(T_cw, T_gp, pairs="all", RX=None):
@@ -246,6 +221,35 @@ def test_pair_logs_match_rotvec_from_matrix():
     np.testing.assert_allclose(got[away], want[away], atol=1e-12)
 
 
+def test_pair_logs_of_non_orthogonal_matrices_are_those_of_their_nearest_rotations():
+    """Literal eq. 13 noise leaves R_cw non-orthogonal: each view stands for its nearest
+    rotation (SVD polar factor, computed here by rasc.geometry.transforms), up to
+    max |RᵀR − I| = 1/3. 1e-12: both sides are exact to a few ulp of the angle."""
+    rng = np.random.default_rng(24)
+    for sigma in (1e-7, 1e-3, 2e-2, 5e-2):
+        R = matrix_from_rotvec(rng.normal(size=(12, 3))) + rng.normal(0, sigma, (12, 3, 3))
+        err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+        R = R[err < 1 / 3]
+        P = project_to_rotation(R)
+        i, j = np.nonzero(~np.eye(len(R), dtype=bool))
+        want = rotvec_from_matrix(P[i] @ np.swapaxes(P[j], 1, 2))
+        np.testing.assert_allclose(pair_rotvecs(R, i, j), want, atol=1e-12)
+
+
+def test_batched_polar_factor_equals_the_svd_one():
+    """The batched solve's Newton iteration for eq. 9 gives the SVD's V diag(1, 1, ±1) Uᵀ,
+    also where it must hand over to the SVD (det M < 0, M of rank 2). 1e-12: both are
+    accurate to cond(M)·1e-16 (cond up to 1e3 here)."""
+    rng = np.random.default_rng(25)
+    M = rng.normal(size=(200, 3, 3)) * np.geomspace(1, 1e-3, 3)   # cond up to ~1e3
+    M[:20] *= -1.0                                                 # det M < 0
+    M[20:25, 2] = M[20:25, 0] + M[20:25, 1]                        # rank 2
+    want, _ = _polar_rotation(M)
+    got = _polar_rotation_many(M)
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(got), 1.0, atol=1e-12)
+
+
 def test_quality_is_eq10():
     rng = np.random.default_rng(15)
     X, Y = rig(rng)
@@ -369,6 +373,11 @@ def test_batch_equals_single_solves(shared):
         # 1e-12: identical arithmetic, batched
         assert_close_transform(out.T_cam_from_gaze[s], one.T_cam_from_gaze, 1e-12)
         assert abs(out.quality[s] - one.quality) < 1e-12
+
+
+def test_batch_of_no_samples_is_an_input_error():
+    with pytest.raises(InputError, match=r"T_cam_from_world: no samples"):
+        solve_rasc_batch(np.zeros((0, 9, 4, 4)), PAPER)
 
 
 def test_batch_names_the_degenerate_sample():

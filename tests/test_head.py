@@ -13,8 +13,8 @@ from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotvec_
 from rasc.head.base_to_ptu import T_ptuL_from_ptuR_from_mounts, cyclopean_base
 from rasc.head.model import EyeCalibration, HeadCalibration
 
-#: Nominal camera on a gaze frame (x up, y forward, z left): optical axis = gaze +y.
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import R_CAM_FROM_GAZE_NOMINAL
+
 SIZE = (1280, 960)
 
 

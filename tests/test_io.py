@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ json_values = st.recursive(
     max_leaves=20)
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(json_values)
 def test_dumps_json_round_trips(value):
@@ -70,3 +72,74 @@ def test_usage_errors_are_one_line(argv, fragment, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(fragment)
+
+
+# ------------------------------------------------------------------ the output rule
+
+def test_check_output_refuses_inputs_by_any_name(tmp_path, monkeypatch):
+    from rasc.io import check_output
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ds" / "poses").mkdir(parents=True)
+    manifest = tmp_path / "ds" / "manifest.json"
+    manifest.write_text("{}")
+    image = tmp_path / "ds" / "poses" / "a.png"
+    image.write_bytes(b"")
+    os.symlink(manifest, tmp_path / "link.json")
+    os.link(image, tmp_path / "hard.png")
+    inputs = [manifest, image]
+    for out in ("ds/manifest.json", "ds/poses/../manifest.json", "link.json", "hard.png",
+                str(image)):
+        with pytest.raises(InputError, match="is the input file"):
+            check_output(out, inputs=inputs, input_folders=[tmp_path / "ds"])
+    (tmp_path / "ds" / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="is a file of the input dataset"):
+        check_output("ds/notes.txt", inputs=inputs, input_folders=[tmp_path / "ds"])
+    # a new file beside the inputs, or inside the dataset folder, is an output like any other
+    assert check_output("ds/cal.json", inputs=inputs, input_folders=[tmp_path / "ds"]) \
+        == tmp_path.joinpath("ds/cal.json").relative_to(tmp_path)
+    check_output("cal.json", inputs=inputs)
+
+
+@pytest.mark.parametrize("out, kind, fragment", [
+    ("", "file", "--out: empty path"),
+    (".", "file", "names a folder"),
+    ("sub/", "file", "names a folder"),
+    ("sub", "file", "it is a folder"),
+    ("fifo", "file", "not a regular file"),
+    ("", "folder", "--out: empty path"),
+    (".", "folder", "the current or parent folder"),
+    ("sub/..", "folder", "the current or parent folder"),
+    ("link", "folder", "is a symbolic link"),
+    ("file.txt", "folder", "exists as a file"),
+    ("missing/new", "folder", "folder missing does not exist"),
+])
+def test_check_output_refuses_what_is_no_output(out, kind, fragment, tmp_path, monkeypatch):
+    from rasc.io import check_output
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "file.txt").write_text("x")
+    os.mkfifo(tmp_path / "fifo")
+    os.symlink(tmp_path / "sub", tmp_path / "link")
+    with pytest.raises(InputError, match=re.escape(fragment)):
+        check_output(out, kind=kind)
+    assert sorted(os.listdir(tmp_path)) == ["fifo", "file.txt", "link", "sub"]
+
+
+def test_write_stdout_on_a_full_device_is_one_error(monkeypatch):
+    from rasc.io import write_stdout
+
+    class Full:
+        def write(self, text):
+            raise OSError(28, "No space left on device")
+
+        def flush(self):
+            pass
+
+        def fileno(self):
+            raise ValueError("no descriptor")
+
+    monkeypatch.setattr("sys.stdout", Full())
+    with pytest.raises(InputError, match="^standard output: cannot write: No space left"):
+        write_stdout("{}\n")

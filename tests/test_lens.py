@@ -187,6 +187,7 @@ def test_distortion_remap_maps_are_the_inverse(name):
     np.testing.assert_allclose(uv, np.c_[uu.ravel(), vv.ravel()], rtol=0, atol=1e-3)
 
 
+@pytest.mark.slow
 def test_distortion_remap_moves_a_blob_to_its_distorted_projection():
     dist = DISTS["k5"]
     map_x, map_y = lens.distortion_remap(K, dist, SIZE)
@@ -210,6 +211,7 @@ def test_distortion_remap_moves_a_blob_to_its_distorted_projection():
     assert np.hypot(*(want - ideal_uv).T).max() > 20.0
 
 
+@pytest.mark.slow
 def test_distortion_remap_flags_rays_outside_the_model():
     # k1 = −0.4, k3 = −0.05 folds at r_d ≈ 0.854: with f = 500 px the image corners
     # (r_d ≈ 1.6) have no pre-image and must map outside the ideal image.

@@ -7,30 +7,13 @@ import pytest
 from scipy.optimize import approx_fprime
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotation_angle
+from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.transforms import matrix_from_rotvec, rotation_angle
 from rasc.handeye.li import _left_jacobian, _Problem, home_index, solve_li
 from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-PAPER = T_gaze_from_ptu(*np.radians(np.array(PAPER_POSES_DEG)).T)
-
-
-def rig(rng):
-    """Camera a few cm from the unit's centre, ~120° from the gaze frame; board ~1 m."""
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)])
-    return X, Y
-
-
-def random_rigid(rng, n, max_angle=np.pi, t_scale=1.0):
-    axis = rng.normal(size=(n, 3))
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    return make_transform(matrix_from_rotvec(axis * rng.uniform(0, max_angle, (n, 1))),
-                          rng.normal(0, t_scale, (n, 3)))
+from conftest import PAPER, random_rigid, rig
 
 
 # 1e-9 (the brief's noise-free bound): LM converges quadratically to the zero-residual

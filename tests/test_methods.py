@@ -12,9 +12,7 @@ from rasc.handeye.methods import jackknife_uncertainty, solve
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-# Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
-# = −gaze x (up), cam z (optical axis) = gaze y (forward): a camera looking forward.
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import R_CAM_FROM_GAZE_NOMINAL
 
 
 def rig(seed=3):
@@ -32,6 +30,7 @@ def grid(half_deg):
     return T_gaze_from_ptu(p[:, 0], p[:, 1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("half_deg, sigma_r, sigma_t", [(8.0, 0.005, 0.001),
                                                         (2.0, 0.0005, 0.0005),
                                                         (20.0, 0.0005, 0.0005)])

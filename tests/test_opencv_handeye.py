@@ -11,7 +11,7 @@ if not hasattr(cv2, "calibrateHandEye"):  # the 5.0 wheels lack it (docs/NOTES.m
     pytest.skip("this OpenCV has no calibrateHandEye", allow_module_level=True)
 
 from rasc.errors import DegenerateDataError, InputError, SolverFailure  # noqa: E402
-from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
+from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
@@ -24,9 +24,9 @@ from rasc.handeye.noise import perturb_T_cam_from_world  # noqa: E402
 from rasc.handeye.opencv import CV_METHODS, calibrate_hand_eye_cv, read_tabb_rwhe, solve_opencv
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
+from conftest import PAPER, R_CAM_FROM_GAZE_NOMINAL  # noqa: E402
+
 TABB = Path(__file__).parent / "data" / "tabb-rwhe-dataset1"
-PAPER = T_gaze_from_ptu(*np.radians(np.array(PAPER_POSES_DEG)).T)
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
 
 # ------------------------------------------- a port of OpenCV's test generator
@@ -79,6 +79,7 @@ def cv_errors(T_gripper_from_cam_est, T_gripper_from_cam_true):
             np.linalg.norm(T_gripper_from_cam_est[:3, 3] - T_gripper_from_cam_true[:3, 3]))
 
 
+@pytest.mark.slow
 def test_opencv_generator_ported():
     """OpenCV's own accuracy test, 100 trials × 10 poses, on RASC (natural orientation:
     T_cam_from_gripper from all ordered pairs, inverted for the metric) and, as the

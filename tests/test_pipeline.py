@@ -1,8 +1,9 @@
 """The whole-head pipeline on a rendered dataset, measured against the renderer's truth.
 
 One dataset of the default model (20 intrinsics views and the paper's nine pan-tilt
-positions per eye, seed 0) is rendered once for this module and calibrated once with the
-default options. Every expected value is read from ``ground_truth.json`` (written from
+positions per eye, seed 0) is rendered once per test run and calibrated once with the
+default options (the session fixtures ``default_dataset`` and ``default_calibration`` of
+tests/conftest.py). Every expected value is read from ``ground_truth.json`` (written from
 the MuJoCo model, never from the pipeline), and every error is recomputed here from the
 transforms rather than taken from :func:`rasc.head.pipeline.errors_against_truth`.
 """
@@ -19,8 +20,7 @@ from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
 from rasc.handeye.solver import solve_rasc
 from rasc.head.base_to_ptu import cyclopean_base
-from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
-from rasc.sim.render import RenderOptions, render_dataset
+from rasc.head.pipeline import CalibrationOptions, errors_against_truth
 from rasc.vision.dataset import load_dataset
 
 #: Issue 3 bounds for T_cam_from_gaze recovered from the nine renders. Measured here:
@@ -41,17 +41,14 @@ CORNER_RMS_PX = 0.1
 
 
 @pytest.fixture(scope="module")
-def rendered(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("pipeline") / "dataset"
-    render_dataset(folder, RenderOptions(seed=0), quiet=True)
-    dataset = load_dataset(folder)
+def rendered(default_dataset):
+    dataset = load_dataset(default_dataset)
     return dataset, dataset.load_ground_truth()
 
 
-@pytest.fixture(scope="module")
-def calibration(rendered):
-    dataset, _ = rendered
-    return calibrate_dataset(dataset)
+@pytest.fixture
+def calibration(default_calibration):
+    return default_calibration
 
 
 def rotation_deg(R_a, R_b):

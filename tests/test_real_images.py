@@ -108,6 +108,7 @@ def test_stereo_samples_relabelling_leaves_intrinsics_unchanged(stereo):
                                atol=1e-4)
 
 
+@pytest.mark.slow
 def test_stereo_samples_sb_detector_agrees_after_ordering():
     """SB numbers from the other end of the board (raw); canonical order reconciles it."""
     for name in ("left01.jpg", "right07.jpg"):
@@ -186,6 +187,7 @@ def kuka():
     return corners, missing, r, T_cam_from_world, T_base_from_gripper
 
 
+@pytest.mark.slow
 def test_kuka_detection_and_intrinsics(kuka):
     corners, missing, r, T_cam_from_world, _ = kuka
     assert missing == [] and len(corners) == 30

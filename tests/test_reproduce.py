@@ -19,6 +19,8 @@ sys.path.insert(0, str(EXPERIMENTS))
 
 import reproduce  # noqa: E402
 
+pytestmark = pytest.mark.slow  # renders and whole experiment runs
+
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):

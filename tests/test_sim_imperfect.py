@@ -163,6 +163,22 @@ def test_user_model_with_a_moved_tilt_body(tmp_path):
         assert check_chain_against_mujoco(sim, "left", np.random.default_rng(6)) < 1e-12
 
 
+def test_user_model_with_a_moved_and_turned_pan_joint(tmp_path):
+    # pan axis through a = (20, 10, −5) mm along p ∝ (1, 0.02, 0.01); tilt axis the stock
+    # one through the ptu origin along z: distance |a · (p × z)| / |p × z|, angle acos(p·z)
+    scene = _head_variant(tmp_path, '<joint class="pan" name="left_pan_joint"/>',
+                          '<joint class="pan" name="left_pan_joint" pos="0.02 0.01 -0.005" '
+                          'axis="1 0.02 0.01"/>')
+    a, p, z = np.array([0.02, 0.01, -0.005]), np.array([1, 0.02, 0.01]), np.array([0, 0, 1.0])
+    p = p / np.linalg.norm(p)
+    n = np.cross(p, z)
+    with StereoHeadSim(scene) as sim:
+        unit = sim.unit("left")
+        assert unit.axis_distance == pytest.approx(abs(a @ n) / np.linalg.norm(n), abs=1e-15)
+        assert unit.axis_angle_deg == pytest.approx(np.degrees(np.arccos(p @ z)), abs=1e-12)
+        assert check_chain_against_mujoco(sim, "left", np.random.default_rng(8)) < 1e-12
+
+
 def test_user_model_with_a_joint_reference_angle(tmp_path):
     # MuJoCo turns a hinge by qpos − ref: the body pose as written is the joint's zero
     scene = _head_variant(tmp_path, '<joint class="pan" name="left_pan_joint"/>',
@@ -237,11 +253,10 @@ def test_default_render_is_unchanged_by_the_unit_machinery(tmp_path):
                                        rtol=0, atol=1e-15)
 
 
-def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
-    units = {"left": IMPERFECT, "right": UnitBuild(tilt_axis_offset_mm=(0, -15, 0),
-                                                   axis_skew_deg=-0.5, pan_zero_deg=-0.3)}
-    manifest = render_dataset(tmp_path / "ds", SMALL, quiet=True, units=units)
-    gt = json.loads((tmp_path / "ds" / "ground_truth.json").read_text())
+def assert_views_match_truth(manifest: Path) -> dict:
+    """Every pose view's T_cam_from_world (MuJoCo's, as rendered) equals the ground truth's
+    chain at the manifest's readings; returns the ground truth."""
+    gt = json.loads((manifest.parent / "ground_truth.json").read_text())
     images = json.loads(manifest.read_text())["images"]
     poses = [im for im in images if im["role"] == "pose"]
     # the manifest records the commanded readings
@@ -254,6 +269,23 @@ def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
             T = T_cg @ unit.T_gaze_from_ptu(np.radians(im["pan"]), np.radians(im["tilt"])) @ T_pb
             np.testing.assert_allclose(T @ np.array(view["T_base_from_world"]),
                                        view["T_cam_from_world"], rtol=0, atol=GROUND_TRUTH_TOL)
+    return gt
+
+
+def test_moved_tilt_joint_model_renders_with_correct_truth(tmp_path):
+    scene = _head_variant(tmp_path, '<joint class="tilt" name="right_tilt_joint"/>',
+                          '<joint class="tilt" name="right_tilt_joint" pos="0 0.03 0"/>')
+    gt = assert_views_match_truth(render_dataset(tmp_path / "ds", SMALL, quiet=True,
+                                                 model_path=scene))
+    assert PanTiltUnit.from_dict(gt["right"]["unit"]).axis_distance == pytest.approx(0.03)
+    assert PanTiltUnit.from_dict(gt["left"]["unit"]) == IDEAL
+
+
+def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
+    units = {"left": IMPERFECT, "right": UnitBuild(tilt_axis_offset_mm=(0, -15, 0),
+                                                   axis_skew_deg=-0.5, pan_zero_deg=-0.3)}
+    gt = assert_views_match_truth(render_dataset(tmp_path / "ds", SMALL, quiet=True,
+                                                 units=units))
     assert PanTiltUnit.from_dict(gt["right"]["unit"]).axis_distance == pytest.approx(0.015)
     assert gt["left"]["unit_as_built"]["build"] == IMPERFECT.to_dict()
     assert gt["right"]["unit_as_built"]["build"] == units["right"].to_dict()
@@ -315,6 +347,13 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
                             "--axis-skew", 1, "--encoder-zero", "0.5,0.5", *common], capsys)
     assert code == 0, err
     assert files_of(tmp_path / "a") == files_of(tmp_path / "b")
+    # without --quiet: one line per imperfect unit says what was built
+    code, _, err = run_cli(["render", "--out", tmp_path / "d", "--axis-skew", 1,
+                            "--tilt-axis-offset", "0,30,0", *common[1:]], capsys)
+    assert code == 0, err
+    for eye in EYES:
+        assert (f"render: {eye} unit: tilt axis 30 mm from the pan axis, 89.0000 deg between "
+                f"the axes, encoder zeros +0/+0 deg and scales 1/1 (pan/tilt)") in err
     for argv, message in ((["--tilt-axis-offset", "0,30"], "--tilt-axis-offset: expected X,Y,Z"),
                           (["--encoder-zero", "nan,0"], "--encoder-zero: expected PAN,TILT in deg"),
                           (["--axis-skew", 90], "--axis-skew: expected a finite angle"),

@@ -63,6 +63,7 @@ def _rms(err):
     return float(np.sqrt(np.mean(np.sum(err**2, axis=1))))
 
 
+@pytest.mark.slow
 def test_corners_match_projection_at_the_nine_paper_poses(sim):
     # Board 1 m ahead of the base, both eyes at each of the paper's nine (pan, tilt).
     sim.set_target(T_base_from_world_facing(sim.board, 1.0))
@@ -89,6 +90,7 @@ def test_corners_match_projection_at_half_resolution():
         assert _rms(_corner_errors(s, "right")) < CORNER_RMS_PX
 
 
+@pytest.mark.slow
 def test_dense_one_metre_board():
     # The experiments' 1 m x 1 m plane (870 corners) at 1.8 m: detected where projected.
     board = Board((30, 29), 1.0 / 32)
@@ -98,6 +100,7 @@ def test_dense_one_metre_board():
         assert len(err) == 870 and _rms(err) < CORNER_RMS_PX, _rms(err)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("square", "distance"), [(0.02, 0.4), (0.05, 3.5)])
 def test_near_and_far_boards_survive_clipping(square, distance):
     # Clipping planes are visual/map znear, zfar × statistic extent (docs/NOTES.md): a board
@@ -138,6 +141,7 @@ def test_board_colour_rule(board):
             assert (g < 40) if black else (g > 200), (grey, expected_black)
 
 
+@pytest.mark.slow
 def test_head_geometry_stays_out_of_the_cameras_views(sim):
     # Segmentation render with the board moved away: no pixel belongs to the head, at the
     # paper poses and at the tilt limits and ±45° pan.
@@ -220,6 +224,7 @@ def test_blur_matches_a_gaussian_edge_profile():
     np.testing.assert_array_equal(blur(rgb, sigma)[..., 1], blur(step, sigma))
 
 
+@pytest.mark.slow
 def test_distortion_warp_moves_corners_to_the_lens_model(sim):
     lens = pytest.importorskip("rasc.geometry.lens")
     sim.set_target(T_base_from_world_facing(sim.board, 1.0))
@@ -272,6 +277,7 @@ except RascError as exc:
 """
 
 
+@pytest.mark.slow
 def test_invalid_backend_gives_the_clear_message():
     proc = _python(_CONSTRUCT.format(setup="", patch="pass"), MUJOCO_GL="bogus")
     assert proc.returncode == 3, proc.stderr
@@ -281,6 +287,7 @@ def test_invalid_backend_gives_the_clear_message():
     assert len(msg.splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_glx_without_a_display_is_one_line_and_nothing_else():
     """MUJOCO_GL=glx on a machine without a screen: GLFW's own warnings are silenced, so
     stderr holds nothing and the message is the one line with the packages."""
@@ -292,6 +299,7 @@ def test_glx_without_a_display_is_one_line_and_nothing_else():
     assert proc.stderr == "", proc.stderr
 
 
+@pytest.mark.slow
 def test_no_working_backend_names_the_packages():
     patch = "sim._probe_backend = lambda name: False"
     proc = _python(_CONSTRUCT.format(setup="", patch=patch), MUJOCO_GL=None)
@@ -300,6 +308,7 @@ def test_no_working_backend_names_the_packages():
     assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in proc.stdout and "libosmesa6" in proc.stdout
 
 
+@pytest.mark.slow
 def test_unset_backend_is_probed_and_renders():
     proc = _python(_CONSTRUCT.format(setup="", patch="pass"), MUJOCO_GL=None)
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -307,6 +316,7 @@ def test_unset_backend_is_probed_and_renders():
     assert backend in ("egl", "osmesa") and float(mean) > 10
 
 
+@pytest.mark.slow
 def test_importing_rasc_sim_loads_neither_mujoco_nor_cv2():
     # mujoco must be imported only after the backend is chosen; cv2 never by rasc.sim.scene.
     proc = _python("import sys, rasc.sim.scene; "

@@ -64,6 +64,7 @@ def test_log_exp_near_zero_and_pi(angle):
     assert abs(rotation_angle(R) - angle) < 1e-12
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.floats(-3.0, 3.0, allow_nan=False), min_size=3, max_size=3))
 def test_rotvec_round_trip(v):

@@ -64,6 +64,7 @@ def test_noise_free_exact_recovery_shared_projections(method):
         assert _rel_err(got, p) < 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["ls", "tls"])
 def test_noise_free_exact_recovery_per_point_projections(method):
     rng = np.random.default_rng(11)

@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, read_json_document, write_json_atomic, write_stdout
 
 #: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
 #: right unit's frame in the left one, translation in the unit of board.square_size),
@@ -31,10 +32,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "per eye (RASC) and base-to-ptu; write one JSON calibration.")
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (with manifest.json)")
     p.add_argument("--out", metavar="FILE", help="output JSON (default: stdout)")
-    p.add_argument("--method", default="rasc",
-                   choices=("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
-                            "opencv-andreff", "opencv-daniilidis"),
-                   help="hand-eye method (default rasc)")
+    p.add_argument("--method", metavar="M", default="rasc", help=METHOD_HELP)
     p.add_argument("--detector", default="saddle", choices=("classic", "saddle", "sb"),
                    help="corner detector (default saddle: classic + saddle-point refinement)")
     p.add_argument("--dist-model", default="k1k2", choices=("opencv5", "k1k2", "none"),
@@ -65,19 +63,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def _read_mounts(path: str) -> np.ndarray:
-    import json
-
     from rasc.geometry.transforms import validate_rigid_transform
-    try:
-        with open(path, encoding="utf-8") as f:
-            obj = json.load(f)
-    except FileNotFoundError:
-        raise InputError(f"{path}: mounts file does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: "
-                         f"{exc.msg}") from None
+
+    obj = read_json_document(path, "mounts file")
     if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
         raise InputError(f"{path}: expected an object with field T_ptuL_from_ptuR (4x4)")
     unknown = [key for key in obj if key not in MOUNTS_KEYS]
@@ -97,14 +85,15 @@ def _length(value: float, unit: str | None) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.handeye.advice import solution_warnings
+    from rasc.geometry.kinematics import T_gaze_from_ptu
+    from rasc.handeye.advice import solution_warnings, translation_warnings
+    from rasc.handeye.methods import get_method
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    if args.out:
-        check_writable(args.out)
-        if Path(args.out).resolve() == (Path(args.dataset) / "manifest.json").resolve():
-            raise InputError(f"--out {args.out}: is the dataset's manifest (an input)")
+    if args.out is not None:            # the output rule, before any long work
+        check_output(args.out, inputs=[args.dataset, args.mounts])
+    get_method(args.method)  # an unknown name or a broken plugin, before any image is read
     if args.scales is not None and args.model != "general":
         raise InputError("--scales: only the whole-head refinement estimates scales; "
                          "use it with --model general")
@@ -115,6 +104,10 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--plots {args.plots}: exists and is not a folder")
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
+    if args.out is not None:
+        check_output(args.out, inputs=[dataset.manifest_path, dataset.ground_truth,
+                                       args.mounts, *(e.path for e in dataset.images)],
+                     input_folders=[dataset.root])
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
@@ -128,10 +121,10 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate_dataset(dataset, options, log=log)
     doc = cal.to_dict()
     doc["dataset"] = str(args.dataset)
-    if args.out:
+    if args.out is not None:
         write_json_atomic(args.out, doc)
     else:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     if args.plots and cal.refinement is not None:
         from rasc.head.plots import residual_plots
 
@@ -141,7 +134,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):
         r = cal.eyes[eye]
-        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True):
+        T_gp = T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1])        # eq. 3
+        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True) \
+                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye.T_cam_from_gaze,
+                                       names=list(r.pose_files)):
             print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):

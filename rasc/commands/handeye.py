@@ -18,22 +18,26 @@ backwards) adds a warning line on stderr; the exit status stays 0.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 import numpy as np
 
-from rasc.errors import DegenerateDataError, InputError, RascError
+from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
 from rasc.geometry.transforms import invert_transform
 from rasc.handeye.document import HandEyeInput, load_handeye_input
-from rasc.io import check_writable, dumps_json, write_json_atomic
+from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
 
 RESULT_FORMAT = "rasc-handeye-result/1"
 
-#: The names of docs/CONTRACTS.md's METHODS, listed here so that building the parser
-#: imports no solver (and no cv2); a test checks that they match.
-METHOD_NAMES = ("rasc", "li", "opencv-park", "opencv-tsai", "opencv-horaud",
-                "opencv-andreff", "opencv-daniilidis")
+#: The built-in names of rasc.handeye.methods.METHODS, listed here so that building the
+#: parser imports no solver (and no cv2); a test checks that they match.
+METHOD_NAMES = ("rasc", "li", "rasc-inverse", "rasc-views", "opencv-park", "opencv-tsai",
+                "opencv-horaud", "opencv-andreff", "opencv-daniilidis")
+
+#: --method's help, shared with ``rasc calibrate``.
+METHOD_HELP = ("hand-eye method: a built-in name (" + ", ".join(METHOD_NAMES) + "), "
+               "package.module:function, or a name an installed package registers in the "
+               "rasc.methods entry points (default: rasc, the paper's method)")
 
 QUALITY_NOTE = ("eq. 10: mean over ordered pairs i != j of ||X B_ij X^T - A_ij||_F; "
                 "0 is a perfect fit, the paper found solutions above 1 unusable")
@@ -48,8 +52,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                      "T_cam_from_world each; see README). The result's translation is in "
                      "the input's length unit."))
     parser.add_argument("poses", metavar="POSES.json", help="input document (rasc-handeye/1)")
-    parser.add_argument("--method", choices=METHOD_NAMES, default="rasc",
-                        help="solver (default: rasc, all pairs, Park-Martin closed form)")
+    parser.add_argument("--method", metavar="M", default="rasc", help=METHOD_HELP)
     parser.add_argument("--home", metavar="K", type=int,
                         help="li only: index of the home position in 'positions' (default: "
                              "the position at pan = tilt = 0, else the first)")
@@ -60,17 +63,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def _solver(method: str):
-    """The callable(T_cam_from_world, T_gaze_from_ptu) -> HandEyeResult for ``method``."""
-    from rasc.handeye.methods import METHODS  # imported when needed; cv2 only by opencv-* calls
+    """The resolved method (rasc.handeye.methods.get_method): a callable
+    ``(T_cam_from_world, T_gaze_from_ptu, **options) -> HandEyeResult``."""
+    from rasc.handeye.methods import get_method  # imported when needed: cv2 only by opencv-*
 
-    return METHODS[method]
-
-
-def _same_file(a: str, b: str) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
+    return get_method(method)
 
 
 def result_document(data: HandEyeInput, result, *, source: str, method: str,
@@ -79,8 +76,10 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
     T = np.asarray(result.T_cam_from_gaze, dtype=float)
     quality = float(result.quality)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)) or not np.isfinite(quality):
-        raise RascError(f"{source}: method {method} returned a non-finite result; "
-                        "try --method rasc")
+        other = "li" if method == "rasc" else "rasc"
+        raise SolverFailure(f"{source}: method {method} returned a non-finite result (NaN or "
+                            f"infinity); check the positions' translations (one length "
+                            f"unit for all), or try --method {other}")
     diagnostics = result.to_dict().get("diagnostics")
     return {
         "format": RESULT_FORMAT,
@@ -100,22 +99,22 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 def run(args: argparse.Namespace) -> int:
     # imported here, not at module level: building the parser loads no solver
-    from rasc.handeye.advice import input_warnings, solution_warnings
+    from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
     from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
-    from rasc.handeye.methods import jackknife_uncertainty
+    from rasc.handeye.methods import PluginError, jackknife_uncertainty
 
     source = args.poses
     if args.out is not None:
-        check_writable(args.out)  # before reading or solving
-        if _same_file(args.out, source):
-            raise InputError(f"--out {args.out} is the input file; choose another path")
+        check_output(args.out, inputs=[source])  # the output rule, before reading or solving
     if args.home is not None and args.method != "li":
         raise InputError(f"--home {args.home}: only --method li uses a home position")
+    solve = _solver(args.method)  # an unknown name or a broken plugin: before reading
     data = load_handeye_input(source)
-    solve = _solver(args.method)
     kwargs = {} if args.home is None else {"home": args.home}
     try:
         result = solve(data.T_cam_from_world, data.T_gaze_from_ptu, **kwargs)
+    except PluginError:
+        raise  # names the plugin and what it did; the input is not at fault
     except DegenerateDataError as exc:
         raise DegenerateDataError(f"{source}: {exc}") from None
     except RascError as exc:
@@ -126,15 +125,16 @@ def run(args: argparse.Namespace) -> int:
         if args.home is None and data.from_angles and not has_home_pose(data.T_gaze_from_ptu):
             notes.append(f"{NO_HOME_POSE}; give --home K or add the (0, 0) position")
     doc = result_document(data, result, source=source, method=args.method, home=home)
-    uncertainty = jackknife_uncertainty(args.method, data.T_cam_from_world,
+    uncertainty = jackknife_uncertainty(solve, data.T_cam_from_world,
                                         data.T_gaze_from_ptu, result, **kwargs)
     doc["uncertainty"] = uncertainty.to_dict()
     if args.out is None:
-        sys.stdout.write(dumps_json(doc))
+        write_stdout(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
     for warning in notes + input_warnings(data.T_cam_from_world) + solution_warnings(
-            result, uncertainty=uncertainty, pan_tilt=data.from_angles):
+            result, uncertainty=uncertainty, pan_tilt=data.from_angles) + translation_warnings(
+            data.T_cam_from_world, data.T_gaze_from_ptu, result.T_cam_from_gaze):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 

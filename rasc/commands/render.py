@@ -19,6 +19,8 @@ import time
 from pathlib import Path
 
 from rasc.errors import InputError
+from rasc.interrupt import Interrupted, shielded
+from rasc.io import check_output
 
 
 def _floats(text: str, flag: str) -> tuple[float, ...]:
@@ -69,7 +71,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "both eyes of the simulated head, with ground truth.")
     p.add_argument("--model", metavar="PATH", help="MJCF scene (default rasc/sim/models/scene.xml)")
     p.add_argument("--out", metavar="DIR", default="dataset",
-                   help="output folder, must not exist or be empty (default ./dataset)")
+                   help="output folder, new or empty: an existing dataset is never replaced "
+                        "(default ./dataset)")
     p.add_argument("--poses", default="paper", metavar="LIST",
                    help="pan,tilt pairs in degrees separated by ';' (default: 'paper', the "
                         "nine positions (±8, ±8), (±8, 0), (0, ±8), (0, 0))")
@@ -87,31 +90,39 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
     p.add_argument("--unit", metavar="FILE",
                    help="TOML file of pan-tilt unit imperfections, tables [both], [left], "
-                        "[right] (README 'rasc render'); default: the model's ideal units")
+                        "[right] (README 'rasc render'); default: the model as written "
+                        "(ideal units)")
     p.add_argument("--tilt-axis-offset", default="", metavar="X,Y,Z",
                    help="both units: a point of the tilt axis in the tilt link's frame (x up, "
-                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit)")
+                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit; with '=' "
+                        "when it starts with '-')")
     p.add_argument("--axis-skew", type=float, default=None, metavar="DEG",
                    help="both units: tilt axis turned towards the pan axis, degrees (the "
                         "axes meet at 90 - DEG degrees; overrides --unit)")
     p.add_argument("--encoder-zero", default="", metavar="PAN,TILT",
                    help="both units: encoder zero offsets in degrees, joint angle = reading + "
-                        "offset (overrides --unit)")
+                        "offset (overrides --unit; --encoder-zero=-0.5,0.2 when it starts "
+                        "with '-')")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
 
 
+def _check_out(out: str, model: str | None) -> Path:
+    """The output rule for a dataset folder: new, or an existing empty folder."""
+    path = check_output(out, inputs=[model], kind="folder")
+    if path.is_dir() and any(path.iterdir()):
+        what = ("holds a dataset (manifest.json)" if (path / "manifest.json").exists()
+                else "exists and is not empty")
+        raise InputError(f"--out {out}: {what}; rasc render never replaces files: name a "
+                         "new folder, or remove this one first")
+    return path
+
+
 def run(args: argparse.Namespace) -> int:
     from rasc.sim.render import RenderOptions, parse_poses, render_dataset
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: output folder exists as a file")
-    if out.exists() and any(out.iterdir()):
-        raise InputError(f"{out}: output folder exists and is not empty")
-    if not out.parent.is_dir():
-        raise InputError(f"{out}: parent folder {out.parent} does not exist")
+    out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():
         raise InputError(f"--model {args.model}: file not found")
     options = RenderOptions(poses_deg=parse_poses(args.poses),
@@ -120,10 +131,11 @@ def run(args: argparse.Namespace) -> int:
                             dist=_floats(args.distortion, "--distortion"))
     units = _units(args)
     t0 = time.perf_counter()
+    parent = out.parent if str(out.parent) else Path(".")
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
     except OSError as exc:
-        raise InputError(f"{out}: cannot create a folder in {out.parent}: "
+        raise InputError(f"--out {out}: cannot create a folder in {parent}: "
                          f"{exc.strerror or exc}") from None
     try:
         # mkdtemp makes the folder private (0700); the dataset gets the usual mode
@@ -131,11 +143,20 @@ def run(args: argparse.Namespace) -> int:
         os.umask(umask)
         tmp.chmod(0o777 & ~umask)
         render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units)
-        if out.exists():
-            out.rmdir()
-        tmp.rename(out)
+        try:
+            # atomic: replaces an empty folder, fails on a non-empty one, so two renders
+            # into one --out cannot mix their files
+            os.rename(tmp, out)
+        except OSError as exc:
+            raise InputError(f"--out {out}: appeared meanwhile (another render?): "
+                             f"{exc.strerror or exc}; nothing written") from None
+    except KeyboardInterrupt:
+        with shielded(reraise=False):
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise Interrupted(f"nothing written (removed the partial dataset {tmp})") from None
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        with shielded():
+            shutil.rmtree(tmp, ignore_errors=True)
         raise
     if not args.quiet:
         print(f"render: wrote {out}/manifest.json ({time.perf_counter() - t0:.1f} s)",

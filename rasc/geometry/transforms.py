@@ -122,8 +122,9 @@ def validate_rigid_transform(T: np.ndarray, *, name: str = "transform",
     if np.max(np.abs(T[3] - [0.0, 0.0, 0.0, 1.0])) > atol:
         raise InputError(f"{name}: last row is {T[3].tolist()}, expected [0, 0, 0, 1]")
     R = T[:3, :3]
-    ortho = float(np.max(np.abs(R.T @ R - np.eye(3))))
-    if ortho > atol:
+    with np.errstate(over="ignore", invalid="ignore"):   # huge entries: ortho = inf, refused
+        ortho = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if not ortho <= atol:
         raise InputError(
             f"{name}: rotation part is not orthonormal (max |RᵀR − I| = {ortho:.3g} > {atol:g})")
     det = float(np.linalg.det(R))

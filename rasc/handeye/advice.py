@@ -98,6 +98,69 @@ def input_warnings(T_cam_from_world: np.ndarray) -> list[str]:
     return []
 
 
+#: Translation consistency: for consistent data the target's pose in the unit's (ptu)
+#: frame, ``inv(T_gaze_from_ptu_k) · inv(T_cam_from_gaze) · T_cam_from_world_k``, is the
+#: same at every position (the board stays put while the unit moves). Warn when its
+#: translation scatters by more than this fraction of the target distance (the median
+#: ``||t_cam_from_world||``). Pose noise moves it by about the rotation noise times the
+#: distance: at the paper's largest level (σ_r = 0.02 rad, 1.1°) 2-4 % of it; one
+#: position's translation in millimetres among metres moves it about 1000-fold (a
+#: translation of the answer near a kilometre).
+MAX_TRANSLATION_SCATTER = 0.1
+
+#: A position whose target distance is this many times larger or smaller than the median
+#: is named as the likely culprit (another length unit).
+UNIT_RATIO = 3.0
+
+
+def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
+                         T_cam_from_gaze: np.ndarray,
+                         names: list[str] | None = None) -> list[str]:
+    """Translations that contradict each other (one sentence, or none).
+
+    Parameters
+    ----------
+    T_cam_from_world, T_gaze_from_ptu : ndarray, shape (n, 4, 4)
+    T_cam_from_gaze : ndarray, shape (4, 4)
+        The solution.
+    names : how to name position k in the message (default ``positions[k]``)
+
+    The target's translation in the unit's frame (fixed for consistent data, see
+    :data:`MAX_TRANSLATION_SCATTER`) scatters by more than MAX_TRANSLATION_SCATTER of the
+    target distance: the message names the position whose target distance is furthest
+    from the median when it is :data:`UNIT_RATIO` times off (a length-unit mix-up),
+    else calls the translations inconsistent.
+    """
+    T_cw = np.asarray(T_cam_from_world, dtype=float)
+    T_gp = np.asarray(T_gaze_from_ptu, dtype=float)
+    X = np.asarray(T_cam_from_gaze, dtype=float)
+    names = names or [f"positions[{k}]" for k in range(len(T_cw))]
+    with np.errstate(all="ignore"):
+        distance = np.linalg.norm(T_cw[:, :3, 3], axis=1)
+        scale = float(np.median(distance))
+        if not (np.isfinite(scale) and scale > 0) or not np.all(np.isfinite(X)):
+            return []
+        T_gx = np.linalg.inv(X)
+        T_pw = np.linalg.inv(T_gp) @ T_gx @ T_cw          # (n, 4, 4): constant if consistent
+        t = T_pw[:, :3, 3]
+        scatter = np.linalg.norm(t - np.median(t, axis=0), axis=1)
+        worst = float(np.max(scatter))
+        if np.isfinite(worst) and worst <= MAX_TRANSLATION_SCATTER * scale:
+            return []
+        ratio = distance / scale
+        k = int(np.argmax(np.abs(np.log(np.where(ratio > 0, ratio, np.inf)))))
+    advice = ("give every T_cam_from_world translation in one length unit, and check that "
+              "each belongs to the motion beside it")
+    if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
+        return [f"{names[k]}: the target is {ratio[k]:.3g}× as far from the camera as at the "
+                f"median position ({distance[k]:.3g} against {scale:.3g}): a translation in "
+                f"another length unit? The solution's translation "
+                f"({np.linalg.norm(X[:3, 3]):.3g}) is then wrong; {advice}"]
+    return [f"the translations contradict each other: the target, fixed while the unit "
+            f"moves, lands {worst:.3g} apart in the unit's frame (target distance "
+            f"{scale:.3g}); the solution's translation is unreliable; {advice}"]
+
+
 def solution_warnings(result: HandEyeResult, *,
                       uncertainty: HandEyeUncertainty | None = None,
                       pan_tilt: bool = False) -> list[str]:

@@ -23,10 +23,10 @@ is accepted: an unknown key is an error, so a misspelt ``angle_units`` cannot si
 fall back to degrees.
 
 Checks, each an :class:`~rasc.errors.InputError` naming the field (the loader prefixes
-the file name): JSON syntax (line, column), duplicate keys, shapes (4×4 only; a 3×4
+the file name): the reader's (:func:`rasc.io.read_json_document`: JSON syntax with line
+and column, duplicate keys, depth, number sizes, NaN and Infinity), shapes (4×4 only; a 3×4
 ``[R|t]`` is refused with a hint), non-numeric entries (``true``, ``"1"``, ``null``),
-NaN and infinity (Python's json accepts ``NaN``/``Infinity`` tokens and ``1e999``;
-they are refused here), rigidity (:func:`rasc.geometry.transforms.validate_rigid_transform`),
+rigidity (:func:`rasc.geometry.transforms.validate_rigid_transform`),
 at least 3 positions, the angle unit (:func:`check_angle_unit`), and that the unit's
 motions turn as far as the camera's (:func:`rasc.handeye.solver.check_motions_match`, which
 catches a wrong angle unit that the values alone cannot show).
@@ -38,7 +38,6 @@ import json
 import math
 import os
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,6 +45,7 @@ import numpy as np
 from rasc.errors import InputError
 from rasc.geometry.kinematics import T_gaze_from_ptu as T_gaze_from_ptu_eq3
 from rasc.geometry.transforms import validate_rigid_transform
+from rasc.io import read_json_document
 
 FORMAT = "rasc-handeye/1"
 ANGLE_UNITS = ("deg", "rad")
@@ -104,44 +104,18 @@ class HandEyeInput:
         return int(self.T_cam_from_world.shape[0])
 
 
-def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict:
-    seen: dict = {}
-    for key, value in pairs:
-        if key in seen:
-            keys = ", ".join(k for k, _ in pairs)
-            raise InputError(f"duplicate key {key!r} in one JSON object (keys: {keys})")
-        seen[key] = value
-    return seen
-
-
 def read_json(path: str | os.PathLike) -> Any:
-    """Parse a JSON file; NaN/Infinity tokens become float NaN/inf (refused later, by field).
+    """Parse the POSES.json file by :func:`rasc.io.read_json_document`'s rules.
 
     Raises
     ------
     InputError
-        Missing path, a folder, unreadable, not UTF-8, malformed JSON (with line and
-        column), duplicate keys. Messages start with the path.
+        Missing path, a folder, not a regular file, too large, unreadable, not UTF-8,
+        malformed JSON (line and column), duplicate keys, too deep, integers too long,
+        NaN, Infinity or numbers too large (with their JSON pointer). Messages start with
+        the path.
     """
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder, not a POSES.json file")
-    if not path.exists():
-        raise InputError(f"{path}: no such file")
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
-    except json.JSONDecodeError as exc:
-        raise InputError(
-            f"{path}: malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-        ) from None
-    except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+    return read_json_document(path, "POSES.json", top=None)
 
 
 def _type_name(value: Any) -> str:
@@ -255,6 +229,9 @@ def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]
                 raise InputError(f"{where}: {other!r} given without {key!r}")
         pan = _number(item["pan"], f"{where}.pan")
         tilt = _number(item["tilt"], f"{where}.tilt")
+        for key, value in (("pan", pan), ("tilt", tilt)):   # radians: check_angle_unit
+            if angle_unit == "deg" and abs(value) > 360.0:
+                raise InputError(f"{where}.{key} = {value:g} deg is more than a full turn")
         angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
         written = (pan, tilt)
         T_gp = _eq3(pan, tilt, angle_unit)

@@ -15,22 +15,29 @@ non-singular, also exists when M has rank 2 (two rotation axes fix a rotation) a
 forced to det +1 (``V diag(1, 1, ±1) Uᵀ``) should noise flip the sign of det M.
 
 Translation (eq. 7 generalised to a unit that also translates): ``(I − R_A) t_X =
-t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (erratum,
-docs/METHOD.md §3: not ^-1/2). CᵀC and
-Cᵀd are 3×3 / 3 sums, and because ``R_A = R_i R_jᵀ`` is bilinear in the views every sum
-over pairs is a contraction with the n×n pair-weight matrix (O(n²) scalars; no 3K×3
+t_A − R_X t_B``; least squares ``t_X = (CᵀC)^-1 Cᵀd`` (erratum, docs/METHOD.md §3: not
+^-1/2). CᵀC and Cᵀd are 3×3 / 3 sums, and because ``R_A = R_i R_jᵀ`` is bilinear in the
+views every sum over pairs is a contraction with the n×n pair-weight matrix (no 3K×3
 matrix, no loop over pairs).
 
 Quality (eq. 10): the mean over all i ≠ j of ``‖R_X R_B R_Xᵀ − R_A‖_F``; above 1 the
 paper found solutions unusable.
 
 Logarithms: ``log(R_i R_jᵀ)`` is taken as ``log(q_i ⊗ q_j*)`` from each view's quaternion
-(scipy), with the atan2 form of the quaternion log — robust at angle 0 and π, equal to
-:func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair matrix for rotations (tested to
-1e-12). Calling that helper on each of the 3828 pairs of 88 views costs 2.2 ms per side
-alone, more than the whole solve may take (goal: 20× faster than OpenCV's 28 ms;
-measured 1.05 ms against 26 ms, benchmarks/bench_handeye.py). For the same reason no
-step builds an n²×9 array: temporaries of ~0.5 MB cost ~250 page faults per call here.
+(Shepperd's, as scipy's), with the atan2 form of the quaternion log — robust at angle 0
+and π, equal to :func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair matrix
+for rotations (tested to 1e-12). A half turn's log has no sign of its own; the sign of
+each half-turn α is taken to agree with the other pairs' R_X (:func:`_align_half_turns`).
+
+Speed. For nine views the solve is a few hundred numpy calls on arrays of a few dozen
+numbers, so it is their count that costs: both inputs are validated in one pass and their
+logs taken in one pass, no scipy Rotation objects are made, the sums over views are
+matrix products in a component-major layout (:func:`_stacked`), one eigen-decomposition
+serves the axis-spread check and cond(CᵀC), whose eigenvectors also solve for t_X. For
+many views and for the batched form, every n²-sized step is one matrix product or a
+reduction over a leading axis, and batches go through in blocks of ``_CHUNK_FLOATS``.
+Timings, against OpenCV's PARK in the same run: ``benchmarks/bench_handeye.py`` (figures
+in the README).
 
 Literal noise. The paper's eq. 13 noise leaves ``R_cw`` slightly non-orthogonal. Such
 input is accepted with ``check_rigid=False`` (the default ``True`` rejects anything not
@@ -44,7 +51,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -218,7 +225,7 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
     if not np.isfinite(T).all():
         raise InputError(f"{first(~np.isfinite(T).all(axis=(-1, -2)))[1]}: contains NaN "
                          "or infinity")
-    last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0])
+    last = np.abs(T[..., 3, :] - _LAST_ROW)
     if last.size and last.max() > RIGID_ATOL:
         k, where = first(last.max(axis=-1) > RIGID_ATOL)
         raise InputError(f"{where}: last row is {T[k][3].tolist()}, expected [0, 0, 0, 1]")
@@ -229,7 +236,7 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
         raise InputError(f"{where}: rotation block has determinant {det[k]:.6g}; a pose "
                          "needs a rotation (det +1)")
     if check_rigid:
-        err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3))
+        err = np.abs(np.swapaxes(R, -1, -2) @ R - _EYE3)
         if err.size and max(err.max(), np.abs(det - 1.0).max()) > RIGID_ATOL:
             bad = (err.max(axis=(-1, -2)) > RIGID_ATOL) | (np.abs(det - 1.0) > RIGID_ATOL)
             k, where = first(bad)
@@ -239,6 +246,65 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
                 raise InputError(f"{exc} (pass check_rigid=False to accept the paper's "
                                  "literal eq. 13 noise)") from None
     return T
+
+
+def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool,
+                     check_rigid: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
+    """Validate both inputs as :func:`validate_poses` does, in one pass over both.
+
+    Returns ``(T_cw, T_gp, T_all, (err, G))``: T_cw (S, n, 4, 4) (S = 1 unless
+    ``batch``), T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation
+    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all and ``err`` = max
+    |G − I| (both None when not measured, i.e. without ``check_rigid``). The
+    checks run once on the stacked arrays; only when one fails (or the arrays cannot be
+    stacked) does :func:`validate_poses` run on each input in turn, so the error raised is
+    the one it raises, for the first offending input and index.
+    """
+    fast = None
+    try:
+        A = np.asarray(T_cam_from_world, dtype=float)
+        B = np.asarray(T_gaze_from_ptu, dtype=float)
+    except (TypeError, ValueError):
+        A = B = None
+    if (A is not None and A.ndim == (4 if batch else 3) and B.ndim in ((3, 4) if batch else (3,))
+            and A.shape[-3:] == B.shape[-3:] and A.shape[-2:] == (4, 4) and A.size
+            and (B.ndim == 3 or B.shape[0] == A.shape[0])):
+        T_all = np.concatenate([A if batch else A[None], B if B.ndim == 4 else B[None]])
+        fast = _fast_checks(T_all, check_rigid)
+    if fast is not None:
+        S = A.shape[0] if batch else 1
+        return T_all[:S], T_all[S:], T_all, fast
+    # The slow path: the first failing check of the first input raises its own message.
+    A = validate_poses(T_cam_from_world, "T_cam_from_world", batch=batch, check_rigid=check_rigid)
+    shared = not batch or np.ndim(T_gaze_from_ptu) == 3
+    B = validate_poses(T_gaze_from_ptu, "T_gaze_from_ptu", batch=not shared,
+                       check_rigid=check_rigid)
+    A = A if batch else A[None]
+    B = B[None] if shared else B
+    if batch and not shared and B.shape[0] != A.shape[0]:
+        raise InputError(f"T_gaze_from_ptu has {B.shape[0]} samples, T_cam_from_world "
+                         f"{A.shape[0]}")
+    _check_positions(A.shape[1], B.shape[1])
+    return A, B, np.concatenate([A, B]), (None, None)
+
+
+def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
+    """:func:`validate_poses`' checks as a yes/no on (m, n, 4, 4): None if any fails,
+    else ``(err, G)`` as :func:`_validate_inputs` returns them."""
+    if not math.isfinite(T.sum()):                 # a finite sum ⇔ no NaN and no infinity
+        return None
+    if np.abs(T[..., 3, :] - _LAST_ROW).max() > RIGID_ATOL:
+        return None
+    R = T[..., :3, :3]
+    det = np.linalg.det(R)
+    if not check_rigid:
+        return (None, None) if (det > 0).all() else None
+    # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
+    G = _swap(R) @ R
+    err = float(np.abs(G - _EYE3).max())
+    if max(err, float(np.abs(det - 1.0).max())) > RIGID_ATOL:
+        return None
+    return err, G
 
 
 def _check_positions(n: int, n_unit: int) -> None:
@@ -253,61 +319,122 @@ def _check_positions(n: int, n_unit: int) -> None:
 
 # ---------------------------------------------------------------------- pair logs
 
-def _nearest_rotations(R: np.ndarray) -> np.ndarray:
-    """Polar factor of each (nearly orthogonal) 3×3 in R (N, 3, 3), by Newton–Schulz.
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_EYE3 = np.eye(3)
 
-    ``R ← R (3I − RᵀR) / 2`` converges quadratically to the polar factor (the same
-    matrix as scipy's Procrustes projection; a rotation, as det R > 0 is validated)
-    when every singular value lies in (0, √3); an element-wise ``|RᵀR − I| < 1/3``
-    guarantees that (spectral norm < 1). An error of 1e-2 (literal eq. 13 noise at 4σ)
-    is at round-off (< 1e-14) after 4 steps; rotations exact to round-off cost one
-    product. Anything else (only possible with ``check_rigid=False``) goes through
-    scipy's SVD projection.
+
+def _quaternion_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constant tables of the quaternion maths, [x, y, z, w] (scipy's order).
+
+    ``QMAT`` (9, 16), ``QOFF`` (16,): for a rotation R (row-major, 9), ``R @ QMAT + QOFF``
+    is the 4×4 matrix ``4 q qᵀ`` written with R's entries (Shepperd):
+    ``4x² = 1 + R00 − R11 − R22``, ``4xw = R21 − R12``, ... Row k is ``4 q_k q``; the
+    row with the largest diagonal entry (``q_k² ≥ 1/4``) normalised is q.
+    ``QPROD`` (16, 4): ``(a ⊗ b).reshape(16) @ QPROD = a ⊗ b*`` (Hamilton product with
+    the conjugate): vector ``w_b v_a − w_a v_b − v_a × v_b``, scalar ``w_a w_b + v_a·v_b``.
     """
-    eye, P = np.eye(3), R
-    for step in range(6):
-        G = np.swapaxes(P, -1, -2) @ P
-        err = np.abs(G - eye).max()
-        if err < 1e-14:
-            return P
-        if step == 0 and not err < 1.0 / 3.0:
-            break
-        P = P @ (1.5 * eye - 0.5 * G)
-    return Rotation.from_matrix(R).as_matrix()
+    # rows x, y, z, w; columns x, y, z, w; each entry a sum of ±R[r, c] (and ±1)
+    terms = {(0, 0): ([(0, 0, 1), (1, 1, -1), (2, 2, -1)], 1.0),
+             (1, 1): ([(0, 0, -1), (1, 1, 1), (2, 2, -1)], 1.0),
+             (2, 2): ([(0, 0, -1), (1, 1, -1), (2, 2, 1)], 1.0),
+             (3, 3): ([(0, 0, 1), (1, 1, 1), (2, 2, 1)], 1.0),
+             (0, 1): ([(0, 1, 1), (1, 0, 1)], 0.0), (0, 2): ([(0, 2, 1), (2, 0, 1)], 0.0),
+             (1, 2): ([(1, 2, 1), (2, 1, 1)], 0.0), (0, 3): ([(2, 1, 1), (1, 2, -1)], 0.0),
+             (1, 3): ([(0, 2, 1), (2, 0, -1)], 0.0), (2, 3): ([(1, 0, 1), (0, 1, -1)], 0.0)}
+    qmat, qoff = np.zeros((9, 4, 4)), np.zeros((4, 4))
+    for (a, b), (entries, const) in terms.items():
+        for r, c, sign in entries:
+            qmat[3 * r + c, a, b] = qmat[3 * r + c, b, a] = sign
+        qoff[a, b] = qoff[b, a] = const
+    qprod = np.zeros((4, 4, 4))
+    for a in range(4):
+        for b in range(4):
+            ea, eb = np.eye(4)[a], np.eye(4)[b]
+            qprod[a, b, :3] = eb[3] * ea[:3] - ea[3] * eb[:3] - np.cross(ea[:3], eb[:3])
+            qprod[a, b, 3] = ea[3] * eb[3] + ea[:3] @ eb[:3]
+    return qmat.reshape(9, 16), qoff.reshape(16), qprod.reshape(16, 4)
 
 
-def _quaternions(R: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) → unit quaternions (..., 4), scalar last (scipy's convention)."""
-    flat = _nearest_rotations(R.reshape(-1, 3, 3))
-    return Rotation.from_matrix(flat, assume_valid=True).as_quat().reshape(R.shape[:-2] + (4,))
+_QMAT, _QOFF, _QPROD = _quaternion_tables()
+#: (4, 16): ``q_a @ _QLEFT`` is the 4×4 matrix ``[c, b]`` with ``(q_a ⊗ q_b*)[c] = Σ_b
+#: [c, b] q_b[b]``.
+_QLEFT = np.ascontiguousarray(_QPROD.reshape(4, 4, 4).transpose(0, 2, 1)).reshape(4, 16)
 
 
-def _pair_logs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """``log(R_i R_jᵀ)`` for index arrays i, j (K,), components first: (..., 3, K).
+def _quaternions(R: np.ndarray, err: float | None = None) -> np.ndarray:
+    """(..., 3, 3) → quaternions (..., 4), scalar last (scipy's convention), NOT unit.
 
-    Through quaternions ``q_i ⊗ q_j*`` and ``2 atan2(|v|, w) v/|v|`` with ``w ≥ 0``:
-    accurate at angle 0 (no division by sin) and at π (no division by cos).
+    ``K = R @ _QMAT + _QOFF`` is ``4 q qᵀ`` for a rotation; Shepperd's quaternion (as in
+    scipy, without creating Rotation objects, whose overhead dominates for nine views) is
+    its row with the largest diagonal entry, ``4 q_k q``. It is returned unnormalised
+    (norm 2 to 4): :func:`_pair_logs` depends on direction only.
+
+    A matrix that is not orthogonal to round-off (``err`` = max |RᵀR − I| ≥ 1e-14, from
+    the validation or measured here) stands for its nearest rotation, the polar factor,
+    whose quaternion is the dominant eigenvector of the same K (Bar-Itzhack 2000, "New
+    method for extracting the quaternion from a rotation matrix"): its other eigenvalues
+    are at most 0.62·err times the largest (measured over 12,000 random matrices with
+    err up to 1/3), so squaring K k times with ``err^(2^k) < 1e-17 / 4`` leaves the row at
+    round-off from that eigenvector (k ≤ 6, entries below 4^64: no overflow). Matrices
+    with err ≥ 1/3 (only possible with ``check_rigid=False``) are first projected by
+    scipy's SVD.
     """
-    q = _quaternions(R)                                          # (..., n, 4) [x y z w]
+    m = R.size // 9
+    flat = R.reshape(m, 3, 3)
+    if err is None:
+        err = float(np.abs(_swap(flat) @ flat - _EYE3).max()) if m else 0.0
+    if not err < 1.0 / 3.0:
+        flat, err = Rotation.from_matrix(flat).as_matrix(), 0.0
+    K4 = flat.reshape(m, 9) @ _QMAT
+    K4 += _QOFF                                                  # (m, 16): 4 q qᵀ
+    if err >= 1e-14:
+        K = K4.reshape(m, 4, 4)
+        for _ in range(math.ceil(math.log2(math.log(4e17) / -math.log(err)))):
+            K = K @ K
+        K4 = K.reshape(m, 16)
+    k = K4[:, ::5].argmax(axis=1)                                # the diagonal 4 q_k²
+    k += np.arange(0, 4 * m, 4)
+    return K4.reshape(4 * m, 4)[k].reshape(R.shape[:-2] + (4,))  # 4 q_k q, |q_k| ≥ 1/2
+
+
+def _pair_logs(q: np.ndarray, i: np.ndarray, j: np.ndarray,
+               take: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``log(R_i R_jᵀ)`` from quaternions q (..., n, 4) for index arrays i, j (K,).
+
+    Returns the rotation vectors, components first (..., 3, K), and their angles
+    (..., K). Through ``q_i ⊗ q_j*`` and ``2 atan2(|v|, w) v/|v|`` with ``w ≥ 0``:
+    accurate at angle 0 (no division by sin) and at π (no division by cos), and the
+    same for any positive multiple of ``q_i ⊗ q_j*`` (q need not be unit). The
+    products for all n² pairs are one (4n × 4) by (4 × n) product per sample (row
+    (a, c) holds the left-multiplication matrix of q_a, conjugate folded in), from which
+    the K pairs are taken.
+    """
     lead, n = q.shape[:-2], q.shape[-2]
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    nx, ny, nz = -x, -y, -z
-    # Left-multiplication matrices L(q_a) r = q_a ⊗ r, as [a, c, d]; row c times the
-    # conjugates [d, b] gives component c of q_a ⊗ q_b* for all a, b, one row at a time
-    # (one n×n temporary, not 4n×n: large temporaries cost page faults).
-    L = np.stack([w, nz, y, x, z, w, nx, y, ny, x, w, z, nx, ny, nz, w],
-                 axis=-1).reshape(lead + (n, 4, 4))
-    conj = np.swapaxes(q * np.array([-1.0, -1.0, -1.0, 1.0]), -1, -2)   # (..., 4, n)
-    flat = i * n + j
-    p = np.empty(lead + (4, len(flat)))
-    for c in range(4):
-        p[..., c, :] = np.take((L[..., c, :] @ conj).reshape(lead + (n * n,)), flat, axis=-1)
-    v, w = p[..., :3, :], p[..., 3, :]
-    s = np.sqrt(np.einsum("...ck,...ck->...k", v, v))
+    L = (q @ _QLEFT).reshape(lead + (4 * n, 4))                  # [(a, c), b]
+    P = (L @ _swap(q)).reshape(lead + (4 * n * n,))              # c of q_a ⊗ q_b* at (a, c, b)
+    P = P.take(_pair_take(n, i, j) if take is None else take, axis=-1)   # (..., 4, K)
+    v, w = P[..., :3, :], P[..., 3, :]
+    s2 = (v * v).sum(axis=-2)
+    s = np.sqrt(s2)
+    c = np.abs(w)
+    if s.size < 1024:
+        angle = np.arctan2(s, c)
+    else:   # the same half angle by arcsin, 3× faster than arctan2 on large arrays here
+        r = np.minimum(s, c)
+        r /= np.sqrt(s2 + c * c)
+        angle = np.arcsin(r)                   # the smaller of atan2(s, c), atan2(c, s)
+        big = s > c
+        angle[big] = np.pi / 2 - angle[big]
+    angle *= 2.0
     # q and −q are one rotation: w ≥ 0 (angle ≤ π), i.e. the sign of w goes to the result.
-    scale = np.divide(2.0 * np.arctan2(s, np.abs(w)), s, out=np.full_like(s, 2.0), where=s > 0)
-    v *= np.copysign(scale, w)[..., None, :]
-    return v
+    # s = 0 only with v = 0 (angle 0): any finite scale gives the exact 0.
+    v *= np.copysign(angle / np.maximum(s, 1e-300), w)[..., None, :]
+    return v, angle
+
+
+def _pair_take(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Flat indices (4, K) of component c of pair (i_k, j_k) in :func:`_pair_logs`' P."""
+    return (i * (4 * n) + j)[None, :] + (n * np.arange(4))[:, None]
 
 
 def pair_rotvecs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
@@ -317,15 +444,29 @@ def pair_rotvecs(R: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     (the angle in [0, π]); non-orthogonal input is first replaced by its nearest
     rotation, view by view.
     """
-    return np.swapaxes(_pair_logs(np.asarray(R, dtype=float), np.asarray(i), np.asarray(j)),
-                       -1, -2)
+    q = _quaternions(np.asarray(R, dtype=float))
+    return _swap(_pair_logs(q, np.asarray(i), np.asarray(j))[0])
+
+
+class _Pairs(NamedTuple):
+    """A method's pair set for n views (cached by :func:`_pairs`; arrays read-only)."""
+
+    i: np.ndarray          # (K,) unordered pairs (i, j), i > j
+    j: np.ndarray
+    use_ij: np.ndarray     # (K,) bool: the method uses the ordered pair (i, j)
+    use_ji: np.ndarray     # (K,) bool: ... and (j, i)
+    ij: np.ndarray         # (K,) flat index i·n + j of (i, j) in an n×n matrix
+    ji: np.ndarray
+    used: np.ndarray       # (K,) use_ij | use_ji
+    take: np.ndarray       # (4, K) for :func:`_pair_logs`
+    n_pairs: int           # ordered pairs the method uses
+    W_all: np.ndarray      # (1, n, n) the weights when every used pair rotates enough
+    wk_all: np.ndarray     # (1, K) w_ij + w_ji then
 
 
 @functools.lru_cache(maxsize=64)
-def _pairs(n: int, pairs: str, home: int | None) -> tuple[np.ndarray, ...]:
-    """Unordered pairs (i, j), i > j, as index arrays and, per pair, whether the method
-    uses the ordered pair (i, j) and (j, i): ``(i, j, use_ij, use_ji, ij_flat, ji_flat)``.
-    """
+def _pairs(n: int, pairs: str, home: int | None) -> _Pairs:
+    """The unordered pairs (i, j), i > j, and which ordered pairs the method uses."""
     if home is None and pairs not in PAIRS:
         raise InputError(f"pairs: expected one of {PAIRS}, got {pairs!r}")
     i, j = np.tril_indices(n, -1)
@@ -334,10 +475,19 @@ def _pairs(n: int, pairs: str, home: int | None) -> tuple[np.ndarray, ...]:
     else:
         use_ij = np.ones(i.shape, dtype=bool)
         use_ji = use_ij if pairs == "all" else np.zeros(i.shape, dtype=bool)
-    out = (i, j, use_ij, use_ji, i * n + j, j * n + i)
-    for a in out:
+    W_all = np.zeros((1, n * n))
+    W_all[:, i * n + j] = use_ij
+    W_all[:, j * n + i] = use_ji
+    arrays = (i, j, use_ij, use_ji, i * n + j, j * n + i, use_ij | use_ji, _pair_take(n, i, j))
+    for a in (*arrays, W_all):
         a.flags.writeable = False
-    return out
+    return _Pairs(*arrays, n_pairs=int(use_ij.sum() + use_ji.sum()),
+                  W_all=W_all.reshape(1, n, n), wk_all=_read_only((use_ij + use_ji * 1.0)[None]))
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
 
 
 # ------------------------------------------------------------------- the analysis
@@ -345,9 +495,11 @@ def _pairs(n: int, pairs: str, home: int | None) -> tuple[np.ndarray, ...]:
 def _unit_axis(v: np.ndarray) -> tuple[float, float, float]:
     """An axis as a unit vector, its largest component positive (an eigenvector's sign
     is arbitrary)."""
-    v = np.asarray(v, dtype=float) / np.linalg.norm(v)
-    v = -v if v[np.argmax(np.abs(v))] < 0 else v
-    return tuple(float(x) + 0.0 for x in v)  # + 0.0: no -0.0
+    x, y, z = np.asarray(v, dtype=float).tolist()
+    norm = math.sqrt(x * x + y * y + z * z)
+    big = max((x, y, z), key=abs)
+    sign = -1.0 if big < 0 else 1.0
+    return (sign * x / norm + 0.0, sign * y / norm + 0.0, sign * z / norm + 0.0)  # no -0.0
 
 
 def _fmt_axis(v: np.ndarray) -> str:
@@ -358,41 +510,49 @@ def _where(S: int, s: int) -> str:
     return f" (sample {s})" if S > 1 else ""
 
 
-def _weights(theta: np.ndarray, pair: tuple, n: int,
+def _weights(theta: np.ndarray, pair: _Pairs, n: int,
              min_rotation_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """Pair weights ∈ {0, 1}: used by the method and unit rotation ``theta`` large enough.
 
     theta (Su, K) is the unit's rotation angle for the pairs (i, j), i > j. Returns the
     ordered weights W (Su, n, n) and, per unordered pair, ``w_ij + w_ji`` (Su, K).
     """
-    _, _, use_ij, use_ji, ij, ji = pair
     ok = theta >= min_rotation_rad
-    w_ij, w_ji = (ok & use_ij).astype(float), (ok & use_ji).astype(float)
+    if ok.all():                                  # the usual case: the method's pair set
+        Su, n2 = theta.shape[0], pair.W_all.shape[1:]
+        return (np.broadcast_to(pair.W_all, (Su, *n2)),
+                np.broadcast_to(pair.wk_all, theta.shape))
+    w_ij, w_ji = ok & pair.use_ij, ok & pair.use_ji
     W = np.zeros((theta.shape[0], n * n))
-    W[:, ij] = w_ij
-    W[:, ji] = w_ji
-    return W.reshape(-1, n, n), w_ij + w_ji
+    W[:, pair.ij] = w_ij
+    W[:, pair.ji] = w_ji
+    return W.reshape(-1, n, n), w_ij + w_ji.astype(float)
 
 
-def _check_rotation_axes(wk: np.ndarray, beta: np.ndarray,
+def _check_rotation_axes(eig: tuple, wk: np.ndarray,
                          min_rotation_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """Raise unless ≥ 2 usable motions about non-parallel axes (``MIN_AXIS_SPREAD``).
 
-    wk (Su, K) pair weights, beta (Su, 3, K) the unit's rotation vectors. Returns the
-    axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
+    eig: eigenvalues (Su, 3) and vectors (Su, 3, 3) of ``G = Σ w β βᵀ``; wk (Su, K) pair
+    weights. Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
     """
     Su = wk.shape[0]
-    usable = (wk > 0).sum(axis=1)
-    for s in np.flatnonzero(usable < 2):
+    usable = np.count_nonzero(wk, axis=1)
+    if usable.min() < 2:
+        s = int(np.argmax(usable < 2))
         raise DegenerateDataError(
             f"only {int(usable[s])} motion(s) of the unit rotate by at least "
             f"{min_rotation_rad:g} rad{_where(Su, s)}: the hand-eye transform needs at "
             "least 2 motions about different axes; move the unit between views (e.g. "
             "positions that combine pan and tilt)")
-    G = (beta * wk[:, None, :]) @ _swap(beta)
-    lam, vec = np.linalg.eigh(G)
-    spread = lam[:, 1] / lam[:, 2]
-    for s in np.flatnonzero(spread < MIN_AXIS_SPREAD):
+    lam, vec = eig
+    if Su == 1:                                   # one sample: plain floats are cheaper
+        _, l1, l2 = lam[0].tolist()
+        spread = np.array([l1 / l2])
+    else:
+        spread = lam[:, 1] / lam[:, 2]
+    if not spread.min() >= MIN_AXIS_SPREAD:
+        s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
         raise DegenerateDataError(
             f"rotation about, and translation along, the unit's rotation axis "
             f"{_fmt_axis(vec[s, :, 2])} (unit frame) cannot be determined{_where(Su, s)}: "
@@ -403,66 +563,125 @@ def _check_rotation_axes(wk: np.ndarray, beta: np.ndarray,
     return spread, vec[:, :, 2]
 
 
-def _cond_CtC(CtC: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    lam, vec = np.linalg.eigh(CtC)
-    with np.errstate(divide="ignore"):
-        cond = np.where(lam[:, 0] > 0, lam[:, 2] / np.where(lam[:, 0] > 0, lam[:, 0], 1),
-                        np.inf)
-    return cond, vec[:, :, 0]
-
-
-def _check_cond_CtC(cond: np.ndarray, weak: np.ndarray) -> None:
-    S = cond.shape[0]
-    for s in np.flatnonzero(~(cond <= MAX_COND_CTC)):
+def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
+    """cond(CᵀC) (Sc,) from its eigenvalues (inf when singular); raises above
+    ``MAX_COND_CTC`` naming the weak direction (the smallest eigenvalue's vector)."""
+    lam, vec = eig
+    if len(lam) == 1:                             # one sample: plain floats are cheaper
+        l0, _, l2 = lam[0].tolist()
+        cond = np.array([l2 / l0 if l0 > 0 else math.inf])
+    else:
+        cond = np.divide(lam[:, 2], lam[:, 0], out=np.full(len(lam), np.inf),
+                         where=lam[:, 0] > 0)
+    if not cond.max() <= MAX_COND_CTC:
+        s = int(np.argmax(~(cond <= MAX_COND_CTC)))
         raise DegenerateDataError(
-            f"translation along {_fmt_axis(weak[s])} (camera frame) is not determined"
-            f"{_where(S, s)}: cond(CᵀC) = {cond[s]:.3g} > {MAX_COND_CTC:g} (eq. 7); the "
-            "motions' rotation axes are nearly parallel; add positions that turn about a "
-            "second axis (combine pan with tilt)")
+            f"translation along {_fmt_axis(vec[s, :, 0])} (camera frame) is not determined"
+            f"{_where(S, offset + s)}: cond(CᵀC) = {cond[s]:.3g} > {MAX_COND_CTC:g} (eq. "
+            "7); the motions' rotation axes are nearly parallel; add positions that turn "
+            "about a second axis (combine pan with tilt)")
+    return cond
 
 
 def _swap(a: np.ndarray) -> np.ndarray:
-    return np.swapaxes(a, -1, -2)
+    return a.swapaxes(-1, -2)
 
 
-def _normal_equations(W, R, t, Q, u, RX):
-    """Eq. 7 normal equations ``CᵀC`` (S, 3, 3) and ``Cᵀd`` (S, 3), summed over pairs.
+def _stacked(R: np.ndarray) -> np.ndarray:
+    """R (S, n, 3, 3) → (S, 3n, 3), rows ordered (component i, view a): ``R_a[i, :]``.
 
-    With ``R_A = R_i R_jᵀ``, ``t_A = t_i − R_A t_j``, ``R_B = Q_i Q_jᵀ``,
-    ``t_B = u_i − R_B u_j`` and weights ``w_ij``::
-
-        CᵀC = Σ w_ij (I − R_A)ᵀ (I − R_A)
-        Cᵀd = Σ w_ij (I − R_A)ᵀ (t_A − R_X t_B)
-
-    Every term is bilinear in views i and j, so each sum is a contraction with W.
+    Component-major: every sum over views below is then a matrix product or a reduction
+    over a leading axis, the fast kinds.
     """
     S, n = R.shape[:2]
-    W = np.broadcast_to(W, (S, n, n))
-    Wt = _swap(W)
-    flat = lambda a: a.reshape(S, n, -1)  # noqa: E731
-    Rt = _swap(R)
-    G = Rt @ R                                                   # R_iᵀ R_i (I if rigid)
-    V = (W @ flat(R)).reshape(S, n, 3, 3)                        # Σ_j w_ij R_j
-    sum_RA = np.einsum("sikm,silm->skl", R, V)                   # Σ w_ij R_i R_jᵀ
-    H = (Wt @ flat(G)).reshape(S, n, 3, 3)                       # Σ_i w_ij G_i
-    sum_RAtRA = (R @ H @ Rt).sum(axis=1)                         # Σ w_ij R_Aᵀ R_A
-    CtC = W.sum(axis=(1, 2))[:, None, None] * np.eye(3) - sum_RA - _swap(sum_RA) + sum_RAtRA
+    return R.transpose(0, 2, 1, 3).reshape(S, 3 * n, 3)
 
-    # d_ij = p_i − R_i r_j + R_X Q_i s_j with p = t − R_X u, r = Rᵀ t, s = Qᵀ u.
-    mv = lambda A, x: (A @ x[..., None])[..., 0]  # noqa: E731
-    p = t - mv(RX[:, None], u)
-    r = mv(Rt, t)
-    s = mv(_swap(Q), u)
-    sum_d = (np.einsum("si,sik->sk", W.sum(axis=2), p)
-             - np.einsum("sikl,sil->sk", R, W @ r)
-             + mv(RX, np.einsum("sikl,sil->sk", np.broadcast_to(Q, R.shape),
-                                np.broadcast_to(W @ s, t.shape))))
-    # Σ w_ij R_j R_iᵀ d_ij = Σ_j R_j (Σ_i w_ij R_iᵀ p_i − H_j r_j + (Σ_i w_ij Z_i) s_j)
-    Z = Rt @ RX[:, None] @ Q                                      # R_iᵀ R_X Q_i
-    Zs = (Wt @ flat(Z)).reshape(S, n, 3, 3)
-    inner = Wt @ mv(Rt, p) - mv(H, r) + mv(Zs, np.broadcast_to(s, t.shape))
-    Ctd = sum_d - np.einsum("sjkl,sjl->sk", R, inner)
-    return CtC, Ctd
+
+def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``t_A = t_a − R_a R_bᵀ t_b`` for every ordered pair (a, b): (S, 3, n, n) [i, a, b].
+
+    R (S, n, 3, 3), Rs = :func:`_stacked` (R), t (S, n, 3); ``R_a (R_bᵀ t_b)`` for all
+    pairs is one (3n × 3) by (3 × n) product.
+    """
+    S, n = t.shape[:2]
+    r = (_swap(R) @ t[..., None])[..., 0]                          # R_bᵀ t_b  (S, n, 3)
+    return _swap(t)[..., None] - (Rs @ _swap(r)).reshape(S, 3, n, n)
+
+
+class _Camera(NamedTuple):
+    """One block of samples' camera side: R (S, n, 3, 3), Rs = :func:`_stacked` (R),
+    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3)."""
+
+    R: np.ndarray
+    Rs: np.ndarray
+    tA: np.ndarray
+    CtC: np.ndarray
+
+
+def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = False,
+            Rs: np.ndarray | None = None, tA: np.ndarray | None = None) -> _Camera:
+    """The camera side of eq. 7 for T (S, n, 4, 4), with G = RᵀR per view if known.
+
+    ``CᵀC = Σ w_ab (I − R_A)ᵀ (I − R_A) = Σw I − Σ w R_A − (Σ w R_A)ᵀ + Σ w R_AᵀR_A`` with
+    ``R_A = R_a R_bᵀ``, ``Σ w R_A = Σ_a R_a (Σ_b w_ab R_b)ᵀ`` and ``Σ w R_AᵀR_A =
+    Σ_b R_b (Σ_a w_ab G_a) R_bᵀ`` (R_AᵀR_A is not taken to be I: literal eq. 13 noise is
+    not orthogonal). W (Su, n, n) are the ordered pair weights ``w_ab``. ``exact``: every
+    R is orthogonal to round-off (max |RᵀR − I| < 1e-14), so ``Σ w R_AᵀR_A = Σw I``.
+    Rs = :func:`_stacked` (R) and tA = :func:`_pair_translations` if already known.
+    """
+    R = T[..., :3, :3]
+    S, n = R.shape[:2]
+    Rs = _stacked(R) if Rs is None else Rs
+    Rs3 = Rs.reshape(S, 3, 3 * n)                                 # [i, (a, k)]
+    V = W[:, None] @ Rs.reshape(S, 3, n, 3)                       # Σ_b w_ab R_b
+    sum_RA = Rs3 @ _swap(V.reshape(S, 3, 3 * n))
+    w_sum = W.sum(axis=(1, 2))[:, None, None]
+    if exact:
+        CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
+    else:
+        G = _swap(R) @ R if G is None else G
+        H = (_swap(W) @ G.reshape(S, n, 9)).reshape(S, n, 3, 3)   # Σ_a w_ab G_a
+        sum_RAtRA = _stacked(R @ H).reshape(S, 3, 3 * n) @ _swap(Rs3)
+        CtC = w_sum * _EYE3 - sum_RA - _swap(sum_RA) + sum_RAtRA
+    tA = _pair_translations(R, Rs, T[..., :3, 3]) if tA is None else tA
+    return _Camera(R, Rs, tA, CtC)
+
+
+def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndarray:
+    """Eq. 7's ``Cᵀd = Σ w_ab (I − R_A)ᵀ d_ab`` (S, 3), ``d_ab = t_A − R_X t_B``.
+
+    ``= Σ w_ab d_ab − Σ_b R_b Σ_a w_ab R_aᵀ d_ab``; tB (S or Su, 3, n, n) as tA.
+    """
+    R, Rs = cam.R, cam.Rs
+    S, n = R.shape[:2]
+    d = cam.tA - (RX @ tB.reshape(-1, 3, n * n)).reshape(S, 3, n, n)     # [i, a, b]
+    sum_d = (d.reshape(S, 3, n * n) @ W.reshape(-1, n * n, 1))[..., 0]
+    e = _swap(R) @ d.transpose(0, 2, 1, 3)                        # R_aᵀ d_ab at [a, k, b]
+    f = (e * W[:, :, None, :]).sum(axis=1)                        # Σ_a w_ab R_aᵀ d_ab [k, b]
+    return sum_d - (Rs.reshape(S, 3, 3 * n) @ _swap(f).reshape(S, 3 * n, 1))[..., 0]
+
+
+def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
+    """Eq. 10 from Rs, Qs = :func:`_stacked` (R), (Q): see :func:`quality_eq10`."""
+    S = Rs.shape[0]
+    n = Rs.shape[1] // 3
+    Ys = (RX @ Qs.reshape(-1, 3, 3 * n)).reshape(S, 3 * n, 3)   # Y_a = R_X Q_a, stacked
+    Z = np.concatenate([Ys, Rs], axis=-1)                         # (S, 3n, 6)
+    E = Z @ _swap(Z * _SIGNS)                                     # Y Yᵀ − R Rᵀ
+    E *= E
+    fro = np.sqrt(E.reshape(S, 3, n, 3, n).sum(axis=1).sum(axis=2))
+    return (fro.reshape(S, n * n) @ _off_diagonal(n)) / (n * (n - 1))
+
+
+@functools.lru_cache(maxsize=64)
+def _off_diagonal(n: int) -> np.ndarray:
+    """(n²,) 1.0 off the diagonal of an n×n matrix (flattened), 0.0 on it."""
+    mask = 1.0 - np.eye(n).reshape(n * n)
+    mask.flags.writeable = False
+    return mask
+
+
+_SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
 
 
 def quality_eq10(R: np.ndarray, Q: np.ndarray, RX: np.ndarray) -> np.ndarray:
@@ -471,78 +690,192 @@ def quality_eq10(R: np.ndarray, Q: np.ndarray, RX: np.ndarray) -> np.ndarray:
     R (S, n, 3, 3) camera rotations ``R_cw`` (literal matrices allowed); Q (S or 1, n,
     3, 3) unit rotations ``R_gp``; RX (S, 3, 3) a rotation → (S,).
 
-    With ``Y_i = R_X Q_i``, any rotation C and ``F_i = Y_i − R_i C``, the pair residual
-    is ``E_ij = Y_i Y_jᵀ − R_i R_jᵀ = P_i N_jᵀ`` with ``P_i = [R_i C, F_i]`` and
-    ``N_j = [F_j, Y_j]`` (3×6), so ``‖E_ij‖² = ⟨P_iᵀP_i, N_jᵀN_j⟩``: one n×36 by 36×n
-    product for all pairs. C is the rotation nearest to ``Σ R_iᵀ Y_i`` (for consistent
-    data every ``R_iᵀ Y_i`` is the same rotation), which keeps F of the size of the
-    residuals, so every term is of the size of ‖E‖² and nothing cancels.
+    With ``Y_i = R_X Q_i``, every pair's residual ``Y_i Y_jᵀ − R_i R_jᵀ`` is a 3×3 block of
+    ``[Y R] [Y −R]ᵀ`` (Y and R stacked to 3n×3): one product for all pairs, each entry a
+    six-term dot product of the given matrices, so it is accurate to round-off (1e-16)
+    whatever the size of the residual.
     """
-    S, n = R.shape[:2]
-    Y = np.broadcast_to(RX[:, None] @ Q, R.shape)
-    U, _, Vt = np.linalg.svd((_swap(R) @ Y).sum(axis=1))
-    C = U @ Vt                                     # orthogonal (a reflection would do too)
-    RC = R @ C[:, None]
-    F = Y - RC
-    P = np.concatenate([RC, F], axis=-1)                          # (S, n, 3, 6)
-    N = np.concatenate([F, Y], axis=-1)
-    Pg = (_swap(P) @ P).reshape(S, n, 36)
-    Ng = (_swap(N) @ N).reshape(S, n, 36)
-    fro = np.sqrt(np.maximum(Pg @ _swap(Ng), 0.0))                # (S, n, n)
-    return (fro.sum(axis=(1, 2)) - np.trace(fro, axis1=1, axis2=2)) / (n * (n - 1))
-
-
-def _split(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return np.ascontiguousarray(T[..., :3, :3]), np.ascontiguousarray(T[..., :3, 3])
+    R, Q, RX = (np.asarray(a, dtype=float) for a in (R, Q, RX))
+    return _quality(_stacked(R), _stacked(Q), RX)
 
 
 def _polar_rotation(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. 9: R_X = (MᵀM)^(-1/2) Mᵀ as the polar factor V Uᵀ (det forced to +1)."""
+    """Eq. 9: R_X = (MᵀM)^(-1/2) Mᵀ as the polar factor V Uᵀ (det forced to +1).
+
+    M (S, 3, 3) → R_X (S, 3, 3) and the singular values of M (S, 3)."""
     U, sv, Vt = np.linalg.svd(M)
-    V = _swap(Vt)
-    d = np.sign(np.linalg.det(V @ _swap(U)))
-    d = np.where(d == 0, 1.0, d)
-    RX = (V * np.stack([np.ones_like(d), np.ones_like(d), d], axis=-1)[:, None, :]) @ _swap(U)
+    RX = _swap(U @ Vt)                                            # V Uᵀ
+    if len(M) == 1:                     # one sample: the sign of det by hand is cheaper
+        (a, b, c), (d, e, f), (g, h, k) = RX[0].tolist()
+        flip = np.array([a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0])
+    else:
+        flip = np.linalg.det(RX) < 0
+    if flip.any():                                                # V diag(1, 1, −1) Uᵀ
+        Vt = Vt.copy()
+        Vt[flip, 2] *= -1.0
+        RX = _swap(U @ Vt)
     return RX, sv
 
 
-def _solve(T_cw: np.ndarray, T_gp: np.ndarray, pair: tuple, min_rotation_rad: float):
-    """Core, batched: T_cw (S, n, 4, 4), T_gp (S or 1, n, 4, 4), pairs from :func:`_pairs`.
+_ROLL1, _ROLL2 = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def _polar_rotation_many(M: np.ndarray) -> np.ndarray:
+    """:func:`_polar_rotation`'s R_X for many samples, without one LAPACK call per sample.
+
+    Higham's scaled Newton iteration ``X ← (ζX + X⁻ᵀ/ζ)/2`` from ``X = Mᵀ``,
+    ``ζ = (‖X⁻¹‖_F/‖X‖_F)^½``, converges quadratically to the orthogonal polar factor
+    V Uᵀ of Mᵀ (to round-off in 6–9 steps for cond(M) up to 1e3; the nine ±8° poses give
+    155). X⁻ᵀ is the cofactor matrix over det X, elementwise. Samples whose M is near
+    singular (σ3/σ1 < 1e-6 estimated by |det M|/‖M‖³) or has det M ≤ 0, where the polar
+    factor is not the rotation eq. 9 wants, and any not converged in 30 steps go through
+    the SVD of :func:`_polar_rotation`.
+    """
+    X = _swap(M).copy()
+    d0 = np.linalg.det(M)
+    norm = np.sqrt((M * M).sum(axis=(1, 2)))
+    ok = d0 > 1e-6 * norm ** 3
+    X[~ok] = _EYE3
+    for _ in range(30):
+        C = (X[:, _ROLL1][:, :, _ROLL1] * X[:, _ROLL2][:, :, _ROLL2]
+             - X[:, _ROLL1][:, :, _ROLL2] * X[:, _ROLL2][:, :, _ROLL1])   # cofactors
+        det = (X[:, 0] * C[:, 0]).sum(axis=1)
+        inv_t = C / det[:, None, None]                            # X⁻ᵀ
+        zeta = np.sqrt(np.sqrt((inv_t * inv_t).sum(axis=(1, 2)) / (X * X).sum(axis=(1, 2))))
+        new = 0.5 * (zeta[:, None, None] * X + inv_t / zeta[:, None, None])
+        step = np.abs(new - X).max()
+        X = new
+        if step < 1e-15:
+            break
+    else:
+        ok &= np.abs(_swap(X) @ X - _EYE3).max(axis=(1, 2)) < 1e-14
+    if not ok.all():
+        X[~ok] = _polar_rotation(M[~ok])[0]
+    return X
+
+
+#: A relative rotation within this of π (radians) is a half turn: the sign of its log is
+#: not determined by the rotation (log R and −log R are both valid).
+_HALF_TURN_TOL = 1e-6
+
+
+def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
+                      theta_B: np.ndarray, bw: np.ndarray) -> np.ndarray:
+    """Choose the signs of half-turn logs so that ``α = R_X β`` holds for them too.
+
+    alpha (S, 3, K), beta and bw = w β (Su, 3, K), angles (S or Su, K). A pair whose
+    motion is a half turn (within ``_HALF_TURN_TOL`` of π) has α and β each defined up to
+    sign only; with mismatched signs its term of eq. 9 enters M as ``−β βᵀ R_Xᵀ``. Its α
+    is flipped where it points away from ``R_X0 β``, with R_X0 from the other pairs (all
+    pairs if fewer than two others are usable). Without half turns α is returned as is.
+    """
+    if max(theta_A.max(), theta_B.max()) <= np.pi - _HALF_TURN_TOL:
+        return alpha
+    near = (theta_A > np.pi - _HALF_TURN_TOL) | (theta_B > np.pi - _HALF_TURN_TOL)
+    others = bw * ~near[:, None, :]
+    enough = ((others != 0).any(axis=1).sum(axis=1) >= 2)[:, None, None]
+    RX0, _ = _polar_rotation(np.where(enough, others, bw) @ _swap(alpha))
+    flip = near & ((alpha * (RX0 @ beta)).sum(axis=1) < 0)
+    return np.where(flip[:, None, :], -alpha, alpha)
+
+
+#: Samples per block of the batched solve: keeps every temporary (S·9n² floats) near
+#: 2 MB, inside the cache, whatever S.
+_CHUNK_FLOATS = 1 << 18
+
+
+def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
+           min_rotation_rad: float, checked: tuple = (None, None)) -> dict:
+    """Core, batched: T_cw (S, n, 4, 4), T_gp (Sq, n, 4, 4), Sq ∈ {1, S}, T_all their
+    concatenation, pairs from :func:`_pairs`, ``checked`` = (err, G) from the validation.
 
     Logs are taken once per unordered pair (i > j): ``α_ji = −α_ij`` and
     ``β_ji = −β_ij``, so ``β_ji α_jiᵀ = β_ij α_ijᵀ`` and pair (j, i) adds the same term
-    to M; its weight is added to that of (i, j).
+    to M; its weight is added to that of (i, j). The unit's side (its logs, weights and
+    the axis checks) is complete for every sample before any error about the camera side
+    can be raised, so the first error is the one a sample-by-sample solve would raise
+    first. Up to ``_CHUNK_FLOATS`` (one block, always the case for single solves) both
+    sides share each call: one quaternion pass, one eigen-decomposition.
     """
-    R, t = _split(T_cw)
-    Q, u = _split(T_gp)
-    S, n = R.shape[:2]
-    i, j = pair[:2]
-    beta = _pair_logs(Q, i, j)                                    # (Su, 3, K)
-    theta = np.sqrt((beta * beta).sum(axis=1))
+    err, G_all = checked
+    exact = err is not None and err < 1e-14
+    S, n = T_cw.shape[:2]
+    Sq = T_gp.shape[0]
+    i, j, take = pair.i, pair.j, pair.take
+    chunk = max(1, _CHUNK_FLOATS // (9 * n * n))
+    one_block = chunk >= S
+    if one_block:
+        logs, angle = _pair_logs(_quaternions(T_all[..., :3, :3], err), i, j, take)
+        alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
+    else:
+        beta, theta = _pair_logs(_quaternions(T_gp[..., :3, :3], err), i, j, take)
     W, wk = _weights(theta, pair, n, min_rotation_rad)
-    spread, axis = _check_rotation_axes(wk, beta, min_rotation_rad)
-    alpha = _pair_logs(R, i, j)                                   # (S, 3, K)
-    M = (beta * wk[:, None, :]) @ _swap(alpha)                    # eq. 9: Σ β αᵀ
-    RX, sv = _polar_rotation(M)
-    CtC, Ctd = _normal_equations(W, R, t, Q, u, RX)
-    cond, weak = _cond_CtC(CtC)
-    _check_cond_CtC(cond, weak)
-    tX = np.linalg.solve(CtC, Ctd[..., None])[..., 0]
-    quality = quality_eq10(R, Q, RX)
-    return {"RX": RX, "tX": tX, "quality": quality, "W": W, "theta": theta, "sv": sv,
-            "cond_CtC": cond, "axis_spread": spread, "dominant_axis": axis}
+    bw = beta * wk[:, None, :]                                    # (Sq, 3, K)
+    G_unit = bw @ _swap(beta)                                     # Σ w β βᵀ
+    if one_block:               # both sides' R_a R_bᵀ t_b in one product, too
+        R_all = T_all[..., :3, :3]
+        Rs_all = _stacked(R_all)
+        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3])
+        Qs, tB = Rs_all[S:], t_all[S:]
+        cam = _camera(T_cw, None if G_all is None else G_all[:S], W, exact, Rs_all[:S],
+                      t_all[:S])
+        lam, vec = np.linalg.eigh(np.concatenate([G_unit, cam.CtC]))
+        eig_unit, eig_ctc = (lam[:Sq], vec[:Sq]), (lam[Sq:], vec[Sq:])
+    else:
+        eig_unit = np.linalg.eigh(G_unit)
+    spread, axis = _check_rotation_axes(eig_unit, wk, min_rotation_rad)
+
+    def unit_terms(T):
+        Q = T[..., :3, :3]
+        Qs = _stacked(Q)
+        return Qs, _pair_translations(Q, Qs, T[..., :3, 3])
+
+    if Sq == 1 and not one_block:
+        Qs, tB = unit_terms(T_gp)
+    parts = []
+    for c0 in range(0, S, chunk):
+        c = slice(c0, c0 + chunk)
+        cq = c if Sq > 1 else slice(None)
+        if Sq > 1 and not one_block:
+            Qs, tB = unit_terms(T_gp[c])
+        if one_block:
+            a, a_theta = alpha, theta_cam
+            cond = _check_cond_CtC(eig_ctc, S, c0)
+        else:
+            cam = _camera(T_cw[c], None, W[cq], exact)
+            lam = np.linalg.eigvalsh(cam.CtC)
+            if not (lam[:, 2] <= MAX_COND_CTC * lam[:, 0]).all():   # name the weak axis
+                _check_cond_CtC(np.linalg.eigh(cam.CtC), S, c0)
+            cond = lam[:, 2] / lam[:, 0]
+            a, a_theta = _pair_logs(_quaternions(cam.R, err), i, j, take)
+        a = _align_half_turns(a, a_theta, beta[cq], theta[cq], bw[cq])
+        M = bw[cq] @ _swap(a)                                     # eq. 9: M = Σ w β αᵀ
+        if one_block:
+            RX, sv = _polar_rotation(M)
+            # t_X = (CᵀC)⁻¹ Cᵀd through the eigen-decomposition already at hand
+            lam, vec = eig_ctc
+            y = (_swap(vec) @ _Ctd(W[cq], cam, tB, RX)[..., None])[..., 0] / lam
+            tX = (vec @ y[..., None])[..., 0]
+        else:                            # the singular values only serve the diagnostics
+            RX, sv = _polar_rotation_many(M), None
+            tX = np.linalg.solve(cam.CtC, _Ctd(W[cq], cam, tB, RX)[..., None])[..., 0]
+        parts.append((RX, tX, _quality(cam.Rs, Qs, RX), sv, cond))
+    RX, tX, quality, sv, cond = (p[0] if len(parts) == 1 else
+                                 None if p[0] is None else np.concatenate(p)
+                                 for p in zip(*parts, strict=True))
+    return {"RX": RX, "tX": tX, "quality": quality, "W": W, "wk": wk, "theta": theta,
+            "sv": sv, "cond_CtC": cond, "axis_spread": spread, "dominant_axis": axis}
 
 
-def _diagnostics(out: dict, n: int, pair: tuple) -> HandEyeDiagnostics:
-    sv = out["sv"][0]
-    with np.errstate(divide="ignore"):
-        cond_MtM = float((sv[0] / sv[2]) ** 2) if sv[2] > 0 else math.inf
-    theta = np.degrees(out["theta"][0][pair[2] | pair[3]])     # the method's motions
+def _diagnostics(out: dict, n: int, pair: _Pairs) -> HandEyeDiagnostics:
+    s1, _, s3 = out["sv"][0].tolist()
+    theta = out["theta"][0]
+    theta = theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]   # the method's
+    deg = 180.0 / math.pi
     return HandEyeDiagnostics(
-        n_positions=n, n_pairs=int(pair[2].sum() + pair[3].sum()),
-        n_pairs_used=int(out["W"][0].sum()),
-        cond_MtM=cond_MtM, cond_CtC=float(out["cond_CtC"][0]),
-        min_rotation_deg=float(theta.min()), max_rotation_deg=float(theta.max()),
+        n_positions=n, n_pairs=pair.n_pairs, n_pairs_used=int(out["wk"][0].sum()),
+        cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][0]),
+        min_rotation_deg=float(theta.min()) * deg, max_rotation_deg=float(theta.max()) * deg,
         axis_spread=float(out["axis_spread"][0]),
         dominant_axis=_unit_axis(out["dominant_axis"][0]))
 
@@ -574,14 +907,17 @@ def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
         ``T_cam_from_gaze`` (4, 4) (for a robot arm: ``T_cam_from_gripper``), method
         "rasc". Raises :class:`DegenerateDataError` when the data cannot determine it.
     """
-    T_cw = validate_poses(T_cam_from_world, "T_cam_from_world", check_rigid=check_rigid)
-    T_gp = validate_poses(T_gaze_from_ptu, "T_gaze_from_ptu", check_rigid=check_rigid)
-    n = T_cw.shape[0]
-    _check_positions(n, T_gp.shape[0])
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=False, check_rigid=check_rigid)
+    n = T_cw.shape[1]
+    _check_positions(n, T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
     pair = _pairs(n, pairs, None)
-    out = _solve(T_cw[None], T_gp[None], pair, min_rotation_rad)
-    T = make_transform(out["RX"][0], out["tX"][0])
+    out = _solve(T_cw, T_gp, T_all, pair, min_rotation_rad, checked)
+    T = np.zeros((4, 4))
+    T[:3, :3] = out["RX"][0]
+    T[:3, 3] = out["tX"][0]
+    T[3, 3] = 1.0
     return HandEyeResult(T_cam_from_gaze=T, quality=float(out["quality"][0]), method="rasc",
                          diagnostics=_diagnostics(out, n, pair))
 
@@ -604,18 +940,13 @@ def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, 
         :func:`solve_rasc` returns for that sample. Any degenerate sample raises
         :class:`DegenerateDataError` naming it.
     """
-    T_cw = validate_poses(T_cam_from_world, "T_cam_from_world", batch=True,
-                          check_rigid=check_rigid)
-    shared = np.ndim(T_gaze_from_ptu) == 3
-    T_gp = validate_poses(T_gaze_from_ptu, "T_gaze_from_ptu", batch=not shared,
-                          check_rigid=check_rigid)
-    T_gp = T_gp[None] if shared else T_gp
-    S, n = T_cw.shape[:2]
-    if not shared and T_gp.shape[0] != S:
-        raise InputError(f"T_gaze_from_ptu has {T_gp.shape[0]} samples, T_cam_from_world {S}")
-    _check_positions(n, T_gp.shape[1])
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=True, check_rigid=check_rigid)
+    if T_cw.shape[0] == 0:
+        raise InputError(f"T_cam_from_world: no samples (shape {T_cw.shape})")
+    _check_positions(T_cw.shape[1], T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
-    out = _solve(T_cw, T_gp, _pairs(n, pairs, None), min_rotation_rad)
+    out = _solve(T_cw, T_gp, T_all, _pairs(T_cw.shape[1], pairs, None), min_rotation_rad, checked)
     return HandEyeBatchResult(T_cam_from_gaze=make_transform(out["RX"], out["tX"]),
                               quality=out["quality"])
 
@@ -637,13 +968,13 @@ def diagnose(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
     ``cond_*`` values are those of RASC's equations on the selected pairs. Raises
     :class:`DegenerateDataError` / :class:`InputError` like :func:`solve_rasc`.
     """
-    T_cw = validate_poses(T_cam_from_world, "T_cam_from_world", check_rigid=check_rigid)
-    T_gp = validate_poses(T_gaze_from_ptu, "T_gaze_from_ptu", check_rigid=check_rigid)
-    n = T_cw.shape[0]
-    _check_positions(n, T_gp.shape[0])
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=False, check_rigid=check_rigid)
+    n = T_cw.shape[1]
+    _check_positions(n, T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
     if home is not None and not (isinstance(home, int | np.integer) and 0 <= home < n):
         raise InputError(f"home: expected a position index in 0..{n - 1}, got {home!r}")
     pair = _pairs(n, pairs, None if home is None else int(home))
-    out = _solve(T_cw[None], T_gp[None], pair, min_rotation_rad)
-    return _diagnostics(out, n, pair), T_cw, T_gp
+    out = _solve(T_cw, T_gp, T_all, pair, min_rotation_rad, checked)
+    return _diagnostics(out, n, pair), T_cw[0], T_gp[0]

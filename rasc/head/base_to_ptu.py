@@ -307,3 +307,25 @@ def cyclopean_base(T_ptuL_from_ptuR):
     T_base_from_ptuL = make_transform(R_base_from_ptuL, -R_base_from_ptuL @ t / 2.0)
     T_base_from_ptuR = T_base_from_ptuL @ T
     return invert_transform(T_base_from_ptuL), invert_transform(T_base_from_ptuR)
+
+
+def unit_side_warnings(T_ptu_from_base_left, T_ptu_from_base_right) -> list[str]:
+    """The left unit must sit to the left of the right one: one sentence if not, else [].
+
+    In the base and ptu frames +z points left (x up, y forward, z left; docs/CONTRACTS.md),
+    so the left unit's origin has the larger base z. A calibration that puts it on the
+    other side is self-consistent (each eye's hand-eye and loop closure still close) and
+    so cannot be refused by any residual: the usual causes are left and right swapped in
+    the manifest (``eye``), or measured mounts given as T_ptuR_from_ptuL.
+
+    Parameters
+    ----------
+    T_ptu_from_base_left, T_ptu_from_base_right : array-like, shape (4, 4)
+    """
+    z_left = float(invert_transform(np.asarray(T_ptu_from_base_left, dtype=float))[2, 3])
+    z_right = float(invert_transform(np.asarray(T_ptu_from_base_right, dtype=float))[2, 3])
+    if z_left > z_right:
+        return []
+    return [f"the calibrated left unit sits {z_right - z_left:.3g} to the RIGHT of the right "
+            "unit (base +z points left): are left and right swapped in the manifest's "
+            "'eye' fields, or the mounts given as T_ptuR_from_ptuL?"]

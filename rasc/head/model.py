@@ -53,13 +53,33 @@ def _image_size(size, name: str) -> tuple[int, int]:
     return int(size[0]), int(size[1])
 
 
+#: Largest |angle| the Python API accepts, radians (one full turn). A value beyond it
+#: cannot be an angle in radians of a pan-tilt joint (400 is degrees; so is 8.0, unless
+#: the unit turns more than a full turn, which none of the heads this models does).
+#: Degrees up to 6.28 cannot be told from radians by their value; the commands therefore
+#: require ``--angle-unit``.
+MAX_ABS_ANGLE_RAD = 2.0 * np.pi
+
+
 def _angles(a, name: str) -> np.ndarray:
+    """Joint angles in radians, as a float array; refused (InputError, one line) when not
+    numeric, not finite, or beyond one turn (|angle| > 2π, :data:`MAX_ABS_ANGLE_RAD`)."""
+    if isinstance(a, str | bytes | bool | np.bool_) or (
+            isinstance(a, np.ndarray) and a.dtype.kind in "bSU"):
+        raise InputError(f"{name}: expected numbers (radians), got {str(a)[:60]!r}")
     try:
         a = np.asarray(a, dtype=float)
     except (TypeError, ValueError):
         raise InputError(f"{name}: not numeric") from None
     if not np.all(np.isfinite(a)):
         raise InputError(f"{name}: contains NaN or infinity")
+    big = np.abs(a) > MAX_ABS_ANGLE_RAD
+    if np.any(big):
+        value = float(a[big].flat[0])
+        where = "" if a.ndim == 0 else f"[{', '.join(map(str, np.argwhere(big)[0]))}]"
+        raise InputError(
+            f"{name}{where} = {value:g}: beyond ±2π, so not an angle in radians; if it is "
+            f"in degrees, pass np.radians({value:g}) = {np.radians(value):.6g}")
     return a
 
 

@@ -27,7 +27,12 @@ from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PanTiltUnit, T_gaze_from_ptu, canonical_gauge
 from rasc.geometry.transforms import rotation_error_deg, validate_rigid_transform
 from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
-from rasc.head.base_to_ptu import T_ptuL_from_ptuR_loop_closure, cyclopean_base, mount_errors
+from rasc.head.base_to_ptu import (
+    T_ptuL_from_ptuR_loop_closure,
+    cyclopean_base,
+    mount_errors,
+    unit_side_warnings,
+)
 from rasc.head.model import EyeCalibration, HeadCalibration
 
 FORMAT = "rasc-calibration/1"
@@ -300,6 +305,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                          "simultaneous views or the measured mounts (--mounts)")
     base["T_ptuL_from_ptuR"] = np.asarray(T_pLpR).tolist()
     T_pb = dict(zip(EYES, cyclopean_base(T_pLpR), strict=True))
+    warnings += unit_side_warnings(T_pb["left"], T_pb["right"])
     timer.add("base-to-ptu", time.perf_counter() - t0)
     head = HeadCalibration(**{
         eye: EyeCalibration(K=eyes[eye].intrinsics.K, dist=eyes[eye].intrinsics.dist,

@@ -13,11 +13,15 @@ Writes exactly the dataset format a real user produces (docs/CONTRACTS.md,
   position share a ``view`` id, so they also serve as simultaneous views for loop closure.
 
 Every random draw comes from ``numpy.random.default_rng(seed)``; the same seed and
-options give byte-identical files.
+options give byte-identical files. The pan-tilt units may be imperfect
+(:mod:`rasc.sim.units`); the pose views' angles are then encoder readings, and the
+ground truth (per eye ``unit``, ``T_cam_from_gaze``, ``T_ptu_from_base`` in the canonical
+gauge) is checked against MuJoCo's camera frame at every rendered pose.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from dataclasses import dataclass
@@ -30,6 +34,7 @@ from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import write_json_atomic
+from rasc.progress import progress
 from rasc.vision.board import Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
@@ -42,6 +47,16 @@ MARGIN_PX = 12.0
 #: the default board and cameras (1280x960), the classic detector found all 18 pose views
 #: with squares of 13.4 px (4.3 m) and none at 12.5 px (4.6 m)
 MIN_SQUARE_PX = 14.0
+#: below this many pixels per square, ``rasc render`` refuses the --distance: no pose view
+#: would show a board the detector finds (between the measured 12.5 px and 13.4 px)
+MIN_DETECTABLE_SQUARE_PX = 13.0
+#: the largest --seed (stored in ground_truth.json, read back by rasc.io's reader)
+MAX_SEED = 2**63 - 1
+#: the largest --noise: the whole grey range; more is noise alone
+MAX_NOISE = 255.0
+#: the largest --blur: a Gaussian of 50 px wipes out every corner of the board (squares
+#: of 14-60 px at the default distances); more only takes minutes to compute
+MAX_BLUR_PX = 50.0
 #: lens distortion coefficients ``--distortion`` accepts (OpenCV order k1 k2 p1 p2 k3)
 MAX_DIST_COEFFS = 5
 
@@ -72,12 +87,13 @@ class RenderOptions:
         if not (_finite(self.target_distance) and self.target_distance > 0):
             raise InputError(f"--distance must be a positive number of metres, got "
                              f"{self.target_distance}")
-        if not _integer(self.seed) or self.seed < 0:
-            raise InputError(f"--seed must be a non-negative integer, got {self.seed!r}")
-        for flag, value, unit in (("--noise", self.noise_sigma, "grey levels"),
-                                  ("--blur", self.blur_sigma, "pixels")):
-            if not (_finite(value) and value >= 0):
-                raise InputError(f"{flag} must be a finite number >= 0 ({unit}), got {value}")
+        if not _integer(self.seed) or not 0 <= self.seed <= MAX_SEED:
+            raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {self.seed!r}")
+        for flag, value, unit, top in (("--noise", self.noise_sigma, "grey levels", MAX_NOISE),
+                                       ("--blur", self.blur_sigma, "pixels", MAX_BLUR_PX)):
+            if not (_finite(value) and 0 <= value <= top):
+                raise InputError(f"{flag} must be a number from 0 to {top:g} ({unit}), "
+                                 f"got {value:g}")
         if len(self.dist) > MAX_DIST_COEFFS:
             raise InputError(f"--distortion: at most {MAX_DIST_COEFFS} coefficients "
                              f"(k1,k2,p1,p2,k3), got {len(self.dist)}")
@@ -178,6 +194,13 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
             sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
+                if dist is not None and _visible(T, board, sim.K(eye), size, None,
+                                                 board.object_points()):
+                    raise InputError(
+                        f"--distortion {','.join(f'{v:g}' for v in dist)}: at pan, tilt = "
+                        f"({pan:g}, {tilt:g}) deg the distortion moves corners of the board "
+                        f"outside the {eye} image ({size[0]}x{size[1]}, {MARGIN_PX:g} px "
+                        "margin), which fits without it; use smaller coefficients")
                 raise InputError(
                     f"--distance {d:g}: at pan, tilt = ({pan:g}, {tilt:g}) deg the corners of "
                     f"the {board.nx}x{board.ny} board do not all fit inside the {eye} image "
@@ -222,21 +245,21 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     return poses
 
 
-class _Progress:
-    """Progress on stderr: an updating line on a terminal, else a line every 20 images."""
-
-    def __init__(self, total: int, quiet: bool):
-        self.total, self.done, self.quiet = total, 0, quiet
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, what: str) -> None:
-        self.done += 1
-        last = self.done == self.total
-        if self.quiet or not (self.tty or last or self.done % 20 == 0):
-            return
-        end = "\n" if last or not self.tty else "\r"
-        print(f"render: {self.done}/{self.total} {what:<28}", end=end, file=sys.stderr,
-              flush=True)
+def unit_summary(sim) -> list[str]:
+    """One line per eye whose pan-tilt unit is not the paper's: what the images will show
+    (axis distance and angle, encoder zeros and scales as built)."""
+    lines = []
+    for eye in EYES:
+        unit, (built, _, _) = sim.unit(eye), sim.unit_as_built(eye)
+        if unit.is_ideal and built.is_ideal:
+            continue
+        lines.append(
+            f"{eye} unit: tilt axis {1e3 * unit.axis_distance:.4g} mm from the pan axis, "
+            f"{unit.axis_angle_deg:.4f} deg between the axes, encoder zeros "
+            f"{math.degrees(built.pan_offset):+.4g}/{math.degrees(built.tilt_offset):+.4g} deg "
+            f"and scales {built.pan_scale:.6g}/{built.tilt_scale:.6g} (pan/tilt); ground truth "
+            f"in the canonical gauge")
+    return lines
 
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
@@ -265,7 +288,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
-    with StereoHeadSim(model_path, units=units) as sim:
+    with contextlib.ExitStack() as stack:
+        sim = stack.enter_context(StereoHeadSim(model_path, units=units))
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -282,16 +306,25 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         # fail on bad positions or distances before rendering anything
         sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
         square_px = check_pose_views(sim, options, dist if distorted else None)
-        if square_px < MIN_SQUARE_PX and not quiet:
-            print(f"render: warning: board squares are only {square_px:.1f} px in the pose "
-                  f"views at --distance {options.target_distance:g}; corner detection was "
-                  f"measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if square_px < MIN_DETECTABLE_SQUARE_PX:
+            raise InputError(f"--distance {options.target_distance:g}: board squares would be "
+                             f"only {square_px:.1f} px in the pose views, where corner "
+                             f"detection fails (measured: none found at 12.5 px); bring the "
+                             f"board closer")
+        if square_px < MIN_SQUARE_PX:     # a warning, not progress: printed even with --quiet
+            print(f"rasc render: warning: board squares are only {square_px:.1f} px in the "
+                  f"pose views at --distance {options.target_distance:g}; corner detection "
+                  f"was measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
+        if not quiet:
+            for line in unit_summary(sim):
+                print(f"render: {line}", file=sys.stderr)
         warp = {eye: distortion_warp(sim.K(eye), dist, size) for eye in EYES} \
             if distorted else {}
         views: dict[str, dict] = {}
         images: list[dict] = []
         total = 2 * (options.n_intrinsics + len(options.poses_deg))
-        progress = _Progress(total, quiet)
+        bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
+                                           unit="image"))
         (out / "intrinsics").mkdir(parents=True, exist_ok=True)
         (out / "poses").mkdir(exist_ok=True)
 
@@ -307,7 +340,8 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
                            **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
-            progress(name)
+            bar.set_postfix_str(name, refresh=False)
+            bar.update(1)
 
         for eye in EYES:
             sim.set_angles("left", 0.0, 0.0)

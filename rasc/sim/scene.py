@@ -495,8 +495,9 @@ class StereoHeadSim:
         return chain[::-1]
 
     def _read_unit(self, eye: str) -> tuple[PanTiltUnit, np.ndarray, np.ndarray]:
-        """(unit with the pan axis through the origin, T_cam_from_ptu at qpos0 with the
-        origin moved to the pan anchor undone, pan anchor (3,)) of one eye, ptu frame."""
+        """One eye's (unit, T_cam_from_ptu (4, 4) at qpos0, pan anchor a (3,)), all in the
+        frame of body ``{eye}_ptu_link``; the unit's ``tilt_point`` is relative to a (its pan
+        axis passes through its origin), so the caller moves the ptu origin to a."""
         mujoco = import_mujoco()
         m, ids = self.model, self._ids
         j_pan, j_tilt = ids[f"{eye}_pan_joint"], ids[f"{eye}_tilt_joint"]

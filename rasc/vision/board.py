@@ -26,6 +26,11 @@ def _is_integral(v) -> bool:
     return _is_number(v) and np.isfinite(v) and float(v) == int(v)
 
 
+#: square sizes accepted, in any length unit: a 1 mm square is 1e-3 in metres and a
+#: 100 mm square is 1e5 in micrometres; 1e50 made OpenCV's extrinsics fail (measured)
+SQUARE_SIZE_RANGE = (1e-6, 1e6)
+
+
 @dataclass(frozen=True)
 class Board:
     """A chessboard target: ``inner_corners`` (nx, ny), ``square_size`` (any length unit).
@@ -55,6 +60,10 @@ class Board:
         s = self.square_size
         if not _is_number(s) or not np.isfinite(s) or s <= 0:
             raise InputError(f"board: square_size must be a positive number, got {s!r}")
+        if not SQUARE_SIZE_RANGE[0] <= s <= SQUARE_SIZE_RANGE[1]:
+            raise InputError(f"board: square_size {s:g} is outside [{SQUARE_SIZE_RANGE[0]:g}, "
+                             f"{SQUARE_SIZE_RANGE[1]:g}]: no printed square is that size in "
+                             "any length unit (OpenCV's pose solver fails on such scales)")
         object.__setattr__(self, "inner_corners", (nx, ny))
         object.__setattr__(self, "square_size", float(s))
 

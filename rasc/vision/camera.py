@@ -18,8 +18,10 @@ Extrinsics are returned as ``T_cam_from_world`` (4, 4), the paper's ``T_cw``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import struct
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,10 +37,27 @@ from rasc.vision.board import (  # noqa: F401  (Board, MIN_INTRINSICS_VIEWS re-e
     _is_number,
 )
 
-# One OpenCV thread: calibrateCamera's multi-threaded sums change the last bits from run
-# to run (measured: three runs, three different results), and the same seed must give
-# the same bytes. Parallelism comes from processes instead (experiments' --workers).
-cv2.setNumThreads(1)
+
+@contextlib.contextmanager
+def _opencv_threads(n: int = 1) -> Iterator[None]:
+    """Run OpenCV with ``n`` threads inside the block; the caller's setting is restored.
+
+    rasc's own OpenCV work (:func:`detect_corners`, :func:`calibrate_intrinsics`,
+    :func:`estimate_extrinsics`) runs under ``_opencv_threads(1)``: calibrateCamera's
+    multi-threaded sums change the last bits from run to run (measured: three runs, three
+    different results), and the same seed must give the same bytes; parallelism comes
+    from processes instead (the experiments' ``--workers``). Only the duration of the call
+    is affected, not the rest of the user's program (the setting is process-wide while
+    the block runs: do not run rasc's OpenCV work beside multi-threaded OpenCV work of
+    your own that relies on its thread count).
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(int(n))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
 
 #: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
 #: docs/NOTES.md, "Real data used by the tests" exactly (0.408695 / 0.458636 px on
@@ -75,7 +94,13 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: image file does not exist")
-    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    except cv2.error as exc:   # e.g. more pixels than CV_IO_MAX_IMAGE_PIXELS (2**30)
+        why = ("more pixels than OpenCV reads (CV_IO_MAX_IMAGE_PIXELS, 2**30 by default)"
+               if "CV_IO_MAX_IMAGE_PIXELS" in str(exc) else
+               str(exc).strip().splitlines()[-1] if str(exc).strip() else "OpenCV error")
+        raise InputError(f"{path}: cannot read image: {why}") from None
     if image is None or image.size == 0:
         raise InputError(f"{path}: cannot read image (not a format OpenCV reads, or corrupt)")
     return image
@@ -168,6 +193,7 @@ def to_grey(image: np.ndarray, order: str = "bgr") -> np.ndarray:
 
 # ------------------------------------------------------------------ corner detection
 
+@_opencv_threads(1)
 def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
                    order_by: str | None = "colour", *, fast_check: bool = False,
                    subpix_window: tuple[int, int] = (11, 11)) -> np.ndarray | None:
@@ -243,7 +269,8 @@ def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
 
     Measured on rendered 1280×960 boards against the projected truth: 0.012–0.015 px RMS,
     against 0.06–0.08 px for cornerSubPix (any window) and 0.033 px for
-    findChessboardCornersSB with CALIB_CB_ACCURACY, at 7 ms an image (SB: 0.34 s).
+    findChessboardCornersSB with CALIB_CB_ACCURACY, and far faster than SB (per-image
+    times: ``benchmarks/bench_pipeline.py``, figures in the README).
 
     Returns ``None`` when a corner is not a saddle (the fitted Hessian is not indefinite)
     or moves more than r in total: no reliable corner there.
@@ -532,6 +559,7 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
     return float(rms), K, dist, T, per_view
 
 
+@_opencv_threads(1)
 def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
                          image_size: tuple[int, int], dist_model: str = "opencv5",
                          outlier_rms: float | None = None,
@@ -603,6 +631,7 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 # ------------------------------------------------------------------------ extrinsics
 
+@_opencv_threads(1)
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
                         dist: np.ndarray) -> tuple[np.ndarray, float]:
     """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt

@@ -34,7 +34,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.io import write_json_atomic
+from rasc.io import read_json_document, write_json_atomic
 from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
 
 FORMAT = "rasc-dataset/1"
@@ -202,7 +202,7 @@ class Dataset:
         """The optional ground-truth JSON (written by the simulation), as a dict."""
         if self.ground_truth is None:
             raise InputError(f"{self.manifest_path}: no ground_truth file named in the manifest")
-        return _read_json(self.ground_truth)
+        return _read_json(self.ground_truth, "ground truth")
 
     def to_manifest(self) -> dict:
         """The manifest dict this dataset was read from (angles in its own unit)."""
@@ -222,22 +222,10 @@ def _problem(exc: Exception, path: Path) -> str:
     return msg[len(prefix):] if msg.startswith(prefix) else msg
 
 
-def _read_json(path: Path) -> dict:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: file does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: malformed JSON: {exc.msg} at line {exc.lineno} "
-                         f"column {exc.colno}") from None
-    if not isinstance(obj, dict):
-        raise InputError(f"{path}: expected a JSON object at the top level, "
-                         f"got {type(obj).__name__}")
-    return obj
+def _read_json(path: Path, what: str = "manifest") -> dict:
+    """A JSON object by :func:`rasc.io.read_json_document`'s rules (one reader for every
+    input document: duplicate keys, depth, number sizes, NaN, non-regular files)."""
+    return read_json_document(path, what)
 
 
 def _number(value, where: str, field: str) -> float:
@@ -365,7 +353,7 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
     gt_path = None
     if gt is not None:
         gt_path = root / _relative_file(gt, where, "ground_truth")
-        if check_files and not gt_path.is_file():
+        if check_files and not os.path.lexists(gt_path):   # the reader words the rest
             raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
     return Dataset(root=root, manifest_path=Path(where), board=board,
                    angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path,
@@ -381,10 +369,13 @@ def load_dataset(path: str | os.PathLike) -> Dataset:
         manifest = path
     else:
         raise InputError(f"{path}: no such dataset folder")
-    if not manifest.is_file():
+    if not os.path.lexists(manifest):      # a folder, device, FIFO: the reader says which
         raise InputError(f"{manifest}: no manifest (a rasc dataset is a folder with "
                          f"{MANIFEST} and its images)")
-    return parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
+    dataset = parse_manifest(_read_json(manifest), manifest.parent, where=str(manifest))
+    if dataset.ground_truth is not None:   # a broken ground truth is found now, not at the end
+        _read_json(dataset.ground_truth, "ground truth")
+    return dataset
 
 
 # ------------------------------------------------------------------------- writing

@@ -1,0 +1,1 @@
+"""A home-made hand-eye solver, plugged into rasc (see pyproject.toml)."""

@@ -1,0 +1,516 @@
+"""Using a calibration: load it, project, triangulate, and find the angles that look at a point.
+
+Everything here goes through :class:`~rasc.head.model.EyeCalibration`'s public methods
+(``T_cam_from_base``, ``projection_matrix``, ``project``, ``undistort``) and
+:meth:`~rasc.head.model.HeadCalibration.triangulate`, so it holds for whatever joint model
+an eye carries, not only eq. 3. Angles are radians throughout (the model refuses
+|angle| > 2π, :data:`rasc.head.model.MAX_ABS_ANGLE_RAD`); lengths are in the calibration's
+unit.
+
+* :func:`load_calibration` reads the file ``rasc calibrate`` writes (``rasc-calibration/1``)
+  or a bare ``rasc-head/1`` document (:meth:`HeadCalibration.to_dict`).
+* :func:`project_eye` gives each point's distorted pixel and whether the point is in front
+  of the camera and inside the image.
+* :func:`triangulate` gives base-frame points (eq. 15–19 after undistortion) with each eye's
+  reprojection residual.
+* :func:`look_at` solves for the pan and tilt that put a base-frame point's image on the
+  principal point (``scipy.optimize.least_squares`` on the two angles, from eq. 3's closed
+  form as the first guess).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.transforms import invert_transform
+from rasc.head.model import FORMAT as HEAD_FORMAT
+from rasc.head.model import EyeCalibration, HeadCalibration
+from rasc.io import read_json_document as _read_json_document
+
+#: The document ``rasc calibrate`` writes (rasc.head.pipeline.FORMAT; a test checks).
+CALIBRATION_FORMAT = "rasc-calibration/1"
+EYES = ("left", "right")
+
+#: :func:`look_at` succeeds when the point's ideal image is this close to the principal
+#: point, pixels: far below any corner detector (0.02 px at best), far above the solver's
+#: floor (Gauss–Newton on a zero-residual problem converges quadratically to ~1e-12 px).
+LOOK_AT_TOL_PX = 1e-6
+
+#: A point this close to a camera centre (relative to its distance from the base origin
+#: plus one length unit) is "at the optical centre": its direction is undefined.
+CENTRE_RTOL = 1e-9
+
+#: :func:`project_eye`'s "inside the image" also requires that undistorting the pixel gives
+#: back the point's ideal pixel to this many pixels: a lens model folds points far outside
+#: the field of view back into the image, and those are not seen there.
+ROUND_TRIP_TOL_PX = 1e-6
+
+
+# --------------------------------------------------------------------------------------
+# reading
+
+
+@dataclass(frozen=True)
+class CalibrationFile:
+    """A calibration as read from a file.
+
+    Attributes
+    ----------
+    head : HeadCalibration
+    length_unit : str or None
+        The calibration's length unit (free text), if the file says.
+    joint_range : dict or None
+        Per eye, ``{"pan": (lo, hi), "tilt": (lo, hi)}`` in radians: the angles the
+        calibration's pose views spanned (``rasc-calibration/1`` only), else None.
+    source : str
+        The path as given.
+    """
+
+    head: HeadCalibration
+    length_unit: str | None
+    joint_range: dict[str, dict[str, tuple[float, float]]] | None
+    source: str
+
+
+def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of a regular file of at most ``max_bytes`` (a byte-order mark is
+    dropped); every failure is an :class:`InputError` starting with the path. A device,
+    FIFO or socket is refused before anything is read (``/dev/zero`` would never end)."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if p.is_dir():
+        raise InputError(f"{path}: is a folder, not a {what}")
+    if not p.is_file():
+        raise InputError(f"{path}: not a regular file (a device, pipe or socket); "
+                         f"expected a {what}")
+    if st.st_size > max_bytes:
+        raise InputError(f"{path}: {st.st_size} bytes, more than a {what} may have "
+                         f"({max_bytes} bytes)")
+    try:
+        with open(p, "rb") as f:
+            data = f.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise InputError(f"{path}: more than {max_bytes} bytes; not a {what}")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+
+
+def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
+    """Parse a JSON file by the project-wide reader's rules
+    (:func:`rasc.io.read_json_document`: regular files, size, UTF-8, duplicate keys,
+    depth, number sizes, NaN and Infinity, each error one line starting with the path)."""
+    return _read_json_document(path, what, top=None)
+
+
+def _finite_number(value: Any, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{name}: expected a number, got {json.dumps(value)[:40]}")
+    try:
+        value = float(value)
+    except OverflowError:
+        raise InputError(f"{name}: number too large") from None
+    if not math.isfinite(value):
+        raise InputError(f"{name}: NaN or infinity; give a finite number")
+    return value
+
+
+def _numbers_only(value: Any, name: str) -> None:
+    """Nested lists of finite JSON numbers (no booleans, strings, nulls or objects)."""
+    if isinstance(value, list):
+        for i, v in enumerate(value):
+            _numbers_only(v, f"{name}[{i}]")
+    else:
+        _finite_number(value, name)
+
+
+def _head_from_dict(d: Any, where: str) -> HeadCalibration:
+    """A ``rasc-head/1`` object → HeadCalibration; errors name ``<where>.<field>``."""
+    prefix = f"{where}." if where else ""
+    if not isinstance(d, dict):
+        raise InputError(f"{where or 'document'}: expected an object (format {HEAD_FORMAT!r})")
+    for eye in EYES:
+        if eye not in d:
+            raise InputError(f"{prefix}{eye}: missing")
+        if isinstance(d[eye], dict):
+            for field in ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base"):
+                if field in d[eye]:
+                    _numbers_only(d[eye][field], f"{prefix}{eye}.{field}")
+            dist = d[eye].get("dist")
+            if isinstance(dist, list) and any(isinstance(x, list) for x in dist):
+                raise InputError(f"{prefix}{eye}.dist: expected a flat list of 0, 4, 5 or 8 "
+                                 "numbers (k1 k2 p1 p2 [k3 [k4 k5 k6]])")
+    try:
+        return HeadCalibration.from_dict(d)
+    except InputError as exc:
+        raise InputError(f"{prefix}{exc}") from None
+
+
+def _joint_range(eyes: Any) -> dict | None:
+    """The pan/tilt span of each eye's pose views in a ``rasc-calibration/1`` ``eyes``."""
+    if eyes is None:
+        return None
+    if not isinstance(eyes, dict):
+        raise InputError("eyes: expected an object with 'left' and 'right'")
+    out = {}
+    for eye in EYES:
+        views = eyes.get(eye, {}).get("pose_views") if isinstance(eyes.get(eye), dict) else None
+        if views is None:
+            return None
+        if not isinstance(views, list) or not views:
+            raise InputError(f"eyes.{eye}.pose_views: expected a non-empty list")
+        pans, tilts = [], []
+        for i, v in enumerate(views):
+            if not isinstance(v, dict):
+                raise InputError(f"eyes.{eye}.pose_views[{i}]: expected an object")
+            for key, acc in (("pan_deg", pans), ("tilt_deg", tilts)):
+                if key not in v:
+                    raise InputError(f"eyes.{eye}.pose_views[{i}].{key}: missing")
+                acc.append(_finite_number(v[key], f"eyes.{eye}.pose_views[{i}].{key}"))
+        out[eye] = {"pan": (math.radians(min(pans)), math.radians(max(pans))),
+                    "tilt": (math.radians(min(tilts)), math.radians(max(tilts)))}
+    return out
+
+
+def calibration_from_document(doc: Any, source: str = "calibration") -> CalibrationFile:
+    """A parsed ``rasc-calibration/1`` or ``rasc-head/1`` document → :class:`CalibrationFile`.
+
+    Raises :class:`InputError` ``<source>: <field>: <problem>`` for anything wrong.
+    """
+    try:
+        if not isinstance(doc, dict):
+            raise InputError(f"expected a JSON object with format {CALIBRATION_FORMAT!r} or "
+                             f"{HEAD_FORMAT!r}")
+        fmt = doc.get("format")
+        if fmt == HEAD_FORMAT:
+            return CalibrationFile(_head_from_dict(doc, ""), None, None, source)
+        if fmt != CALIBRATION_FORMAT:
+            raise InputError(f"format: expected {CALIBRATION_FORMAT!r} (the file rasc "
+                             f"calibrate writes) or {HEAD_FORMAT!r}, got "
+                             f"{json.dumps(fmt)[:40]}")
+        if "head" not in doc:
+            raise InputError("head: missing (the rasc-head/1 model)")
+        head = _head_from_dict(doc["head"], "head")
+        unit = doc.get("length_unit")
+        if unit is not None and not isinstance(unit, str):
+            raise InputError(f"length_unit: expected text, got {json.dumps(unit)[:40]}")
+        return CalibrationFile(head, unit, _joint_range(doc.get("eyes")), source)
+    except InputError as exc:
+        raise InputError(f"{source}: {exc}") from None
+
+
+def read_calibration(path: str | os.PathLike) -> CalibrationFile:
+    """Read a calibration file with its length unit and recorded joint range."""
+    return calibration_from_document(read_json_document(path), os.fspath(path))
+
+
+def load_calibration(path: str | os.PathLike) -> HeadCalibration:
+    """Load the head model from a calibration file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``rasc-calibration/1`` file that ``rasc calibrate`` writes (its ``head``
+        member is used), or a bare ``rasc-head/1`` document
+        (:meth:`HeadCalibration.to_dict`).
+
+    Returns
+    -------
+    HeadCalibration
+        Angles in radians; lengths in the calibration's unit.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the field: unreadable or malformed JSON, an unknown
+        format, a missing eye or field, wrong shapes, non-numeric or non-finite numbers,
+        a transform that is not rigid, a non-positive focal length.
+    """
+    return read_calibration(path).head
+
+
+# --------------------------------------------------------------------------------------
+# projecting and triangulating
+
+
+def _per_point(a, n: int, name: str) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.shape not in ((), (n,)):
+        raise InputError(f"{name}: expected a scalar or shape ({n},), got {a.shape}")
+    return np.broadcast_to(a, (n,)).copy()
+
+
+@dataclass(frozen=True)
+class Projection:
+    """One eye's view of N points.
+
+    Attributes
+    ----------
+    uv : ndarray, shape (N, 2)
+        Distorted pixels; NaN for points at or behind the camera (they have no image).
+    in_front : ndarray of bool, shape (N,)
+        Depth along the optical axis > 0.
+    in_image : ndarray of bool, shape (N,)
+        In front, the pixel inside the image (``-0.5 ≤ u ≤ width − 0.5``, same for v:
+        pixel centres are integers), and the lens model maps it back to the point's ideal
+        pixel (within :data:`ROUND_TRIP_TOL_PX`).
+    depth : ndarray, shape (N,)
+        Coordinate along the optical axis (the calibration's length unit).
+    """
+
+    uv: np.ndarray
+    in_front: np.ndarray
+    in_image: np.ndarray
+    depth: np.ndarray
+
+
+def project_eye(eye: EyeCalibration, p_base, pan, tilt) -> Projection:
+    """Project base-frame points (N, 3) into one eye at angles (radians, scalars or (N,))."""
+    p_base = np.asarray(p_base, dtype=float)
+    if p_base.ndim != 2 or p_base.shape[1] != 3:
+        raise InputError(f"p_base: expected shape (N, 3), got {p_base.shape}")
+    n = p_base.shape[0]
+    pan, tilt = _per_point(pan, n, "pan"), _per_point(tilt, n, "tilt")
+    T = eye.T_cam_from_base(pan, tilt)
+    p_cam = np.einsum("nij,nj->ni", T[:, :3, :3], p_base) + T[:, :3, 3]
+    if not np.all(np.isfinite(p_cam)):
+        i = int(np.argmax(~np.all(np.isfinite(p_cam), axis=1)))
+        raise InputError(f"point {i}: coordinates too large to compute with")
+    depth = p_cam[:, 2]
+    in_front = depth > 0.0
+    uv = np.full((n, 2), np.nan)
+    in_image = np.zeros(n, dtype=bool)
+    if np.any(in_front):
+        f = np.nonzero(in_front)[0]
+        uv[f] = eye.project(p_base[f], pan[f], tilt[f])
+        w, h = eye.image_size
+        ok = np.all(np.isfinite(uv[f]), axis=1)
+        inside = ok & (uv[f, 0] >= -0.5) & (uv[f, 0] <= w - 0.5) & \
+            (uv[f, 1] >= -0.5) & (uv[f, 1] <= h - 0.5)
+        cand = f[inside]
+        if cand.size:
+            ideal = (eye.K @ (p_cam[cand] / depth[cand, None]).T).T[:, :2]
+            in_image[cand] = _round_trip_ok(eye, uv[cand], ideal)
+    return Projection(uv, in_front, in_image, depth)
+
+
+def _round_trip_ok(eye: EyeCalibration, uv: np.ndarray, ideal: np.ndarray) -> np.ndarray:
+    try:
+        back = eye.undistort(uv)
+    except InputError:  # some pixel is beyond the lens model's fold: check one by one
+        back = np.full_like(uv, np.nan)
+        for i in range(uv.shape[0]):
+            with contextlib.suppress(InputError):
+                back[i] = eye.undistort(uv[i:i + 1])[0]
+    with np.errstate(invalid="ignore"):
+        return np.linalg.norm(back - ideal, axis=1) <= ROUND_TRIP_TOL_PX
+
+
+@dataclass(frozen=True)
+class Triangulation:
+    """Triangulated points and how well they fit.
+
+    Attributes
+    ----------
+    p_base : ndarray, shape (N, 3)
+        Base-frame points (the calibration's length unit).
+    residual_px : dict
+        ``{"left": (N,), "right": (N,)}``: distance from each measured pixel to the
+        point's reprojection; NaN where the point lies behind that camera.
+    in_front : dict
+        ``{"left": (N,), "right": (N,)}`` booleans: the point lies in front of that camera.
+    """
+
+    p_base: np.ndarray
+    residual_px: dict[str, np.ndarray]
+    in_front: dict[str, np.ndarray]
+
+
+def triangulate(head: HeadCalibration, uv_left, uv_right, pan_left, tilt_left, pan_right,
+                tilt_right, method: str = "ls") -> Triangulation:
+    """Triangulate matched pixels (eq. 15–19 after undistortion) and reproject the result.
+
+    Parameters
+    ----------
+    head : HeadCalibration
+    uv_left, uv_right : array-like, shape (N, 2)
+        Measured (distorted) pixels.
+    pan_left, tilt_left, pan_right, tilt_right : float or array-like, shape (N,)
+        Radians.
+    method : {"ls", "tls"}
+
+    Raises
+    ------
+    DegenerateDataError
+        A point whose rays are parallel (its depth is undetermined); names the point.
+    """
+    p = head.triangulate(uv_left, uv_right, pan_left, tilt_left, pan_right, tilt_right,
+                         method, on_degenerate="nan")
+    bad = ~np.all(np.isfinite(p), axis=1)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        exc = DegenerateDataError(
+            f"point {i} (and {int(bad.sum()) - 1} others): its two rays are (nearly) "
+            f"parallel, so its depth is undetermined")
+        exc.index = i  # for callers that name the point their own way (file and line)
+        raise exc
+    residual, front = {}, {}
+    for eye, uv, pan, tilt in (("left", uv_left, pan_left, tilt_left),
+                               ("right", uv_right, pan_right, tilt_right)):
+        proj = project_eye(getattr(head, eye), p, pan, tilt)
+        residual[eye] = np.linalg.norm(proj.uv - np.asarray(uv, dtype=float), axis=1)
+        front[eye] = proj.in_front
+    return Triangulation(p, residual, front)
+
+
+# --------------------------------------------------------------------------------------
+# looking at a point
+
+
+@dataclass(frozen=True)
+class Fixation:
+    """The angles that put a point on an eye's principal point.
+
+    Attributes
+    ----------
+    pan, tilt : float
+        Radians, in (−π, π].
+    residual_px : float
+        Distance of the point's ideal image from the principal point, pixels.
+    depth : float
+        The point's depth along the optical axis (the calibration's length unit).
+    """
+
+    pan: float
+    tilt: float
+    residual_px: float
+    depth: float
+
+
+def _wrap(a):
+    """Angles to (−π, π]."""
+    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2.0 * np.pi)
+
+
+def _eq3_guess(eye: EyeCalibration, p_base: np.ndarray) -> np.ndarray:
+    """Eq. 3's closed form: the pan and tilt that turn the camera's home optical axis
+    towards the point as seen from the unit's centre (exact for a camera at the centre)."""
+    T_pb = getattr(eye, "T_ptu_from_base", None)
+    if T_pb is None:
+        return np.zeros(2)
+    q = T_pb[:3, :3] @ p_base + T_pb[:3, 3]                       # p_ptu
+    T_cam_from_ptu = eye.T_cam_from_base(0.0, 0.0) @ invert_transform(T_pb)
+    d0 = T_cam_from_ptu[2, :3]                                    # optical axis in ptu, home
+    # eq. 3: the gaze's line of sight (ptu +y at home) after (pan, tilt) is
+    # (sin τ, cos τ cos φ, cos τ sin φ) in ptu (x up, y forward, z left)
+    nq = np.linalg.norm(q)
+    if nq == 0.0:
+        return np.zeros(2)
+    pan = math.atan2(q[2], q[1]) - math.atan2(d0[2], d0[1])
+    tilt = math.asin(float(np.clip(q[0] / nq, -1, 1))) - math.asin(float(np.clip(d0[0], -1, 1)))
+    return _wrap(np.array([pan, tilt]))
+
+
+def _fixation_error(eye: EyeCalibration, p_base: np.ndarray, angles) -> tuple[float, float]:
+    """(pixels from the principal point of the ideal image, depth) at ``angles``."""
+    P = eye.projection_matrix(*_wrap(angles))
+    u, v, w = P[:, :3] @ p_base + P[:, 3]
+    if not w > 0.0:
+        return math.inf, float(w)
+    return float(math.hypot(u / w - eye.K[0, 2], v / w - eye.K[1, 2])), float(w)
+
+
+def look_at(eye: EyeCalibration, p_base, *, tol_px: float = LOOK_AT_TOL_PX) -> Fixation:
+    """The pan and tilt at which ``eye`` fixates the base-frame point ``p_base``.
+
+    Fixating means the point's image lies on the principal point (``K[0, 2], K[1, 2]``;
+    lens distortion vanishes there), in front of the camera. Solved with
+    ``scipy.optimize.least_squares`` over (pan, tilt) for the eye's full model, from eq. 3's
+    closed form (:func:`_eq3_guess`), then from a few other starts if that does not reach
+    ``tol_px``. The residual minimised is ``K₂ₓ₂ (x, y) / ‖p_cam‖`` (pixels, smooth
+    everywhere except at the camera centre).
+
+    Parameters
+    ----------
+    eye : EyeCalibration
+    p_base : array-like, shape (3,)
+        The point in the base frame (x up, y forward, z left).
+    tol_px : float
+        Largest accepted distance from the principal point, pixels.
+
+    Raises
+    ------
+    InputError
+        Non-finite point; a point behind the head (base ``y ≤ 0``: no forward-looking
+        unit fixates it); a point at the optical centre; an unreachable point (no angles
+        bring it within ``tol_px`` of the principal point, in front of the camera).
+    """
+    p = np.asarray(p_base, dtype=float)
+    if p.shape != (3,):
+        raise InputError(f"point: expected 3 coordinates (x, y, z), got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise InputError("point: contains NaN or infinity")
+    if not p[1] > 0.0:
+        raise InputError(f"point ({p[0]:g}, {p[1]:g}, {p[2]:g}) is behind the head "
+                         f"(base y = {p[1]:g} <= 0; y points forward)")
+    K2 = eye.K[:2, :2]
+    scale = 1.0 + float(np.linalg.norm(p))
+
+    def residual(angles):
+        T = eye.T_cam_from_base(*_wrap(angles))
+        p_cam = T[:3, :3] @ p + T[:3, 3]
+        r = np.linalg.norm(p_cam)
+        if r <= CENTRE_RTOL * scale:
+            return np.full(2, 1e6)
+        return K2 @ p_cam[:2] / r
+
+    guess = _eq3_guess(eye, p)
+    starts = [guess, np.zeros(2)] + [guess + np.array([dp, dt])
+                                     for dp in (-0.5, 0.5) for dt in (-0.5, 0.5)]
+    best, centre_hit = None, False
+    for x0 in starts:
+        T0 = eye.T_cam_from_base(*_wrap(x0))
+        if np.linalg.norm(T0[:3, :3] @ p + T0[:3, 3]) <= CENTRE_RTOL * scale:
+            centre_hit = True
+            continue
+        sol = least_squares(residual, x0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15,
+                            max_nfev=200)
+        err, depth = _fixation_error(eye, p, sol.x)
+        if best is None or err < best[1]:
+            best = (_wrap(sol.x), err, depth)
+        if err <= tol_px:
+            break
+    if best is None or best[1] > tol_px:
+        where = f"({p[0]:g}, {p[1]:g}, {p[2]:g})"
+        if centre_hit or (best is not None and abs(best[2]) <= CENTRE_RTOL * scale):
+            raise InputError(f"point {where} is at the camera's optical centre: it has no "
+                             f"direction to look in")
+        got = "" if best is None or not math.isfinite(best[1]) else \
+            f" (closest: {best[1]:.3g} px from the principal point)"
+        raise InputError(f"point {where} is unreachable: no pan and tilt put it on the "
+                         f"principal point in front of the camera{got}")
+    (pan, tilt), err, depth = best
+    return Fixation(float(pan), float(tilt), float(err), float(depth))
+
+
+def outside_range(angle: float, span: tuple[float, float], margin: float = 1e-9) -> bool:
+    """Whether ``angle`` lies outside the closed interval ``span`` (radians)."""
+    return angle < span[0] - margin or angle > span[1] + margin

@@ -1,0 +1,348 @@
+"""Regression tests for your own calibration code: a pytest plugin (README "Regression
+tests for your own code (rasc.testing)").
+
+Installed with rasc, the plugin loads itself (entry point ``rasc.testing`` in the group
+``pytest11``); ``pytest -p rasc.testing`` loads it explicitly (e.g. with
+``PYTEST_DISABLE_PLUGIN_AUTOLOAD=1``). Everything is lazy: loading the plugin imports
+nothing beyond numpy and pytest, and a fixture costs nothing until a test asks for it.
+
+Fixtures
+--------
+``rasc_pose_set``
+    A :class:`PoseSet`: nine (by default) noisy target poses ``T_cam_from_world`` by the
+    paper's model (eq. 13–14), the unit's motions ``T_gaze_from_ptu`` and the truth.
+    Default: the paper's noise level 1, exponential form, seed 0. Parametrise it
+    indirectly with a level (0 = no noise, 1–8 = the paper's levels) or a dict of
+    :func:`make_pose_set`'s arguments::
+
+        @pytest.mark.parametrize("rasc_pose_set", [1, {"level": 4, "variant": "literal"}],
+                                 indirect=True)
+        def test_mine(rasc_pose_set): ...
+
+``rasc_pose_set_factory``
+    :func:`make_pose_set` itself, to draw as many sets as a test needs.
+``rasc_dataset``
+    A :class:`RenderedDataset`: a rendered calibration dataset (images, manifest and
+    ground truth) from rasc's simulated head, cached on disk by its parameters. Default:
+    :class:`rasc.sim.render.RenderOptions` defaults (58 images, ~4 s the first time).
+    Parametrise indirectly with a dict of RenderOptions fields (and ``model_path``).
+``rasc_render``
+    The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> RenderedDataset``.
+
+Cache: a dataset is stored under a key that hashes every render option, the model
+files and the rasc version, so a changed option, model or release renders anew.
+Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else the
+environment variable ``RASC_CACHE_DIR``, else pytest's cache (``.pytest_cache/d/rasc``),
+else (with ``-p no:cacheprovider``) a temporary folder of the session. A dataset is
+rendered into a temporary folder and renamed into place, so parallel workers
+(pytest-xdist) never see half a dataset. Rendering chooses the OpenGL backend before
+mujoco is imported (``MUJOCO_GL``, egl by default on a headless machine).
+
+Assertion
+---------
+:func:`assert_handeye_close` ``(result, truth, rotation_deg=..., translation=...)``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+#: The cache's sub-folder of pytest's cache directory.
+CACHE_NAME = "rasc"
+
+
+# --------------------------------------------------------------------- pose sets
+
+@dataclass(frozen=True)
+class PoseSet:
+    """One noisy pose set and its truth. Lengths in metres.
+
+    T_cam_from_world : (n, 4, 4) the target's pose in the camera at each position, with
+        eq. 13–14 noise (``literal``: not rigid, solve with ``check_rigid=False``).
+    T_gaze_from_ptu : (n, 4, 4) the unit's motion at each position (eq. 3), exact.
+    T_cam_from_gaze : (4, 4) the truth (the paper's ``T_cg``); also ``.truth``.
+    T_ptu_from_world : (4, 4) the board's true pose in the unit's frame.
+    sigma_r : radians; sigma_t : metres; variant : "exponential" or "literal";
+    seed : the seed of the draw; poses_deg : (n, 2) pan, tilt in degrees.
+    """
+
+    T_cam_from_world: np.ndarray
+    T_gaze_from_ptu: np.ndarray
+    T_cam_from_gaze: np.ndarray
+    T_ptu_from_world: np.ndarray
+    sigma_r: float
+    sigma_t: float
+    variant: str
+    seed: int
+    poses_deg: tuple[tuple[float, float], ...] = field(repr=False)
+
+    @property
+    def truth(self) -> np.ndarray:
+        return self.T_cam_from_gaze
+
+    @property
+    def check_rigid(self) -> bool:
+        """What to pass to a solver's ``check_rigid``: False for literal eq. 13 noise."""
+        return self.variant != "literal"
+
+
+def default_T_cam_from_gaze() -> np.ndarray:
+    """The pose sets' true hand-eye transform, (4, 4), metres: a camera looking along
+    the gaze (+y forward), its centre 42 mm above, 31 mm in front of and 65 mm left of
+    the unit's centre, its axes turned 2.1° off the ideal mounting about an oblique axis
+    (the README's ``rasc handeye`` example)."""
+    from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+
+    R_gaze_from_cam_ideal = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
+    misalign = matrix_from_rotvec(np.radians(2.1) * np.array([0.48, -0.6, 0.64]))
+    return invert_transform(make_transform(R_gaze_from_cam_ideal @ misalign,
+                                           [0.042, 0.031, 0.065]))
+
+
+def default_T_ptu_from_world(T_cam_from_gaze: np.ndarray) -> np.ndarray:
+    """The board 1 m ahead of the camera at home, face-on within a few degrees."""
+    from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+
+    T_cam_from_world_home = make_transform(matrix_from_rotvec(np.radians([2.0, -3.0, 1.0])),
+                                           [-0.2, -0.125, 1.0])
+    return invert_transform(T_cam_from_gaze) @ T_cam_from_world_home
+
+
+def make_pose_set(level: int | None = 1, *, sigma_r: float | None = None,
+                  sigma_t: float | None = None, variant: str = "exponential", seed: int = 0,
+                  poses_deg=None, T_cam_from_gaze: np.ndarray | None = None) -> PoseSet:
+    """A noisy pose set by the paper's model (docs/METHOD.md §8, eq. 13–14).
+
+    Parameters
+    ----------
+    level : int or None
+        0: no noise; 1–8: the paper's levels (σ_r = 0.005·level rad, σ_t = level mm).
+        Ignored for whichever of ``sigma_r`` / ``sigma_t`` is given.
+    sigma_r, sigma_t : float, optional
+        Explicit noise: radians, metres.
+    variant : {"exponential", "literal"}
+        ``R' = R exp([ω]×)`` (a rotation) or eq. 13 as printed ``R (I + [ω]×)``.
+    seed : int
+        ``np.random.default_rng(seed)`` draws the noise: same seed, same set.
+    poses_deg : sequence of (pan, tilt), optional
+        Default: the paper's nine ±8° positions.
+    T_cam_from_gaze : (4, 4), optional
+        The truth; default :func:`default_T_cam_from_gaze`.
+    """
+    from rasc.errors import InputError
+    from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+    from rasc.handeye.noise import PAPER_LEVELS_RAD_MM, perturb_T_cam_from_world
+
+    if sigma_r is None or sigma_t is None:
+        if not (isinstance(level, int) and 0 <= level <= len(PAPER_LEVELS_RAD_MM)):
+            raise InputError(f"level: expected 0 (no noise) to {len(PAPER_LEVELS_RAD_MM)} "
+                             f"(the paper's levels), got {level!r}")
+        r, t_mm = (0.0, 0.0) if level == 0 else PAPER_LEVELS_RAD_MM[level - 1]
+        sigma_r = r if sigma_r is None else sigma_r
+        sigma_t = t_mm / 1000.0 if sigma_t is None else sigma_t
+    poses = tuple((float(p), float(t)) for p, t in (poses_deg or PAPER_POSES_DEG))
+    X = default_T_cam_from_gaze() if T_cam_from_gaze is None else np.array(T_cam_from_gaze,
+                                                                            dtype=float)
+    T_pw = default_T_ptu_from_world(X)
+    a = np.radians(np.array(poses))
+    T_gp = T_gaze_from_ptu(a[:, 0], a[:, 1])
+    T_cw = perturb_T_cam_from_world(X @ T_gp @ T_pw, sigma_r, sigma_t,
+                                    np.random.default_rng(seed), variant=variant)
+    return PoseSet(T_cam_from_world=T_cw, T_gaze_from_ptu=T_gp, T_cam_from_gaze=X,
+                   T_ptu_from_world=T_pw, sigma_r=float(sigma_r), sigma_t=float(sigma_t),
+                   variant=variant, seed=seed, poses_deg=poses)
+
+
+# ---------------------------------------------------------------- the assertion
+
+def handeye_errors(result: Any, truth: Any) -> tuple[float, float]:
+    """(rotation error in degrees, translation error in the inputs' length unit) of a
+    HandEyeResult or 4×4 ``T_cam_from_gaze`` against a 4×4 truth (or a :class:`PoseSet`)."""
+    from rasc.geometry.transforms import rotation_error_deg
+
+    T = np.asarray(getattr(result, "T_cam_from_gaze", result), dtype=float)
+    X = np.asarray(getattr(truth, "T_cam_from_gaze", truth), dtype=float)
+    for name, M in (("result", T), ("truth", X)):
+        if M.shape != (4, 4):
+            raise ValueError(f"{name}: expected a 4x4 T_cam_from_gaze, got shape {M.shape}")
+    return (float(rotation_error_deg(T[:3, :3], X[:3, :3])),
+            float(np.linalg.norm(T[:3, 3] - X[:3, 3])))
+
+
+def assert_handeye_close(result: Any, truth: Any, *, rotation_deg: float,
+                         translation: float) -> None:
+    """Assert that a hand-eye solution is within ``rotation_deg`` degrees (angle of
+    ``R R_trueᵀ``) and ``translation`` (distance, in the inputs' unit) of the truth.
+
+    ``result``: a HandEyeResult or a 4×4 ``T_cam_from_gaze``; ``truth``: a 4×4 or a
+    :class:`PoseSet`. The failure message gives both errors and both tolerances::
+
+        AssertionError: T_cam_from_gaze (method rasc) is 0.2113° and 0.004182 from the
+        truth; allowed 0.1° and 0.01: rotation too far
+    """
+    __tracebackhide__ = True
+    rot, trans = handeye_errors(result, truth)
+    bad = [what for what, err, tol in (("rotation", rot, rotation_deg),
+                                       ("translation", trans, translation))
+           if not err <= tol]
+    if bad:
+        method = getattr(result, "method", None)
+        who = "T_cam_from_gaze" + (f" (method {method})" if method else "")
+        raise AssertionError(f"{who} is {rot:.4g}° and {trans:.4g} from the truth; allowed "
+                             f"{rotation_deg:g}° and {translation:g}: "
+                             f"{' and '.join(bad)} too far")
+
+
+# ---------------------------------------------------------------- rendered data
+
+@dataclass(frozen=True)
+class RenderedDataset:
+    """A rendered dataset in the cache. Treat the folder as read-only (it is shared).
+
+    path : the dataset folder (``manifest.json``, ``ground_truth.json``, images).
+    options : the :class:`rasc.sim.render.RenderOptions` it was rendered with.
+    ground_truth : the parsed ``ground_truth.json`` (per eye K, dist, T_cam_from_gaze,
+        T_ptu_from_base; per image the true T_cam_from_world).
+    key : the cache key (hex).
+    """
+
+    path: Path
+    options: Any
+    ground_truth: dict
+    key: str
+
+    def T_cam_from_gaze(self, eye: str) -> np.ndarray:
+        """The true hand-eye transform of ``eye`` ("left" or "right"), (4, 4), metres."""
+        return np.array(self.ground_truth[eye]["T_cam_from_gaze"], dtype=float)
+
+    def pose_views(self, eye: str) -> tuple[np.ndarray, np.ndarray]:
+        """The pose views' TRUE poses of ``eye``, in view order: ``T_cam_from_world``
+        (n, 4, 4) from the renderer and ``T_gaze_from_ptu`` (n, 4, 4) from the recorded
+        pan/tilt by eq. 3 — hand-eye input without detection error (add your own noise,
+        e.g. :func:`rasc.handeye.noise.perturb_T_cam_from_world`)."""
+        from rasc.geometry.kinematics import T_gaze_from_ptu
+
+        views = sorted((name, v) for name, v in self.ground_truth["views"].items()
+                       if name.startswith(f"poses/{eye}_"))
+        T_cw = np.array([v["T_cam_from_world"] for _, v in views], dtype=float)
+        pan_tilt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
+        return T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
+
+    def load(self):
+        """The dataset as :func:`rasc.vision.dataset.load_dataset` reads it."""
+        from rasc.vision.dataset import load_dataset
+
+        return load_dataset(self.path)
+
+
+def _file_digest(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
+    """The cache key of a rendered dataset: sha256 over every render option, the model
+    files' contents and the rasc version (first 20 hex digits)."""
+    from rasc import __version__
+
+    models = Path(__file__).resolve().parent / "sim" / "models"
+    files = {p.name: _file_digest(p) for p in sorted(models.glob("*.xml"))}
+    if model_path is not None:
+        files["model_path"] = _file_digest(Path(model_path))
+    blob = json.dumps({"rasc": __version__, "options": asdict(options), "models": files},
+                      sort_keys=True, default=list)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def render_cached(cache_dir: str | os.PathLike, model_path: str | os.PathLike | None = None,
+                  **options) -> RenderedDataset:
+    """Render (or find in ``cache_dir``) the dataset of ``RenderOptions(**options)``."""
+    from rasc.sim.render import RenderOptions, render_dataset
+
+    opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
+                            tuple(v) if k == "dist" else v for k, v in options.items()})
+    key = dataset_key(opts, model_path)
+    cache = Path(cache_dir)
+    cache.mkdir(parents=True, exist_ok=True)
+    final = cache / key
+    if not (final / "manifest.json").exists():
+        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=cache))
+        try:
+            render_dataset(tmp / "data", opts, model_path=model_path, quiet=True)
+            try:
+                os.rename(tmp / "data", final)        # atomic: all or nothing
+            except OSError:
+                if not (final / "manifest.json").exists():   # not another worker's
+                    raise
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    gt = json.loads((final / "ground_truth.json").read_text(encoding="utf-8"))
+    return RenderedDataset(path=final, options=opts, ground_truth=gt, key=key)
+
+
+# ---------------------------------------------------------------- pytest plugin
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("rasc", "rasc.testing (rendered datasets, pose sets)")
+    group.addoption("--rasc-cache-dir", metavar="DIR", default=None,
+                    help="where rasc.testing caches rendered datasets (default: pytest's "
+                         "cache, or RASC_CACHE_DIR)")
+    parser.addini("rasc_cache_dir", "where rasc.testing caches rendered datasets",
+                  default="")
+
+
+def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path:
+    chosen = (config.getoption("rasc_cache_dir", default=None)
+              or config.getini("rasc_cache_dir") or os.environ.get("RASC_CACHE_DIR"))
+    if chosen:
+        return Path(chosen).expanduser()
+    cache = getattr(config, "cache", None)
+    if cache is not None:
+        return Path(cache.mkdir(CACHE_NAME))
+    return tmp_path_factory.getbasetemp() / "rasc-datasets"
+
+
+@pytest.fixture(scope="session")
+def rasc_render(request: pytest.FixtureRequest, tmp_path_factory):
+    """``rasc_render(**RenderOptions fields, model_path=None) -> RenderedDataset``,
+    cached on disk (see the module docstring)."""
+    cache = _cache_dir(request.config, tmp_path_factory)
+
+    def render(model_path: str | os.PathLike | None = None, **options) -> RenderedDataset:
+        return render_cached(cache, model_path=model_path, **options)
+
+    return render
+
+
+@pytest.fixture
+def rasc_dataset(request: pytest.FixtureRequest, rasc_render) -> RenderedDataset:
+    """A rendered dataset with ground truth; parametrise indirectly with a dict of
+    RenderOptions fields."""
+    return rasc_render(**dict(getattr(request, "param", None) or {}))
+
+
+@pytest.fixture
+def rasc_pose_set_factory():
+    """:func:`make_pose_set`."""
+    return make_pose_set
+
+
+@pytest.fixture
+def rasc_pose_set(request: pytest.FixtureRequest) -> PoseSet:
+    """A noisy pose set (default: the paper's level 1, exponential, seed 0);
+    parametrise indirectly with a level or a dict of :func:`make_pose_set` arguments."""
+    param = getattr(request, "param", None)
+    if param is None:
+        return make_pose_set()
+    if isinstance(param, dict):
+        return make_pose_set(**param)
+    return make_pose_set(param)

@@ -1,0 +1,168 @@
+"""What the test modules share: the nominal rig, and one rendered default dataset.
+
+Helpers (import them: ``from conftest import PAPER, rig``):
+
+- ``R_CAM_FROM_GAZE_NOMINAL``: the camera on its gaze frame at home (gaze x up, y forward,
+  z left; cam x right = −gaze z, cam y down = −gaze x, optical axis cam z = gaze y).
+- ``PAPER``: the paper's nine pan-tilt positions as ``T_gaze_from_ptu`` (9, 4, 4), eq. 3.
+- ``rig(rng)``: a realistic eye, ``(T_cam_from_gaze, T_ptu_from_world)``.
+- ``random_rigid(rng, n)``: n random rigid transforms.
+- ``pan_tilt(poses_deg)``: ``T_gaze_from_ptu`` of (pan, tilt) pairs in degrees.
+
+Fixtures (session scope, built on first use):
+
+- ``default_dataset``: the default dataset (the default model, 20 intrinsics views and the
+  paper's nine positions per eye, seed 0) rendered once by ``rasc render`` in a
+  subprocess. Treat it as read-only (copy it to change it).
+- ``default_cli_run``: a folder holding exactly ``ds`` (that dataset) and ``cal.json``,
+  its calibration by ``rasc calibrate`` in a subprocess.
+- ``default_calibration``: :func:`rasc.head.pipeline.calibrate_dataset` of the dataset
+  with the default options, in this process.
+
+Under pytest-xdist the rendered files are made once per run, not once per worker: the
+first worker to need them builds them under a file lock in the run's shared temporary
+folder; the others wait for the lock and reuse them.
+
+Marker ``slow`` (registered in pyproject.toml): tests that take a second or more each
+(renders, experiments, subprocesses, large property tests); every test that uses one of
+the fixtures above gets it automatically. ``make test-fast`` (``-m "not slow"``) leaves
+them out.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
+
+import numpy as np
+import pytest
+
+from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec
+
+# ------------------------------------------------------------------------- the rig
+
+#: Camera axes in gaze coordinates at home: cam x (right) = −gaze z (left), cam y (down)
+#: = −gaze x (up), cam z (optical axis) = gaze y (forward): a camera looking forward.
+R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def pan_tilt(poses_deg) -> np.ndarray:
+    """``T_gaze_from_ptu`` (n, 4, 4) of (pan, tilt) pairs in degrees (eq. 3)."""
+    p = np.radians(np.asarray(poses_deg, dtype=float))
+    return T_gaze_from_ptu(p[:, 0], p[:, 1])
+
+
+#: The paper's nine ±8° pan-tilt positions, ``T_gaze_from_ptu`` (9, 4, 4).
+PAPER = pan_tilt(PAPER_POSES_DEG)
+
+
+def rig(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A realistic eye: camera a few cm from the unit's centre and ~3° off nominal, board
+    ~1 m ahead. Returns ``(T_cam_from_gaze, T_ptu_from_world)``, each (4, 4)."""
+    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
+                       rng.uniform(-0.05, 0.05, 3))
+    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
+                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)])
+    return X, Y
+
+
+def random_rigid(rng: np.random.Generator, n: int, max_angle: float = np.pi,
+                 t_scale: float = 1.0) -> np.ndarray:
+    """n rigid transforms (n, 4, 4): uniform random axes, angles uniform in
+    [0, max_angle), translations normal with standard deviation ``t_scale``."""
+    axis = rng.normal(size=(n, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    angle = rng.uniform(0, max_angle, (n, 1))
+    return make_transform(matrix_from_rotvec(axis * angle), rng.normal(0, t_scale, (n, 3)))
+
+
+# --------------------------------------------------------- the rendered dataset
+
+def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
+    """``python -m rasc ARGV`` in a subprocess (text output captured, 300 s limit)."""
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    return subprocess.run([sys.executable, "-m", "rasc", *map(str, argv)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300, check=False)
+
+
+def _shared_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The run's temporary folder: shared by all xdist workers, else this session's."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` across processes (POSIX flock; no lock elsewhere)."""
+    try:
+        import fcntl
+    except ImportError:            # not POSIX: one process per run is assumed
+        yield
+        return
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def _run_ok(*argv, quiet_stdout: bool = True) -> None:
+    """Run ``python -m rasc ARGV``: exit status 0, nothing on stderr (nor on stdout)."""
+    proc = python_rasc(*argv)
+    assert proc.returncode == 0 and proc.stderr == "", \
+        f"rasc {argv[0]} failed ({proc.returncode}): {proc.stderr}"
+    assert not quiet_stdout or proc.stdout == "", proc.stdout
+
+
+@pytest.fixture(scope="session")
+def default_cli_run(tmp_path_factory) -> Path:
+    """A folder holding ``ds`` (the default dataset by ``rasc render``) and ``cal.json``
+    (its calibration by ``rasc calibrate``), both written once per run."""
+    shared = _shared_root(tmp_path_factory)
+    root = shared / "default"
+    with _locked(shared / "default.lock"):
+        if not (root / "ds" / "manifest.json").is_file():
+            root.mkdir(exist_ok=True)
+            _run_ok("render", "--out", root / "ds", "--quiet", quiet_stdout=False)
+        if not (root / "cal.json").is_file():
+            _run_ok("calibrate", root / "ds", "--out", root / "cal.json", "--quiet")
+    return root
+
+
+@pytest.fixture(scope="session")
+def default_dataset(tmp_path_factory) -> Path:
+    """The default dataset (seed 0), rendered once per run by ``rasc render``. Read-only."""
+    shared = _shared_root(tmp_path_factory)
+    root = shared / "default"
+    with _locked(shared / "default.lock"):
+        if not (root / "ds" / "manifest.json").is_file():
+            root.mkdir(exist_ok=True)
+            _run_ok("render", "--out", root / "ds", "--quiet", quiet_stdout=False)
+    return root / "ds"
+
+
+@pytest.fixture(scope="session")
+def default_calibration(default_dataset):
+    """:func:`rasc.head.pipeline.calibrate_dataset` of the default dataset, default options."""
+    from rasc.head.pipeline import calibrate_dataset
+    from rasc.vision.dataset import load_dataset
+
+    return calibrate_dataset(load_dataset(default_dataset))
+
+
+#: A test using any of these needs the rendered default dataset: it is ``slow``.
+DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_calibration"})
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if DATASET_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
