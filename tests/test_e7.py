@@ -17,6 +17,7 @@ import e7_model_mismatch as e7  # noqa: E402
 from rasc.head.fit import MISFIT_F_WARN  # noqa: E402
 
 FIELDS = {c: f for c, _, f in e7.CASES}
+pytestmark = pytest.mark.slow       # two calibrations with refinement: ~6 s
 
 
 @pytest.fixture(scope="module")

@@ -43,6 +43,7 @@ def _canonical_truth(head, eye):
     return canonical_gauge(head.unit[eye], head.T_cam_from_gaze[eye], head.T_ptu_from_base[eye])
 
 
+@pytest.mark.slow
 def test_noise_free_corners_give_the_true_general_head():
     # No noise: the optimum is the truth, so only the solver's tolerance (xtol, ftol 1e-8
     # relative, soft-L1) and round-off separate them; the closed form starts 15 mm off.
@@ -92,6 +93,7 @@ def test_gauge_parameters_are_named_held_and_never_numbers():
     assert left_std["unit.pan_offset"] is None and left_std["unit.tilt_point_y"] > 0
 
 
+@pytest.mark.slow
 def test_scales_held_estimated_or_decided_by_the_data():
     ds, cal = _refined(PanTiltUnit(tilt_point=(0.0, 0.01, 0.0)), noise_px=0.03,
                        scales="hold")
@@ -122,6 +124,7 @@ def test_scales_held_estimated_or_decided_by_the_data():
         assert (sc["F"] > 10.0) is estimated
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["paper", "general"])
 def test_calibration_json_loads_back_for_both_models(model):
     ds = corner_dataset(default_head(IMPERFECT), seed=1, noise_px=0.03)
@@ -138,6 +141,7 @@ def test_calibration_json_loads_back_for_both_models(model):
     assert doc["paper_model_fit"]["left"]["F"] > 0
 
 
+@pytest.mark.slow
 def test_gross_corner_errors_are_rejected_and_reported_per_image():
     ds = corner_dataset(default_head(), seed=2, noise_px=0.03)
     f = "poses/left_03.png"
