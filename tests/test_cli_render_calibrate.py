@@ -113,7 +113,7 @@ def test_subprocess_render_and_calibrate_recover_the_truth(default):
     assert ds.stat().st_mode & 0o777 == 0o777 & ~_umask()
     cal, truth = read_json(default / "cal.json"), read_json(ds / "ground_truth.json")
     assert cal["format"] == "rasc-calibration/1" and cal["base_to_ptu"]["source"] == \
-        "loop closure"
+        "whole-head refinement (initialised by loop closure)"      # --model general
     assert_recovered(cal, truth)
 
 
@@ -138,7 +138,7 @@ def test_same_seed_gives_identical_files_and_calibration(default, tmp_path, caps
     changed = [line for line in difflib.unified_diff(a, b, n=0, lineterm="")
                if line[:1] in "+-" and not line.startswith(("+++", "---"))]
     timing_keys = ('"detection"', '"intrinsics"', '"extrinsics"', '"hand-eye"',
-                   '"base-to-ptu"', '"dataset"')
+                   '"base-to-ptu"', '"model-fit check"', '"refinement"', '"dataset"')
     assert changed, "the dataset path differs, so the diff cannot be empty"
     assert all(line[1:].strip().startswith(timing_keys) for line in changed), changed
     doc_a, doc_b = read_json(default / "cal.json"), json.loads(out)
@@ -285,7 +285,7 @@ def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
                              np.random.default_rng(11))
     mounts = tmp_path / "mounts.json"
     mounts.write_text(json.dumps({"T_ptuL_from_ptuR": T_given.tolist()}))
-    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts,
+    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts, "--model", "paper",
                             "--out", tmp_path / "cal.json", "--quiet"], capsys)
     assert code == 0 and err == ""
     cal, loop_cal = read_json(tmp_path / "cal.json"), read_json(default / "cal.json")
@@ -300,7 +300,8 @@ def test_measured_mounts_replace_loop_closure(default, tmp_path, capsys):
     assert err_mounts["rotation_deg"] == pytest.approx(0.5, abs=1e-9)
     assert err_mounts["translation"] == pytest.approx(2e-3, abs=1e-9)
     # loop closure is still computed and reported beside it
-    assert base["loop_closure"]["T_ptuL_from_ptuR"] == loop_cal["base_to_ptu"]["T_ptuL_from_ptuR"]
+    assert base["loop_closure"]["T_ptuL_from_ptuR"] == \
+        loop_cal["base_to_ptu"]["loop_closure"]["T_ptuL_from_ptuR"]
 
 
 @pytest.mark.slow
@@ -556,7 +557,7 @@ def test_mounts_in_another_unit_or_far_from_loop_closure(default, tmp_path, caps
                     "give its translation in that unit")
     turned = perturb_mounts(truth, 5.0, 0.0, np.random.default_rng(2))
     mounts.write_text(json.dumps({"T_ptuL_from_ptuR": turned.tolist()}))
-    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts,
+    code, _, err = run_cli(["calibrate", default / "ds", "--mounts", mounts, "--model", "paper",
                             "--out", tmp_path / "cal.json", "--quiet"], capsys)
     assert code == 0
     # (the rotation alone was perturbed: the translations differ by loop closure's 0.56 mm)

@@ -217,7 +217,7 @@ def test_serialised_calibration_matches_the_result(calibration):
         assert len(doc["eyes"][eye]["pose_views"]) == 9
         assert doc["eyes"][eye]["not_found"] == {"intrinsics": [], "pose": []}
     assert set(doc["timings_s"]) == {"detection", "intrinsics", "extrinsics", "hand-eye",
-                                     "base-to-ptu"}
+                                     "base-to-ptu", "model-fit check"}
 
 
 # ----------------------------------------------------------------- ground-truth errors

@@ -1,8 +1,9 @@
 """``rasc calibrate DATASET [--out FILE]``: calibrate the whole head from a dataset.
 
-detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → one JSON
-calibration (``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the
-dataset, also the errors against it. Written atomically; on any error, no file.
+detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → (``--model
+general``, the default) whole-head refinement → one JSON calibration
+(``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the dataset,
+also the errors against it. Written atomically; on any error, no file.
 """
 
 from __future__ import annotations
@@ -44,6 +45,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "board's square_size; optional \"format\": \"rasc-mounts/1\", "
                         "\"description\"); used instead of loop closure, and compared "
                         "with it")
+    p.add_argument("--model", default="general", choices=("paper", "general"),
+                   help="pan-tilt model: 'paper' = the closed form with the paper's unit "
+                        "(eq. 3); 'general' = the closed form refined over every corner "
+                        "with a general unit per eye, each parameter with its standard "
+                        "deviation (default general)")
+    p.add_argument("--scales", choices=("auto", "estimate", "hold"), default=None,
+                   help="with --model general, the pan and tilt encoder scales: 'auto' "
+                        "(default) holds them at 1 unless the corners reject 1 (an F "
+                        "test), 'estimate', or 'hold' at 1")
+    p.add_argument("--plots", metavar="DIR",
+                   help="with --model general: write residual plots residuals_left.png, "
+                        "residuals_right.png into DIR")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -64,6 +77,13 @@ def _read_mounts(path: str) -> np.ndarray:
     return validate_rigid_transform(obj["T_ptuL_from_ptuR"], name=f"{path}: T_ptuL_from_ptuR")
 
 
+def _length(value: float, unit: str | None) -> str:
+    """A length for a person: millimetres when the dataset is in metres, else its unit."""
+    if unit == "m":
+        return f"{1000 * value:.3f} mm"
+    return f"{value:.4g} {unit or '(unit of board.square_size)'}"
+
+
 def run(args: argparse.Namespace) -> int:
     from rasc.geometry.kinematics import T_gaze_from_ptu
     from rasc.handeye.advice import solution_warnings, translation_warnings
@@ -74,6 +94,14 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:            # the output rule, before any long work
         check_output(args.out, inputs=[args.dataset, args.mounts])
     get_method(args.method)  # an unknown name or a broken plugin, before any image is read
+    if args.scales is not None and args.model != "general":
+        raise InputError("--scales: only the whole-head refinement estimates scales; "
+                         "use it with --model general")
+    if args.plots and args.model != "general":
+        raise InputError("--plots: residual plots come from the whole-head refinement; "
+                         "use them with --model general")
+    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
+        raise InputError(f"--plots {args.plots}: exists and is not a folder")
     mounts = _read_mounts(args.mounts) if args.mounts else None
     dataset = load_dataset(Path(args.dataset))
     if args.out is not None:
@@ -83,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
-                                 T_ptuL_from_ptuR_measured=mounts)
+                                 T_ptuL_from_ptuR_measured=mounts, model=args.model,
+                                 scales=args.scales or "auto")
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -96,6 +125,11 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         write_stdout(dumps_json(doc))
+    if args.plots and cal.refinement is not None:
+        from rasc.head.plots import residual_plots
+
+        for path in residual_plots(cal.refinement, args.plots):
+            log(f"wrote {path}")
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):
@@ -113,6 +147,21 @@ def run(args: argparse.Namespace) -> int:
             if cal.errors:
                 e = cal.errors[eye]["T_cam_from_gaze"]
                 line += (f", T_cam_from_gaze error {e['rotation_deg']:.4f} deg "
-                         f"{1000 * e['translation']:.3f} mm")
+                         f"{_length(e['translation'], cal.length_unit)}")
             log(line)
+        res = cal.refinement
+        if res is not None:
+            log(f"refinement: reprojection RMS {res.rms_before:.3f} px (closed form) -> "
+                f"{res.rms_after:.4f} px over {res.n_corners - res.n_rejected} corners, "
+                f"{res.n_rejected} rejected, {cal.timings.get('refinement', res.seconds):.2f} s; "
+                f"encoder scales {'estimated' if res.scales.get('estimated') else 'held at 1'}")
+            for eye in ("left", "right"):
+                u = res.parameters[eye]
+                d, a = u.get("unit.tilt_point_y"), u.get("unit.axis_angle_deg")
+                if d and d["value"] is not None and a and a["value"] is not None:
+                    log(f"{eye} unit: axis distance {_length(d['value'], cal.length_unit)} "
+                        f"± {_length(d['std'], cal.length_unit)}, axis angle "
+                        f"{a['value']:.4f} ± {a['std']:.4f} deg")
+            held = sorted({f"{x['eye']} {x['parameter']}" for x in res.not_identifiable})
+            log("not identifiable (held at the gauge, not reported): " + ", ".join(held))
     return 0

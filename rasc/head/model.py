@@ -2,7 +2,11 @@
 
 One eye (docs/METHOD.md §1, eq. 1–2)::
 
-    T_cam_from_base(pan, tilt) = T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @ T_ptu_from_base
+    T_cam_from_base(pan, tilt) = T_cam_from_gaze @ unit.T_gaze_from_ptu(pan, tilt) @ T_ptu_from_base
+
+``unit`` is the eye's :class:`rasc.geometry.kinematics.PanTiltUnit` (docs/METHOD.md §10):
+the paper's eq. 3 unless the calibration estimated a general one (``rasc calibrate
+--model general``).
     P(pan, tilt) = K [I|0] T_cam_from_base(pan, tilt)
 
 The head triangulates (docs/METHOD.md §6): undistort both eyes' pixels
@@ -13,8 +17,14 @@ unit the calibration used (metres in this project)::
 
     {"format": "rasc-head/1",
      "left":  {"K": 3x3, "dist": [k1, k2, p1, p2, ...], "T_cam_from_gaze": 4x4,
-               "T_ptu_from_base": 4x4, "image_size": [width, height]},
+               "T_ptu_from_base": 4x4, "image_size": [width, height],
+               "unit": {...},                     (optional: PanTiltUnit.to_dict(); ideal if absent)
+               "std": {...}},                     (optional: per-parameter standard deviations)
      "right": {...}}
+
+``std`` (written by the whole-head refinement, read back as-is and not used for
+computing) maps a parameter name to its standard deviation, or to ``null`` for a
+parameter the data could not determine.
 """
 
 from __future__ import annotations
@@ -25,11 +35,12 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.geometry import lens, triangulation
-from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.kinematics import IDEAL, PanTiltUnit
 from rasc.geometry.transforms import invert_transform, validate_rigid_transform
 
 FORMAT = "rasc-head/1"
 EYE_FIELDS = ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base", "image_size")
+OPTIONAL_EYE_FIELDS = ("unit", "std")
 
 
 def _image_size(size, name: str) -> tuple[int, int]:
@@ -88,6 +99,11 @@ class EyeCalibration:
         Mount of this eye's unit on the base (``T_pb``).
     image_size : (int, int)
         (width, height) in pixels.
+    unit : PanTiltUnit
+        The eye's pan-tilt unit (default: the paper's, eq. 3).
+    std : dict or None
+        Standard deviations of the estimated parameters (name → number, or None for a
+        parameter the data could not determine); informative only.
     """
 
     K: np.ndarray
@@ -95,6 +111,8 @@ class EyeCalibration:
     T_cam_from_gaze: np.ndarray
     T_ptu_from_base: np.ndarray
     image_size: tuple[int, int]
+    unit: PanTiltUnit = IDEAL
+    std: dict | None = None
 
     def __post_init__(self):
         self._check("eye")
@@ -107,11 +125,18 @@ class EyeCalibration:
             set_(self, field, validate_rigid_transform(getattr(self, field),
                                                        name=f"{where}.{field}"))
         set_(self, "image_size", _image_size(self.image_size, f"{where}.image_size"))
+        if not isinstance(self.unit, PanTiltUnit):
+            raise InputError(f"{where}.unit: expected a PanTiltUnit, "
+                             f"got {type(self.unit).__name__}")
+        if self.std is not None and not isinstance(self.std, dict):
+            raise InputError(f"{where}.std: expected an object of standard deviations, "
+                             f"got {type(self.std).__name__}")
 
     def T_cam_from_base(self, pan, tilt) -> np.ndarray:
-        """Eq. 1–2 at angles (radians, broadcast together) → (..., 4, 4)."""
+        """Eq. 1–2 at encoder readings (radians, broadcast together) → (..., 4, 4), through
+        the eye's unit (eq. 3 for the ideal one)."""
         pan, tilt = _angles(pan, "pan"), _angles(tilt, "tilt")
-        return self.T_cam_from_gaze @ T_gaze_from_ptu(pan, tilt) @ self.T_ptu_from_base
+        return self.T_cam_from_gaze @ self.unit.T_gaze_from_ptu(pan, tilt) @ self.T_ptu_from_base
 
     def projection_matrix(self, pan, tilt) -> np.ndarray:
         """``K [I|0] T_cam_from_base(pan, tilt)`` → (..., 3, 4), ideal (undistorted) pixels."""
@@ -137,10 +162,16 @@ class EyeCalibration:
         return lens.undistort_pixels(uv, self.K, self.dist)
 
     def to_dict(self) -> dict:
-        return {"K": self.K.tolist(), "dist": self.dist.tolist(),
-                "T_cam_from_gaze": self.T_cam_from_gaze.tolist(),
-                "T_ptu_from_base": self.T_ptu_from_base.tolist(),
-                "image_size": list(self.image_size)}
+        """JSON-ready dict; ``unit`` only when it is not the ideal one, ``std`` when known."""
+        out = {"K": self.K.tolist(), "dist": self.dist.tolist(),
+               "T_cam_from_gaze": self.T_cam_from_gaze.tolist(),
+               "T_ptu_from_base": self.T_ptu_from_base.tolist(),
+               "image_size": list(self.image_size)}
+        if not self.unit.is_ideal:
+            out["unit"] = self.unit.to_dict()
+        if self.std is not None:
+            out["std"] = self.std
+        return out
 
     @classmethod
     def from_dict(cls, d, where: str = "eye") -> EyeCalibration:
@@ -150,9 +181,10 @@ class EyeCalibration:
         missing = [f for f in EYE_FIELDS if f not in d]
         if missing:
             raise InputError(f"{where}.{missing[0]}: missing")
-        unknown = sorted(set(d) - set(EYE_FIELDS))
+        unknown = sorted(set(d) - set(EYE_FIELDS) - set(OPTIONAL_EYE_FIELDS))
         if unknown:
-            raise InputError(f"{where}.{unknown[0]}: unknown field (expected {list(EYE_FIELDS)})")
+            raise InputError(f"{where}.{unknown[0]}: unknown field (expected "
+                             f"{list(EYE_FIELDS)}, optional {list(OPTIONAL_EYE_FIELDS)})")
         for f in ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base"):
             if not isinstance(d[f], list):
                 raise InputError(f"{where}.{f}: expected a list of numbers, "
@@ -160,6 +192,9 @@ class EyeCalibration:
         eye = object.__new__(cls)
         for f in EYE_FIELDS:
             object.__setattr__(eye, f, d[f])
+        unit = IDEAL if "unit" not in d else PanTiltUnit.from_dict(d["unit"], f"{where}.unit")
+        object.__setattr__(eye, "unit", unit)
+        object.__setattr__(eye, "std", d.get("std"))
         eye._check(where)
         return eye
 

@@ -4,6 +4,9 @@ dataset → corner detection → intrinsics (dedicated views) → per-pose extri
 the intrinsics fixed → hand-eye per eye (RASC by default) → base-to-ptu (loop closure
 from simultaneous views, or measured mounts) → cyclopean base → one
 :class:`rasc.head.model.HeadCalibration`, with every per-view figure and diagnostic.
+The paper's unit model is checked against the pose views (:mod:`rasc.head.fit`); with
+``model="general"`` the closed form then initialises the whole-head refinement
+(:mod:`rasc.head.refine`), which estimates a general pan-tilt unit per eye.
 
 Nothing here knows whether the images were rendered; when the dataset names a
 ground-truth file, :func:`errors_against_truth` compares the result with it.
@@ -11,6 +14,7 @@ ground-truth file, :func:`errors_against_truth` compares the result with it.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,7 +24,7 @@ import numpy as np
 
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import T_gaze_from_ptu
+from rasc.geometry.kinematics import PanTiltUnit, T_gaze_from_ptu, canonical_gauge
 from rasc.geometry.transforms import rotation_error_deg, validate_rigid_transform
 from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
 from rasc.head.base_to_ptu import (
@@ -43,6 +47,16 @@ class CalibrationOptions:
     dist_model: str = "k1k2"           # rasc.vision.camera.DIST_MODELS
     exclude_outliers: bool = True      # drop intrinsics views flagged as outliers
     T_ptuL_from_ptuR_measured: np.ndarray | None = None   # measured mounts (docs/METHOD.md §5)
+    #: "paper": the closed form (eq. 3 units); "general": the closed form refined over
+    #: every corner with a general unit per eye (rasc.head.refine)
+    model: str = "paper"
+    #: with model "general", the encoder scales: "auto" (held at 1 unless the corners
+    #: reject 1, see SCALES_F_ESTIMATE), "estimate", or "hold" (rasc.head.refine.SCALES
+    #: says what each costs)
+    scales: str = "auto"
+
+
+MODELS = ("paper", "general")
 
 
 @dataclass
@@ -59,6 +73,10 @@ class EyeResult:
     handeye: Any                       # rasc.handeye.solver.HandEyeResult
     uncertainty: Any = None            # rasc.handeye.solver.HandEyeUncertainty
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
+    #: the detected corners (file → (N, 2), canonical order) the results came from, per
+    #: role ("intrinsics", "pose"): kept so that refinement and experiments never detect
+    #: again; not written to the JSON (which has per-image residual summaries instead)
+    corners: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
 
 
 @dataclass
@@ -71,6 +89,8 @@ class Calibration:
     errors: dict[str, Any] | None = None
     warnings: list[str] = field(default_factory=list)   # for the user, one sentence each
     length_unit: str | None = None     # the dataset's (the unit of board.square_size)
+    model_fit: dict[str, Any] | None = None     # eye → rasc.head.fit.EyeFit (paper model)
+    refinement: Any = None             # rasc.head.refine.RefinementResult (model "general")
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -104,8 +124,14 @@ class Calibration:
                "base_to_ptu": self.base,
                "options": {"method": self.options.method, "detector": self.options.detector,
                            "dist_model": self.options.dist_model,
-                           "exclude_outliers": self.options.exclude_outliers},
+                           "exclude_outliers": self.options.exclude_outliers,
+                           "model": self.options.model,
+                           "scales": self.options.scales},
                "timings_s": self.timings}
+        if self.model_fit is not None:
+            out["paper_model_fit"] = {eye: f.to_dict() for eye, f in self.model_fit.items()}
+        if self.refinement is not None:
+            out["refinement"] = self.refinement.to_dict()
         if self.errors is not None:
             out["errors_against_truth"] = self.errors
         return out
@@ -117,46 +143,6 @@ class _Timer:
 
     def add(self, stage: str, seconds: float) -> None:
         self.timings[stage] = self.timings.get(stage, 0.0) + seconds
-
-
-def detect_pose_views(dataset, eye: str, method: str):
-    """Detect the board in ``eye``'s pose images → :class:`rasc.vision.dataset.Detections`.
-
-    Called after the intrinsics views have shown the board, so the board's size is right:
-    unlike :meth:`rasc.vision.dataset.Dataset.detect` (which then suspects ``inner_corners``), a
-    board missing from the pose images is reported as a problem of those images.
-
-    Raises
-    ------
-    InputError
-        No pose images for ``eye``, or the board found in fewer than
-        :data:`rasc.vision.dataset.MIN_POSE_VIEWS` of them.
-    """
-    from rasc.vision.camera import detect_corners
-    from rasc.vision.dataset import MIN_POSE_VIEWS, Detections
-
-    entries = dataset.select(eye, "pose")
-    where = f"{dataset.manifest_path}: {eye} pose images"
-    if len(entries) < MIN_POSE_VIEWS:
-        raise InputError(f"{where}: {len(entries) or 'none'} in the manifest; hand-eye needs "
-                         f"at least {MIN_POSE_VIEWS} images with role 'pose' (pan, tilt, "
-                         "view) at positions that turn about two different axes")
-    corners, not_found = {}, []
-    for e in entries:
-        c = detect_corners(dataset.read(e), dataset.board, method=method)
-        if c is None:
-            not_found.append(e.file)
-        else:
-            corners[e.file] = c
-    if len(corners) < MIN_POSE_VIEWS:
-        nx, ny = dataset.board.inner_corners
-        raise InputError(
-            f"{where}: board {nx}x{ny} found in {len(corners)} of {len(entries)} (first "
-            f"without: {not_found[0]}) though the intrinsics images show it; hand-eye needs "
-            f"at least {MIN_POSE_VIEWS} pan-tilt positions with rotations about two different "
-            f"axes, each with the whole board in view")
-    return Detections(corners=corners, not_found=not_found,
-                      entries={e.file: e for e in entries})
 
 
 def _where(dataset, entry) -> str:
@@ -182,7 +168,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     size = dataset.image_size(eye) if size is None else size
     t0 = time.perf_counter()
     det_i = dataset.detect(eye, "intrinsics", method=options.detector)
-    det_p = detect_pose_views(dataset, eye, options.detector)
+    det_p = dataset.detect(eye, "pose", method=options.detector, board_seen=True)
     timer.add("detection", time.perf_counter() - t0)
     for kind, det in (("intrinsics", det_i), ("pose", det_p)):
         if det.not_found:
@@ -236,7 +222,8 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
                      not_found={"intrinsics": det_i.not_found, "pose": det_p.not_found},
-                     handeye=he, uncertainty=uncertainty, warnings=warnings)
+                     handeye=he, uncertainty=uncertainty, warnings=warnings,
+                     corners={"intrinsics": det_i.corners, "pose": det_p.corners})
 
 
 def _loop_closure(eyes: dict[str, EyeResult]):
@@ -326,12 +313,144 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                             T_ptu_from_base=T_pb[eye], image_size=sizes[eye])
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
-                      timings=dict(timer.timings), warnings=warnings,
+                      timings=timer.timings, warnings=warnings,
                       length_unit=dataset.length_unit)
+    _check_and_refine(cal, dataset, options, timer, log, sizes)
+    cal.timings = dict(timer.timings)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
                                           where=str(dataset.ground_truth))
     return cal
+
+
+SCALES_MODES = ("auto", "estimate", "hold")
+
+#: "auto" estimates the encoder scales when holding them at 1 costs more than the noise
+#: explains: F = [(RSS_held − RSS_estimated) / 4] / [RSS_estimated / dof] (four extra
+#: parameters, two per eye) above this. Under scales of exactly 1, F ~ F(4, ~6000): its
+#: 99.99th percentile is ~6. Measured on projected corners with 0.03 px noise: exact
+#: scales F = 0.4-1.3; a pan scale of 1.01 F ≈ 190 (held, it would put 10 mm into the
+#: hand-eye); 1.001 or a tilt scale of 1.001 F = 1.6-4.7, below what ±8° views resolve
+#: (the estimate's own std is ~5e-4 there).
+SCALES_F_ESTIMATE = 10.0
+
+
+def _scales_F(held, estimated) -> float:
+    """The F statistic of :data:`SCALES_F_ESTIMATE`; NaN when the two fits kept different
+    corners (then they cannot be compared: estimate)."""
+    if held.kept is None or estimated.kept is None or \
+            not np.array_equal(held.kept, estimated.kept):
+        return float("nan")
+    extra = held.dof - estimated.dof
+    return float(((held.rss - estimated.rss) / max(extra, 1))
+                 / (estimated.rss / max(estimated.dof, 1)))
+
+
+#: After refinement, pose-view RMS above this multiple of the intrinsics views' RMS is
+#: warned (readings that are not the images', a unit the model cannot express).
+#: Measured on the default renders: 1.6-2.0 (the pose views' board is farther, its
+#: corners a little noisier); on projected corners with equal noise: 1.0-1.2.
+POSE_RMS_WARN_RATIO = 4.0
+
+
+def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
+                      log: Callable[[str], None], sizes) -> None:
+    """The paper model's fit check (always) and, for ``model="general"``, the whole-head
+    refinement, which replaces ``cal.head`` and the base's ``T_ptuL_from_ptuR``."""
+    from rasc.head.fit import calibration_fit, misfit_warning
+    from rasc.head.refine import observations_from_calibration, refine_head
+
+    if options.model not in MODELS:
+        raise InputError(f"model: expected one of {', '.join(MODELS)}, got {options.model!r}")
+    t0 = time.perf_counter()
+    cal.model_fit = calibration_fit(cal, dataset.board.object_points())
+    timer.add("model-fit check", time.perf_counter() - t0)
+    if options.model == "paper":
+        w = misfit_warning(cal.model_fit)
+        if w is not None:
+            cal.warnings.append(w)
+        return
+    log("whole-head refinement (model general)")
+    t0 = time.perf_counter()
+    if options.scales not in SCALES_MODES:
+        raise InputError(f"scales: expected one of {', '.join(SCALES_MODES)}, "
+                         f"got {options.scales!r}")
+    obs = observations_from_calibration(cal, dataset.board)
+    try:
+        if options.scales == "auto":
+            res_h = refine_head(obs, estimate_scales=False)
+            res_e = refine_head(obs, estimate_scales=True, start=res_h)
+            F = _scales_F(res_h, res_e)
+            res = res_e if not np.isfinite(F) or F > SCALES_F_ESTIMATE else res_h
+            res.scales = {"mode": "auto", "F": F, "threshold_F": SCALES_F_ESTIMATE,
+                          "estimated": res is res_e}
+            log(f"encoder scales {'estimated' if res is res_e else 'held at 1'} "
+                f"(F = {F:.3g} against {SCALES_F_ESTIMATE:g})")
+        else:
+            res = refine_head(obs, estimate_scales=options.scales == "estimate")
+            res.scales = {"mode": options.scales, "estimated": options.scales == "estimate"}
+    except RascError as exc:
+        raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
+    timer.add("refinement", time.perf_counter() - t0)
+    cal.refinement = res
+    ratio = res.rms_by_role["pose"] / res.rms_by_role["intrinsics"]
+    if ratio > POSE_RMS_WARN_RATIO:
+        cal.warnings.append(
+            f"after the whole-head refinement the pose views fit {ratio:.3g} times worse than "
+            f"the intrinsics views ({res.rms_by_role['pose']:.3g} px against "
+            f"{res.rms_by_role['intrinsics']:.3g} px RMS): check that the pan/tilt readings "
+            "are those of the images")
+    T_pLpR = res.T_ptuL_from_ptuR
+    if options.T_ptuL_from_ptuR_measured is not None:
+        cal.base["measured_vs_refinement"] = _compare_mounts(
+            validate_rigid_transform(options.T_ptuL_from_ptuR_measured,
+                                     name="measured T_ptuL_from_ptuR"), T_pLpR, cal.warnings)
+    cal.base["refinement"] = {"T_ptuL_from_ptuR": T_pLpR.tolist()}
+    cal.base["T_ptuL_from_ptuR"] = T_pLpR.tolist()
+    cal.base["source"] = "whole-head refinement (initialised by " + cal.base["source"] + ")"
+    T_pb = dict(zip(EYES, cyclopean_base(T_pLpR), strict=True))
+    cal.head = HeadCalibration(**{
+        eye: EyeCalibration(K=res.K[eye], dist=res.dist[eye],
+                            T_cam_from_gaze=res.T_cam_from_gaze[eye],
+                            T_ptu_from_base=T_pb[eye], image_size=sizes[eye],
+                            unit=res.unit[eye], std=_eye_std(res, eye))
+        for eye in EYES})
+
+
+def refine_calibration(cal: Calibration, dataset,
+                       log: Callable[[str], None] = lambda s: None,
+                       **overrides) -> Calibration:
+    """A closed-form (``model="paper"``) calibration refined with the general model, as
+    ``calibrate_dataset(dataset, options with model="general")`` would give, without
+    detecting or solving the closed form again. ``cal`` is left unchanged; ``overrides``
+    change :class:`CalibrationOptions` fields (e.g. ``scales="hold"``)."""
+    import copy
+
+    from rasc.geometry.frames import EYES as eyes
+
+    options = dataclasses.replace(cal.options, model="general", **overrides)
+    out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
+                      options=options, warnings=list(cal.warnings),
+                      length_unit=cal.length_unit)
+    # the paper model's misfit warning is answered by the refinement: drop it
+    from rasc.head.fit import REMEDY
+    out.warnings = [w for w in out.warnings if not w.endswith(REMEDY)]
+    timer = _Timer()
+    timer.timings = dict(cal.timings)
+    timer.timings.pop("model-fit check", None)
+    sizes = {eye: cal.head.__getattribute__(eye).image_size for eye in eyes}
+    _check_and_refine(out, dataset, options, timer, log, sizes)
+    out.timings = dict(timer.timings)
+    if dataset.ground_truth is not None:
+        out.errors = errors_against_truth(out, dataset.load_ground_truth(),
+                                          where=str(dataset.ground_truth))
+    return out
+
+
+def _eye_std(res, eye: str) -> dict[str, float | None]:
+    """The standard deviations stored with an eye (rasc-head/1 ``std``): every estimated
+    parameter's, None for those the data cannot determine."""
+    return {name: entry["std"] for name, entry in res.parameters[eye].items()}
 
 
 def transform_error(T_est, T_true) -> dict[str, float]:
@@ -343,18 +462,28 @@ def transform_error(T_est, T_true) -> dict[str, float]:
 
 def errors_against_truth(cal: Calibration, truth: dict,
                          where: str = "ground truth") -> dict[str, Any]:
-    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout), metres.
+    """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout).
 
+    Rotations in degrees, lengths in the dataset's ``length_unit`` (``cal.length_unit``;
+    the unit of board.square_size when the manifest does not name it), pixels.
     ``where`` names the ground truth's source in error messages (its file).
     """
-    out: dict[str, Any] = {"units": "degrees; metres; pixels"}
+    unit = cal.length_unit or "unit of board.square_size"
+    out: dict[str, Any] = {"units": f"degrees; {unit}; pixels"}
+    T_pb_true = {}
     try:
         for eye in EYES:
             t = truth[eye]
             est = getattr(cal.head, eye)
             K_t = np.asarray(t["K"], float)
-            he = transform_error(est.T_cam_from_gaze, t["T_cam_from_gaze"])
-            pb = transform_error(est.T_ptu_from_base, t["T_ptu_from_base"])
+            T_cg_t = np.asarray(t["T_cam_from_gaze"], float)
+            T_pb_t = np.asarray(t["T_ptu_from_base"], float)
+            if "unit" in t:   # a general unit: compare in the gauge both share (METHOD §10)
+                _, T_cg_t, T_pb_t = canonical_gauge(
+                    PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"), T_cg_t, T_pb_t)
+            T_pb_true[eye] = T_pb_t
+            he = transform_error(est.T_cam_from_gaze, T_cg_t)
+            pb = transform_error(est.T_ptu_from_base, T_pb_t)
             out[eye] = {
                 "T_cam_from_gaze": he, "T_ptu_from_base": pb,
                 "K": {"fx": float(est.K[0, 0] - K_t[0, 0]), "fy": float(est.K[1, 1] - K_t[1, 1]),
@@ -368,14 +497,16 @@ def errors_against_truth(cal: Calibration, truth: dict,
                 out[eye]["pose_extrinsics_max"] = {
                     "rotation_deg": max(e["rotation_deg"] for e in errs),
                     "translation": max(e["translation"] for e in errs)}
-        me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float),
-                          np.asarray(truth["T_ptuL_from_ptuR"], float))
+        T_pLpR_true = np.asarray(truth["T_ptuL_from_ptuR"], float)
+        if any("unit" in truth[eye] for eye in EYES):
+            T_pLpR_true = T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])
+        me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float), T_pLpR_true)
         out["T_ptuL_from_ptuR"] = {"rotation_deg": me.rotation_deg,
                                    "translation": me.translation,
                                    "baseline_length": me.baseline_length}
         if "loop_closure" in cal.base:
             ml = mount_errors(np.asarray(cal.base["loop_closure"]["T_ptuL_from_ptuR"], float),
-                              np.asarray(truth["T_ptuL_from_ptuR"], float))
+                              T_pLpR_true)
             out["loop_closure"] = {"rotation_deg": ml.rotation_deg,
                                    "translation": ml.translation}
     except KeyError as exc:

@@ -13,6 +13,10 @@ import numpy as np
 
 from rasc.errors import InputError
 
+#: At least this many views for intrinsics (Zhang's method: two homography constraints per
+#: view, five intrinsic parameters plus distortion).
+MIN_INTRINSICS_VIEWS = 3
+
 
 def _is_number(v) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)

@@ -30,7 +30,12 @@ import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import make_transform
-from rasc.vision.board import Board, _is_integral, _is_number  # noqa: F401  (Board re-exported)
+from rasc.vision.board import (  # noqa: F401  (Board, MIN_INTRINSICS_VIEWS re-exported)
+    MIN_INTRINSICS_VIEWS,
+    Board,
+    _is_integral,
+    _is_number,
+)
 
 
 @contextlib.contextmanager
@@ -66,9 +71,6 @@ SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.001)
 #: the clearly degenerate case only; well-spread sets differ by 30–70°.
 MIN_ORIENTATION_SPREAD_DEG = 5.0
 
-#: At least this many views for intrinsics (Zhang's method: two homography constraints per
-#: view, five intrinsic parameters plus distortion).
-MIN_INTRINSICS_VIEWS = 3
 
 DIST_MODELS = {
     # name: calibrateCamera flags. Every model returns five coefficients (k1 k2 p1 p2 k3).

@@ -18,6 +18,9 @@ tilt required), for hand-eye; ``view`` groups the left and right images taken at
 time of the same board placement (loop closure). Every problem is reported as one
 :class:`~rasc.errors.InputError` line naming the manifest, the image index and file, and
 the field. Images are read lazily; :meth:`Dataset.validate` reads their headers.
+
+Only reading and detecting need OpenCV (:mod:`rasc.vision.camera`, imported when an image
+is first read): the manifest itself is parsed and written with the standard library.
 """
 
 from __future__ import annotations
@@ -32,8 +35,7 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.io import read_json_document, write_json_atomic
-from rasc.vision.camera import MIN_INTRINSICS_VIEWS, Board, detect_corners, read_image
-from rasc.vision.camera import image_size as read_image_size
+from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
 
 FORMAT = "rasc-dataset/1"
 MANIFEST = "manifest.json"
@@ -116,6 +118,8 @@ class Dataset:
 
     def read(self, entry: ImageEntry) -> np.ndarray:
         """The image as 8-bit grey (H, W); errors name the manifest index and file."""
+        from rasc.vision.camera import read_image
+
         try:
             return read_image(entry.path)
         except InputError as exc:
@@ -126,6 +130,8 @@ class Dataset:
         if decode:
             h, w = self.read(entry).shape
             return w, h
+        from rasc.vision.camera import image_size as read_image_size
+
         try:
             return read_image_size(entry.path)
         except InputError as exc:
@@ -133,22 +139,31 @@ class Dataset:
                              f"{_problem(exc, entry.path)}") from None
 
     def detect(self, eye: str, role: str, method: str = "classic",
-               order_by: str | None = "colour", min_found: int | None = None) -> Detections:
-        """Detect the board in every image of ``eye`` and ``role``.
+               order_by: str | None = "colour", min_found: int | None = None,
+               board_seen: bool = False) -> Detections:
+        """Detect the board in every image of ``eye`` and ``role``: the one detection path
+        of a dataset (the pipeline keeps what it returns).
 
-        Raises :class:`InputError` when the board is missing from most images (the
-        manifest's ``inner_corners`` is the likely error) or when fewer than ``min_found``
-        images show it (default: :data:`~rasc.vision.camera.MIN_INTRINSICS_VIEWS` for intrinsics,
+        Raises :class:`InputError` when there are no such images, when the board is missing
+        from most images (the manifest's ``inner_corners`` is the likely error, unless
+        ``board_seen``: other images of this eye already showed the board, so these images
+        are the problem) or when fewer than ``min_found`` images show it (default:
+        :data:`~rasc.vision.board.MIN_INTRINSICS_VIEWS` for intrinsics,
         :data:`MIN_POSE_VIEWS` for poses).
         """
+        from rasc.vision.camera import detect_corners
+
         entries = self.select(eye, role)
-        if not entries:
-            what = ("views of the board moved in front of the fixed camera" if role ==
-                    "intrinsics" else "views at pan-tilt positions")
-            raise InputError(f"{self.manifest_path}: no {role} images of the {eye} eye "
-                             f"(role '{role}': {what})")
         if min_found is None:
             min_found = MIN_INTRINSICS_VIEWS if role == "intrinsics" else MIN_POSE_VIEWS
+        where = f"{self.manifest_path}: {eye} {role} images"
+        if role == "pose" and len(entries) < min_found:
+            raise InputError(f"{where}: {len(entries) or 'none'} in the manifest; hand-eye needs "
+                             f"at least {min_found} images with role 'pose' (pan, tilt, "
+                             "view) at positions that turn about two different axes")
+        if not entries:
+            raise InputError(f"{self.manifest_path}: no {role} images of the {eye} eye (role "
+                             f"'{role}': views of the board moved in front of the fixed camera)")
         corners: dict[str, np.ndarray] = {}
         not_found: list[str] = []
         for e in entries:
@@ -157,9 +172,18 @@ class Dataset:
                 not_found.append(e.file)
             else:
                 corners[e.file] = c
-        where = f"{self.manifest_path}: {eye} {role} images"
         nx, ny = self.board.inner_corners
-        if entries and len(corners) < MIN_FOUND_FRACTION * len(entries):
+        need = ("views with the board tilted 20-45 degrees about different axes"
+                if role == "intrinsics" else
+                "pan-tilt positions with rotations about two different axes")
+        if board_seen and len(corners) < min_found:
+            other = "pose" if role == "intrinsics" else "intrinsics"
+            task = "intrinsics need" if role == "intrinsics" else "hand-eye needs"
+            raise InputError(
+                f"{where}: board {nx}x{ny} found in {len(corners)} of {len(entries)} (first "
+                f"without: {not_found[0]}) though the {other} images show it; {task} at "
+                f"least {min_found} {need}, each with the whole board in view")
+        if len(corners) < MIN_FOUND_FRACTION * len(entries):
             raise InputError(
                 f"{where}: board {nx}x{ny} not found in {len(not_found)} of {len(entries)} "
                 f"(first: {not_found[0]}): "
@@ -168,9 +192,6 @@ class Dataset:
                 + f"check board.inner_corners (inner corners, not squares: a board of "
                 f"{nx + 1}x{ny + 1} squares has {nx}x{ny})")
         if len(corners) < min_found:
-            need = ("views with the board tilted 20-45 degrees about different axes"
-                    if role == "intrinsics" else
-                    "pan-tilt positions with rotations about two different axes")
             raise InputError(
                 f"{where}: board found in {len(corners)} of {len(entries)} images; need at "
                 f"least {min_found} {need}")

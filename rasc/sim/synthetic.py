@@ -1,0 +1,150 @@
+"""A stereo head as projected corners: no rendering, exact truth, seeded pixel noise.
+
+For testing and measuring calibration code where rendering would only add time: the
+board's corners are projected through a known head (intrinsics, distortion,
+``T_cam_from_gaze``, a general :class:`~rasc.geometry.kinematics.PanTiltUnit`,
+``T_ptu_from_base``), and Gaussian noise of ``noise_px`` (per coordinate) is added. The
+geometry follows the default rendered dataset (``rasc render``): a 9×6 board of 5 cm
+squares, 1280×960 cameras with fx ≈ 1150 px, units 0.3 m apart, 20 intrinsics views per
+eye placed as :func:`rasc.sim.render.intrinsics_board_poses` places them, the paper's nine
+pan-tilt positions with the board facing the head 1 m ahead.
+
+:class:`CornerDataset` has the interface :func:`rasc.head.pipeline.calibrate_dataset`
+uses (``validate``, ``detect``, ``board``...), so the whole pipeline runs on it unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rasc.geometry import lens
+from rasc.geometry.frames import EYES
+from rasc.geometry.kinematics import IDEAL, PAPER_POSES_DEG, PanTiltUnit
+from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+from rasc.sim.render import intrinsics_board_poses
+from rasc.sim.scene import T_base_from_world_facing
+from rasc.vision.board import Board
+from rasc.vision.dataset import Detections, ImageEntry
+
+IMAGE_SIZE = (1280, 960)
+BOARD = Board((9, 6), 0.05)
+#: camera axes in gaze axes when looking straight ahead: cam x = −gaze z (right),
+#: cam y = −gaze x (down), cam z = gaze y (forward)
+R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+@dataclass
+class SyntheticHead:
+    """The true head. Lengths in metres, angles in radians."""
+
+    K: dict[str, np.ndarray]
+    dist: dict[str, np.ndarray]
+    T_cam_from_gaze: dict[str, np.ndarray]
+    T_ptu_from_base: dict[str, np.ndarray]
+    unit: dict[str, PanTiltUnit]
+
+    def T_cam_from_base(self, eye: str, pan: float, tilt: float) -> np.ndarray:
+        return (self.T_cam_from_gaze[eye] @ self.unit[eye].T_gaze_from_ptu(pan, tilt)
+                @ self.T_ptu_from_base[eye])
+
+    def T_ptuL_from_ptuR(self) -> np.ndarray:
+        return self.T_ptu_from_base["left"] @ invert_transform(self.T_ptu_from_base["right"])
+
+
+def default_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
+                 dist=(-0.05, 0.02, 0.0, 0.0, 0.0)) -> SyntheticHead:
+    """A head like the simulated one (hand-eye off nominal by ~2° and a few cm)."""
+    units = unit if isinstance(unit, dict) else {eye: unit for eye in EYES}
+    K = {"left": np.array([[1152.0, 0, 636.0], [0, 1148.5, 483.75], [0, 0, 1]]),
+         "right": np.array([[1149.0, 0, 641.5], [0, 1151.0, 478.0], [0, 0, 1]])}
+    T_cg = {"left": make_transform(matrix_from_rotvec([0.02, -0.015, 0.03])
+                                   @ R_CAM_FROM_GAZE_NOMINAL, [0.022, 0.047, -0.036]),
+            "right": make_transform(matrix_from_rotvec([-0.01, 0.025, -0.02])
+                                    @ R_CAM_FROM_GAZE_NOMINAL, [-0.018, 0.052, -0.041])}
+    T_pb = {"left": make_transform(matrix_from_rotvec([0.0046, 0.0091, -0.0082]),
+                                   [-0.0014, 0.0007, -0.15]),
+            "right": make_transform(matrix_from_rotvec([-0.0046, -0.0091, 0.0082]),
+                                    [0.0014, -0.0007, 0.15])}
+    return SyntheticHead(K=K, dist={eye: np.asarray(dist, float) for eye in EYES},
+                         T_cam_from_gaze=T_cg, T_ptu_from_base=T_pb, unit=units)
+
+
+@dataclass
+class CornerDataset:
+    """Projected corners with the interface of :class:`rasc.vision.dataset.Dataset` that
+    the pipeline uses; ``truth`` is the head, ``views_T_base_from_world`` the pose views'
+    board placements."""
+
+    board: Board
+    detections: dict[tuple[str, str], Detections]
+    truth: SyntheticHead
+    sizes: dict[str, tuple[int, int]]
+    manifest_path: Path = Path("<synthetic corners>")
+    angle_unit: str = "deg"
+    length_unit: str | None = "m"
+    ground_truth: Path | None = None
+    views_T_base_from_world: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def validate(self, decode: bool = False) -> dict[str, tuple[int, int]]:
+        return dict(self.sizes)
+
+    def image_size(self, eye: str) -> tuple[int, int]:
+        return self.sizes[eye]
+
+    def detect(self, eye: str, role: str, method: str = "classic", order_by=None,
+               min_found=None, board_seen: bool = False) -> Detections:
+        return self.detections[(eye, role)]
+
+
+def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
+                   noise_px: float = 0.03, n_intrinsics: int = 20,
+                   poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
+                   board: Board = BOARD) -> CornerDataset:
+    """Project the board through ``head`` (default :func:`default_head`) with seeded
+    noise N(0, noise_px²) on both coordinates of every corner.
+
+    The intrinsics views' poses and the noise are drawn from
+    ``np.random.default_rng(seed)``; the same seed gives the same corners.
+    """
+    head = head or default_head()
+    rng = np.random.default_rng(seed)
+    P = board.object_points()
+    det: dict[tuple[str, str], Detections] = {}
+    T_bw = T_base_from_world_facing(board, distance=target_distance)
+
+    def project(eye, T_cw):
+        p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
+        uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+        return uv + rng.normal(0.0, noise_px, uv.shape)
+
+    index = 0
+    for eye in EYES:
+        corners, entries = {}, {}
+        for k, T_cw in enumerate(intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE,
+                                                         n_intrinsics, head.dist[eye])):
+            f = f"intrinsics/{eye}_{k:03d}.png"
+            corners[f] = project(eye, T_cw)
+            entries[f] = ImageEntry(index=index, file=f, path=Path(f), eye=eye,
+                                    role="intrinsics")
+            index += 1
+        det[(eye, "intrinsics")] = Detections(corners=corners, not_found=[], entries=entries)
+    views = {}
+    for eye in EYES:
+        corners, entries = {}, {}
+        for k, (pan_deg, tilt_deg) in enumerate(poses_deg):
+            pan, tilt = np.radians(pan_deg), np.radians(tilt_deg)
+            view = f"{k:02d}"
+            views[view] = T_bw
+            T_cw = head.T_cam_from_base(eye, pan, tilt) @ T_bw
+            f = f"poses/{eye}_{k:02d}.png"
+            corners[f] = project(eye, T_cw)
+            entries[f] = ImageEntry(index=index, file=f, path=Path(f), eye=eye, role="pose",
+                                    pan=float(pan), tilt=float(tilt), view=view)
+            index += 1
+        det[(eye, "pose")] = Detections(corners=corners, not_found=[], entries=entries)
+    return CornerDataset(board=board, detections=det, truth=head,
+                         sizes={eye: IMAGE_SIZE for eye in EYES},
+                         views_T_base_from_world=views)
