@@ -598,8 +598,9 @@ def test_bad_options():
 def test_methods_table():
     from rasc.handeye import methods
 
-    assert set(methods.METHODS) == {"rasc", "li", "opencv-park", "opencv-tsai",
-                                    "opencv-horaud", "opencv-andreff", "opencv-daniilidis"}
+    assert set(methods.METHODS) == {"rasc", "rasc-inverse", "rasc-views", "li", "opencv-park",
+                                    "opencv-tsai", "opencv-horaud", "opencv-andreff",
+                                    "opencv-daniilidis"}
     T_cw, T_gp = _data(PAPER_POSES_DEG)
     a = methods.solve("rasc", T_cw, T_gp, pairs="half")
     assert a.method == "rasc" and a.diagnostics.n_pairs == 36

@@ -47,7 +47,15 @@ import numpy as np
 from rasc.errors import InputError, RascError
 from rasc.io import dumps_json, write_json_atomic, write_text_atomic
 from rasc.study.executors import Executor, make_executor, worker_environment
-from rasc.study.spec import FORMAT, PARAMS, Cell, Spec, pose_grid
+from rasc.study.spec import (
+    FORMAT,
+    PARAMS,
+    STATS,
+    SUMMARY_TAIL,
+    Cell,
+    Spec,
+    pose_grid,
+)
 
 BOOTSTRAP_KEY = 0xB007
 #: what a method may raise that counts as its failure on a sample (not a crash):
@@ -55,12 +63,8 @@ BOOTSTRAP_KEY = 0xB007
 FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
 SAMPLE_COLUMNS = ("sample", "method", "status", "translation_mm", "rotation_deg",
                   "rotation_fro", "quality")
-STATS = ("mean", "median", "std", "ci_low", "ci_high")
-ERRORS = ("translation_mm", "rotation_deg")
 #: what a study writes in its folder
 OUTPUT_NAMES = ("study.json", "samples.csv", "summary.csv", "cells", "datasets", "figures")
-SUMMARY_TAIL = ("method", "n", "n_failed",
-                *(f"{e}_{s}" for e in ERRORS for s in STATS))
 
 
 # ---------------------------------------------------------------------- formatting
@@ -101,7 +105,7 @@ def render_task(task: dict) -> dict:
     Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
     """
     worker_environment()
-    from rasc.head.pipeline import calibrate_dataset, detect_pose_views
+    from rasc.head.pipeline import calibrate_dataset
     from rasc.sim.render import RenderOptions, render_dataset
     from rasc.vision.dataset import load_dataset
 
@@ -125,12 +129,11 @@ def render_task(task: dict) -> dict:
         truth = json.loads((folder / "ground_truth.json").read_text())
         eyes = {}
         for eye, res in cal.eyes.items():
-            det = detect_pose_views(ds, eye, cal.options.detector)
             eyes[eye] = {
                 "files": list(res.pose_files),
                 "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
                 "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-                "corners": [np.asarray(det.corners[f], float).tolist()
+                "corners": [np.asarray(res.corners["pose"][f], float).tolist()
                             for f in res.pose_files],
                 "K": np.asarray(res.intrinsics.K, float).tolist(),
                 "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),

@@ -48,7 +48,7 @@ def plot_study(spec, summary: list[list], folder: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from rasc.study.engine import SUMMARY_TAIL
+    from rasc.study.spec import SUMMARY_TAIL
 
     folder.mkdir(parents=True, exist_ok=True)
     n_ax = len(axes)

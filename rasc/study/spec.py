@@ -40,6 +40,12 @@ from typing import Any
 from rasc.errors import InputError
 
 #: version of the study folder layout (``study.json`` ``format``)
+#: the summary's statistics of each error, and its columns after the cell and axes
+STATS = ("mean", "median", "std", "ci_low", "ci_high")
+ERRORS = ("translation_mm", "rotation_deg")
+SUMMARY_TAIL = ("method", "n", "n_failed",
+                *(f"{e}_{s}" for e in ERRORS for s in STATS))
+
 FORMAT = "rasc-study/1"
 #: a spec larger than this is refused before it is parsed
 MAX_SPEC_BYTES = 1 << 20
