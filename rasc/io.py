@@ -219,6 +219,49 @@ def parse_json_text(text: str, where: str, what: str = "document") -> Any:
     return _validated(node, (), 0, where)
 
 
+def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
+    """The UTF-8 text of a regular file of at most ``max_bytes`` (a byte-order mark is
+    dropped): the one way rasc reads an input document (JSON, CSV).
+
+    Raises :class:`InputError`, one line starting with the path: empty path, missing, a
+    folder, not a regular file (a device, FIFO or socket is refused before anything is
+    read: ``/dev/zero`` would never end), larger than ``max_bytes``, unreadable, not UTF-8.
+    """
+    where = str(path)
+    if where in ("", "."):
+        raise InputError(f"{what}: empty path")
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file (the {what})") from None
+    except OSError as exc:
+        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{where}: is a folder, not a {what} file")
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{where}: not a regular file (a device, pipe or socket); the "
+                         f"{what} must be a file")
+    if st.st_size > max_bytes:
+        raise InputError(f"{where}: {st.st_size} bytes, more than the {max_bytes} "
+                         f"bytes a {what} may have")
+    try:
+        # O_NONBLOCK: a FIFO swapped in after the check cannot block the open
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                raise InputError(f"{where}: not a regular file; the {what} must be a file")
+            data = f.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise InputError(f"{where}: more than the {max_bytes} bytes a {what} may have")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the {what} "
+                         "as UTF-8") from None
+
+
 def read_json_document(path: str | os.PathLike, what: str = "document", *,
                        top: type | None = dict) -> Any:
     """Read the JSON input document ``path`` (a ``what``: "manifest", "mounts file", ...).
@@ -244,41 +287,8 @@ def read_json_document(path: str | os.PathLike, what: str = "document", *,
         than MAX_INT_DIGITS digits, NaN, Infinity, numbers that overflow or exceed
         MAX_MAGNITUDE (each with its JSON pointer), or the wrong top-level type.
     """
-    path = Path(path)
     where = str(path)
-    if where in ("", "."):
-        raise InputError(f"{what}: empty path")
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise InputError(f"{where}: no such file (the {what})") from None
-    except OSError as exc:
-        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
-    if stat.S_ISDIR(st.st_mode):
-        raise InputError(f"{where}: is a folder, not a {what} file")
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{where}: not a regular file (a device, pipe or socket); the "
-                         f"{what} must be a file")
-    if st.st_size > MAX_DOCUMENT_BYTES:
-        raise InputError(f"{where}: {st.st_size} bytes, more than the {MAX_DOCUMENT_BYTES} "
-                         f"bytes a {what} may have")
-    try:
-        # O_NONBLOCK: a FIFO swapped in after the check cannot block the open
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-        with os.fdopen(fd, "rb") as f:
-            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
-                raise InputError(f"{where}: not a regular file; the {what} must be a file")
-            data = f.read(MAX_DOCUMENT_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"{where}: cannot read: {exc.strerror or exc}") from None
-    if len(data) > MAX_DOCUMENT_BYTES:
-        raise InputError(f"{where}: more than the {MAX_DOCUMENT_BYTES} bytes a {what} may "
-                         "have")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{where}: not UTF-8 text (byte {exc.start}); save the {what} "
-                         "as UTF-8") from None
+    text = read_text_file(path, what, MAX_DOCUMENT_BYTES)
     doc = parse_json_text(text, where, what)
     if top is dict and not isinstance(doc, dict):
         raise InputError(f"{where}: the {what} must be a JSON object {{...}} at the top "

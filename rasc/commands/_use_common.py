@@ -84,7 +84,7 @@ class Table:
 def read_points_csv(path: str, required: tuple[str, ...],
                     optional: tuple[str, ...] = ()) -> Table:
     """Read a CSV points file (module docstring) with these numeric columns."""
-    from rasc.head.use import read_text_file
+    from rasc.io import read_text_file
 
     text = read_text_file(path, "CSV points file", MAX_CSV_BYTES)
     if "\x00" in text:

@@ -25,7 +25,6 @@ import json
 import math
 import os
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -80,38 +79,6 @@ class CalibrationFile:
     length_unit: str | None
     joint_range: dict[str, dict[str, tuple[float, float]]] | None
     source: str
-
-
-def read_text_file(path: str | os.PathLike, what: str, max_bytes: int) -> str:
-    """The UTF-8 text of a regular file of at most ``max_bytes`` (a byte-order mark is
-    dropped); every failure is an :class:`InputError` starting with the path. A device,
-    FIFO or socket is refused before anything is read (``/dev/zero`` would never end)."""
-    p = Path(path)
-    try:
-        st = p.stat()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if p.is_dir():
-        raise InputError(f"{path}: is a folder, not a {what}")
-    if not p.is_file():
-        raise InputError(f"{path}: not a regular file (a device, pipe or socket); "
-                         f"expected a {what}")
-    if st.st_size > max_bytes:
-        raise InputError(f"{path}: {st.st_size} bytes, more than a {what} may have "
-                         f"({max_bytes} bytes)")
-    try:
-        with open(p, "rb") as f:
-            data = f.read(max_bytes + 1)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if len(data) > max_bytes:
-        raise InputError(f"{path}: more than {max_bytes} bytes; not a {what}")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text (byte {exc.start})") from None
 
 
 def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
