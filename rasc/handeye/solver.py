@@ -659,12 +659,14 @@ def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray) -> np.ndarr
 
 class _Camera(NamedTuple):
     """One block of samples' camera side: R (S, n, 3, 3), Rs = :func:`_stacked` (R),
-    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3)."""
+    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3), G = RᵀR (S, n, 3, 3)
+    (None when ``exact``)."""
 
     R: np.ndarray
     Rs: np.ndarray
     tA: np.ndarray
     CtC: np.ndarray
+    G: np.ndarray | None
 
 
 def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = False,
@@ -686,14 +688,14 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = Fa
     sum_RA = Rs3 @ _swap(V.reshape(S, 3, 3 * n))
     w_sum = _sum(W.reshape(-1, n * n), axis=1)[:, None, None]
     if exact:
-        CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
+        CtC, G = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA), None
     else:
         G = _swap(R) @ R if G is None else G
         H = (_swap(W) @ G.reshape(S, n, 9)).reshape(S, n, 3, 3)   # Σ_a w_ab G_a
         sum_RAtRA = _stacked(R @ H).reshape(S, 3, 3 * n) @ _swap(Rs3)
         CtC = w_sum * _EYE3 - sum_RA - _swap(sum_RA) + sum_RAtRA
     tA = _pair_translations(R, Rs, T[..., :3, 3]) if tA is None else tA
-    return _Camera(R, Rs, tA, CtC)
+    return _Camera(R, Rs, tA, CtC, G)
 
 
 def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndarray:
@@ -893,12 +895,15 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
             a, a_theta = alpha, theta_cam
             cond = _check_cond_CtC(eig_ctc, S, c0)
         else:
-            cam = _camera(T_cw[c], None, W[cq], exact)
+            cam = _camera(T_cw[c], None if G_all is None else G_all[c], W[cq], exact)
             lam = np.linalg.eigvalsh(cam.CtC)
             if not (lam[:, 2] <= MAX_COND_CTC * lam[:, 0]).all():   # name the weak axis
                 _check_cond_CtC(_eigh(cam.CtC), S, c0)
             cond = lam[:, 2] / lam[:, 0]
-            a, a_theta = _pair_logs(_quaternions(cam.R, err), i, j, take)
+            if err is None:         # RᵀR is at hand: max |RᵀR − I| as _quaternions takes it
+                err_c = float(_max(np.abs(cam.G - _EYE3), None))
+            a, a_theta = _pair_logs(_quaternions(cam.R, err if err is not None else err_c),
+                                    i, j, take)
         a = _align_half_turns(a, a_theta, beta[cq], theta[cq], bw[cq])
         M = bw[cq] @ _swap(a)                                     # eq. 9: M = Σ w β αᵀ
         if one_block:
