@@ -418,13 +418,16 @@ _SCRATCH_MAX_FLOATS = 1 << 18
 
 
 def _scratch(slot: int, shape: tuple[int, ...]) -> np.ndarray:
-    """An uninitialised float array of ``shape``: this thread's buffer ``slot`` (0–3)."""
+    """An uninitialised float array of ``shape``: this thread's buffer ``slot`` (0–4).
+
+    Slot 4 holds the one-block solve's pair translations (:func:`_solve`); slots 0–3
+    temporaries that die in the function that takes them."""
     size = math.prod(shape)
     if size > _SCRATCH_MAX_FLOATS:
         return np.empty(shape)
     bufs = getattr(_SCRATCH, "bufs", None)
     if bufs is None:
-        bufs = _SCRATCH.bufs = [np.empty(0)] * 4
+        bufs = _SCRATCH.bufs = [np.empty(0)] * 5
     if bufs[slot].size < size:
         bufs[slot] = np.empty(size)
     return bufs[slot][:size].reshape(shape)
@@ -670,15 +673,16 @@ def _stacked(R: np.ndarray) -> np.ndarray:
     return R.transpose(0, 2, 1, 3).reshape(S, 3 * n, 3)
 
 
-def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
+                       out: np.ndarray | None = None) -> np.ndarray:
     """``t_A = t_a − R_a R_bᵀ t_b`` for every ordered pair (a, b): (S, 3, n, n) [i, a, b].
 
     R (S, n, 3, 3), Rs = :func:`_stacked` (R), t (S, n, 3); ``R_a (R_bᵀ t_b)`` for all
-    pairs is one (3n × 3) by (3 × n) product.
+    pairs is one (3n × 3) by (3 × n) product. ``out``: (S, 3n, n) to hold the result.
     """
     S, n = t.shape[:2]
     r = (_swap(R) @ t[..., None])[..., 0]                          # R_bᵀ t_b  (S, n, 3)
-    tA = (Rs @ _swap(r)).reshape(S, 3, n, n)
+    tA = np.matmul(Rs, _swap(r), out=out).reshape(S, 3, n, n)
     return np.subtract(_swap(t)[..., None], tA, out=tA)
 
 
@@ -730,10 +734,13 @@ def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndar
     """
     R, Rs = cam.R, cam.Rs
     S, n = R.shape[:2]
-    d = cam.tA - (RX @ tB.reshape(-1, 3, n * n)).reshape(S, 3, n, n)     # [i, a, b]
+    # the n²-sized temporaries go to scratch buffers (see _scratch)
+    d = np.matmul(RX, tB.reshape(-1, 3, n * n), out=_scratch(0, (S, 3, n * n)))
+    d = np.subtract(cam.tA, d.reshape(S, 3, n, n), out=d.reshape(S, 3, n, n))  # [i, a, b]
     sum_d = (d.reshape(S, 3, n * n) @ W.reshape(-1, n * n, 1))[..., 0]
-    e = _swap(R) @ d.transpose(0, 2, 1, 3)                        # R_aᵀ d_ab at [a, k, b]
-    f = _sum(e * W[:, :, None, :], axis=1)                        # Σ_a w_ab R_aᵀ d_ab [k, b]
+    e = np.matmul(_swap(R), d.transpose(0, 2, 1, 3), out=_scratch(1, (S, n, 3, n)))
+    e *= W[:, :, None, :]                                         # w_ab R_aᵀ d_ab at [a, k, b]
+    f = _sum(e, axis=1)                                           # Σ_a w_ab R_aᵀ d_ab [k, b]
     return sum_d - (Rs.reshape(S, 3, 3 * n) @ _swap(f).reshape(S, 3 * n, 1))[..., 0]
 
 
@@ -895,7 +902,8 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
     if one_block:               # both sides' R_a R_bᵀ t_b in one product, too
         R_all = T_all[..., :3, :3]
         Rs_all = _stacked(R_all)
-        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3])
+        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3],      # lives to the end
+                                   _scratch(4, (S + Sq, 3 * n, n)))
         Qs, tB = Rs_all[S:], t_all[S:]
         cam = _camera(T_cw, None if G_all is None else G_all[:S], W, exact, Rs_all[:S],
                       t_all[:S])
