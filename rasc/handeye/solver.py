@@ -261,11 +261,14 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
 
     Returns ``(T_cw, T_gp, T_all, (err, G))``: T_cw (S, n, 4, 4) (S = 1 unless
     ``batch``), T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation
-    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all and ``err`` = max
-    |G − I| (both None when not measured, i.e. without ``check_rigid``). The
-    checks run once on the stacked arrays; only when one fails (or the arrays cannot be
-    stacked) does :func:`validate_poses` run on each input in turn, so the error raised is
-    the one it raises, for the first offending input and index.
+    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all (at least of T_cw's,
+    which come first) and ``err`` = max |RᵀR − I| over both inputs (both None when not
+    measured, i.e. without ``check_rigid``). The checks run once on the stacked arrays;
+    only when one fails (or the arrays cannot be stacked) does :func:`validate_poses` run
+    on each input in turn, so the error raised is the one it raises, for the first
+    offending input and index. A batch of more than ``_CHUNK_FLOATS`` numbers is not
+    copied into a concatenation: each input is checked on its own and ``T_all`` is None
+    (:func:`_solve` needs it only for a single block).
     """
     fast = None
     try:
@@ -276,8 +279,17 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
     if (A is not None and A.ndim == (4 if batch else 3) and B.ndim in ((3, 4) if batch else (3,))
             and A.shape[-3:] == B.shape[-3:] and A.shape[-2:] == (4, 4) and A.size
             and (B.ndim == 3 or B.shape[0] == A.shape[0])):
-        T_all = np.concatenate([A if batch else A[None], B if B.ndim == 4 else B[None]])
-        fast = _fast_checks(T_all, check_rigid)
+        B4 = B if B.ndim == 4 else B[None]
+        if batch and A.size > _CHUNK_FLOATS:
+            fast = _fast_checks(A, check_rigid)
+            fast_B = None if fast is None else _fast_checks(B4, check_rigid)
+            if fast_B is not None:
+                err = None if fast[0] is None else max(fast[0], fast_B[0])
+                return A, B4, None, (err, fast[1])
+            fast = None
+        else:
+            T_all = np.concatenate([A if batch else A[None], B4])
+            fast = _fast_checks(T_all, check_rigid)
     if fast is not None:
         S = A.shape[0] if batch else 1
         return T_all[:S], T_all[S:], T_all, fast
@@ -891,6 +903,8 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
     i, j, take = pair.i, pair.j, pair.take
     chunk = max(1, _CHUNK_FLOATS // (9 * n * n))
     one_block = chunk >= S
+    if one_block and T_all is None:
+        T_all = np.concatenate([T_cw, T_gp])
     if one_block:
         logs, angle = _pair_logs(_quaternions(T_all[..., :3, :3], err), i, j, take)
         alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
