@@ -316,7 +316,7 @@ def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     if _max(np.abs(T[..., 3, :] - _LAST_ROW), None) > RIGID_ATOL:
         return None
     R = T[..., :3, :3]
-    det = _det(R)
+    det = _det(R) if R.size < 9 * 1024 else _det_closed_form(R)
     if not check_rigid:
         return (None, None) if _min(det, None) > 0 else None
     # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
@@ -325,6 +325,22 @@ def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     if max(err, float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
         return None
     return err, G
+
+
+def _det_closed_form(R: np.ndarray) -> np.ndarray:
+    """det of (..., 3, 3) by cofactors: for many matrices several times faster than one
+    LU per matrix (LAPACK); equal to it to round-off (used only for the yes/no checks of
+    :func:`_fast_checks`, whose failures are re-examined by :func:`validate_poses`)."""
+    r0, r1, r2 = R[..., 0, :], R[..., 1, :], R[..., 2, :]
+    c0 = r1[..., 1] * r2[..., 2] - r1[..., 2] * r2[..., 1]
+    c1 = r1[..., 2] * r2[..., 0] - r1[..., 0] * r2[..., 2]
+    c2 = r1[..., 0] * r2[..., 1] - r1[..., 1] * r2[..., 0]
+    c0 *= r0[..., 0]
+    c1 *= r0[..., 1]
+    c2 *= r0[..., 2]
+    c0 += c1
+    c0 += c2
+    return c0
 
 
 def _check_positions(n: int, n_unit: int) -> None:
@@ -764,8 +780,13 @@ def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
     Z = np.concatenate([Ys, Rs], axis=-1)                         # (S, 3n, 6)
     E = np.matmul(Z, _swap(Z * _SIGNS), out=_scratch(1, (S, 3 * n, 3 * n)))   # Y Yᵀ − R Rᵀ
     E *= E
-    E = _sum(E.reshape(S, 3, n, 3, n), axis=1, out=_scratch(2, (S, n, 3, n)))
-    fro = _sum(E, axis=2, out=_scratch(3, (S, n, n)))
+    # the sums over the 3×3 entries of each block as explicit additions, in the order a
+    # reduction takes them ((e0 + e1) + e2): the same numbers, faster on these short axes
+    E = E.reshape(S, 3, n, 3, n)
+    E1 = np.add(E[:, 0], E[:, 1], out=_scratch(2, (S, n, 3, n)))
+    E1 += E[:, 2]
+    fro = np.add(E1[:, :, 0], E1[:, :, 1], out=_scratch(3, (S, n, n)))
+    fro += E1[:, :, 2]
     np.sqrt(fro, out=fro)
     return (fro.reshape(S, n * n) @ _off_diagonal(n)) / (n * (n - 1))
 
