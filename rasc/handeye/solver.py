@@ -36,6 +36,10 @@ matrix products in a component-major layout (:func:`_stacked`), one eigen-decomp
 serves the axis-spread check and cond(CᵀC), whose eigenvectors also solve for t_X. For
 many views and for the batched form, every n²-sized step is one matrix product or a
 reduction over a leading axis, and batches go through in blocks of ``_CHUNK_FLOATS``.
+LAPACK is called through numpy's gufuncs directly (:func:`_eigh`, :func:`_svd`: the same
+numbers without np.linalg's per-call set-up), and the n²-sized temporaries live in
+per-thread scratch arrays (:func:`_scratch`): allocated afresh, each costs page faults
+whenever the allocator has returned the memory in between (376 per 88-view solve).
 Timings, against OpenCV's PARK in the same run: ``benchmarks/bench_handeye.py`` (figures
 in the README).
 
