@@ -29,6 +29,7 @@ from rasc.handeye.solver import (
     WEAK_AXIS_SPREAD,
     HandEyeDiagnostics,
     HandEyeResult,
+    _det_closed_form,
     _polar_rotation,
     _polar_rotation_many,
     diagnose,
@@ -248,6 +249,43 @@ def test_batched_polar_factor_equals_the_svd_one():
     got = _polar_rotation_many(M)
     np.testing.assert_allclose(got, want, atol=1e-12)
     np.testing.assert_allclose(np.linalg.det(got), 1.0, atol=1e-12)
+
+
+def test_cofactor_determinant_equals_lapack():
+    """The validation's determinant for many matrices (cofactors) is LAPACK's LU one to
+    round-off: entries of order 1, so 1e-13 absolute is ~500 ulp of margin."""
+    rng = np.random.default_rng(31)
+    A = rng.normal(size=(3000, 3, 3))
+    A[:5] = random_rigid(rng, 5)[:, :3, :3]
+    np.testing.assert_allclose(_det_closed_form(A), np.linalg.det(A), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(_det_closed_form(A.reshape(30, 100, 3, 3)),
+                               np.linalg.det(A).reshape(30, 100), rtol=0, atol=1e-13)
+
+
+def test_scratch_buffers_leave_no_trace_between_solves_and_threads():
+    """The solver reuses per-thread scratch arrays: solves of other sizes in between, or
+    in other threads at the same time, leave every result bit-identical."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    rng = np.random.default_rng(32)
+    cases = []
+    for n in (9, 30, 5, 88):
+        X, Y = rig(rng)
+        T_gp = pan_tilt(np.column_stack([rng.uniform(-20, 20, n), rng.uniform(-15, 15, n)]))
+        T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.002, rng, variant="exponential")
+        cases.append((T_cw, T_gp))
+
+    def run(case):
+        r = solve_rasc(*case)
+        return r.T_cam_from_gaze, r.quality, r.diagnostics
+
+    first = [run(c) for c in cases]
+    with ThreadPoolExecutor(4) as pool:
+        again = list(pool.map(run, cases * 8))
+    for k, got in enumerate(again + [run(c) for c in reversed(cases)][::-1]):
+        want = first[k % len(cases)]
+        np.testing.assert_array_equal(got[0], want[0])
+        assert got[1] == want[1] and got[2] == want[2]
 
 
 def test_quality_is_eq10():

@@ -36,6 +36,10 @@ matrix products in a component-major layout (:func:`_stacked`), one eigen-decomp
 serves the axis-spread check and cond(CᵀC), whose eigenvectors also solve for t_X. For
 many views and for the batched form, every n²-sized step is one matrix product or a
 reduction over a leading axis, and batches go through in blocks of ``_CHUNK_FLOATS``.
+LAPACK is called through numpy's gufuncs directly (:func:`_eigh`, :func:`_svd`: the same
+numbers without np.linalg's per-call set-up), and the n²-sized temporaries live in
+per-thread scratch arrays (:func:`_scratch`): allocated afresh, each costs page faults
+whenever the allocator has returned the memory in between (376 per 88-view solve).
 Timings, against OpenCV's PARK in the same run: ``benchmarks/bench_handeye.py`` (figures
 in the README).
 
@@ -50,6 +54,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 from dataclasses import asdict, dataclass
 from typing import Any, NamedTuple
 
@@ -58,6 +63,12 @@ from scipy.spatial.transform import Rotation
 
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import RIGID_ATOL, make_transform, validate_rigid_transform
+
+try:        # the LAPACK gufuncs behind np.linalg.eigh / svd / det (numpy ≥ 1.8, 2.x)
+    from numpy.linalg import _umath_linalg as _gufuncs
+    _GU_EIGH, _GU_SVD, _GU_DET = _gufuncs.eigh_lo, _gufuncs.svd_f, _gufuncs.det
+except (ImportError, AttributeError):                             # pragma: no cover
+    _GU_EIGH = _GU_SVD = _GU_DET = None
 
 #: A relative unit rotation smaller than this (radians) is "unusable": its axis is not
 #: defined to better than the measurement noise (≈1e-3 rad for a good camera
@@ -230,7 +241,7 @@ def validate_poses(T: Any, name: str, *, batch: bool = False,
         k, where = first(last.max(axis=-1) > RIGID_ATOL)
         raise InputError(f"{where}: last row is {T[k][3].tolist()}, expected [0, 0, 0, 1]")
     R = T[..., :3, :3]
-    det = np.linalg.det(R)
+    det = _det(R)
     if not (det > 0).all():
         k, where = first(~(det > 0))
         raise InputError(f"{where}: rotation block has determinant {det[k]:.6g}; a pose "
@@ -254,11 +265,14 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
 
     Returns ``(T_cw, T_gp, T_all, (err, G))``: T_cw (S, n, 4, 4) (S = 1 unless
     ``batch``), T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation
-    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all and ``err`` = max
-    |G − I| (both None when not measured, i.e. without ``check_rigid``). The
-    checks run once on the stacked arrays; only when one fails (or the arrays cannot be
-    stacked) does :func:`validate_poses` run on each input in turn, so the error raised is
-    the one it raises, for the first offending input and index.
+    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all (at least of T_cw's,
+    which come first) and ``err`` = max |RᵀR − I| over both inputs (both None when not
+    measured, i.e. without ``check_rigid``). The checks run once on the stacked arrays;
+    only when one fails (or the arrays cannot be stacked) does :func:`validate_poses` run
+    on each input in turn, so the error raised is the one it raises, for the first
+    offending input and index. A batch of more than ``_CHUNK_FLOATS`` numbers is not
+    copied into a concatenation: each input is checked on its own and ``T_all`` is None
+    (:func:`_solve` needs it only for a single block).
     """
     fast = None
     try:
@@ -269,8 +283,17 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
     if (A is not None and A.ndim == (4 if batch else 3) and B.ndim in ((3, 4) if batch else (3,))
             and A.shape[-3:] == B.shape[-3:] and A.shape[-2:] == (4, 4) and A.size
             and (B.ndim == 3 or B.shape[0] == A.shape[0])):
-        T_all = np.concatenate([A if batch else A[None], B if B.ndim == 4 else B[None]])
-        fast = _fast_checks(T_all, check_rigid)
+        B4 = B if B.ndim == 4 else B[None]
+        if batch and A.size > _CHUNK_FLOATS:
+            fast = _fast_checks(A, check_rigid)
+            fast_B = None if fast is None else _fast_checks(B4, check_rigid)
+            if fast_B is not None:
+                err = None if fast[0] is None else max(fast[0], fast_B[0])
+                return A, B4, None, (err, fast[1])
+            fast = None
+        else:
+            T_all = np.concatenate([A if batch else A[None], B4])
+            fast = _fast_checks(T_all, check_rigid)
     if fast is not None:
         S = A.shape[0] if batch else 1
         return T_all[:S], T_all[S:], T_all, fast
@@ -291,20 +314,37 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
 def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     """:func:`validate_poses`' checks as a yes/no on (m, n, 4, 4): None if any fails,
     else ``(err, G)`` as :func:`_validate_inputs` returns them."""
-    if not math.isfinite(T.sum()):                 # a finite sum ⇔ no NaN and no infinity
+    # ufunc reductions rather than the ndarray methods, which add a Python wrapper
+    if not math.isfinite(_sum(T, None)):          # a finite sum ⇔ no NaN and no infinity
         return None
-    if np.abs(T[..., 3, :] - _LAST_ROW).max() > RIGID_ATOL:
+    if _max(np.abs(T[..., 3, :] - _LAST_ROW), None) > RIGID_ATOL:
         return None
     R = T[..., :3, :3]
-    det = np.linalg.det(R)
+    det = _det(R) if R.size < 9 * 1024 else _det_closed_form(R)
     if not check_rigid:
-        return (None, None) if (det > 0).all() else None
+        return (None, None) if _min(det, None) > 0 else None
     # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
     G = _swap(R) @ R
-    err = float(np.abs(G - _EYE3).max())
-    if max(err, float(np.abs(det - 1.0).max())) > RIGID_ATOL:
+    err = float(_max(np.abs(G - _EYE3), None))
+    if max(err, float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
         return None
     return err, G
+
+
+def _det_closed_form(R: np.ndarray) -> np.ndarray:
+    """det of (..., 3, 3) by cofactors: for many matrices several times faster than one
+    LU per matrix (LAPACK); equal to it to round-off (used only for the yes/no checks of
+    :func:`_fast_checks`, whose failures are re-examined by :func:`validate_poses`)."""
+    r0, r1, r2 = R[..., 0, :], R[..., 1, :], R[..., 2, :]
+    c0 = r1[..., 1] * r2[..., 2] - r1[..., 2] * r2[..., 1]
+    c1 = r1[..., 2] * r2[..., 0] - r1[..., 0] * r2[..., 2]
+    c2 = r1[..., 0] * r2[..., 1] - r1[..., 1] * r2[..., 0]
+    c0 *= r0[..., 0]
+    c1 *= r0[..., 1]
+    c2 *= r0[..., 2]
+    c0 += c1
+    c0 += c2
+    return c0
 
 
 def _check_positions(n: int, n_unit: int) -> None:
@@ -321,6 +361,9 @@ def _check_positions(n: int, n_unit: int) -> None:
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 _EYE3 = np.eye(3)
+#: Reductions as ufunc methods: the same numbers as ``a.sum()`` / ``a.max()`` /
+#: ``a.min()``, without the ndarray methods' Python wrapper (≈0.5 µs a call).
+_sum, _max, _min = np.add.reduce, np.maximum.reduce, np.minimum.reduce
 
 
 def _quaternion_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -382,7 +425,7 @@ def _quaternions(R: np.ndarray, err: float | None = None) -> np.ndarray:
     m = R.size // 9
     flat = R.reshape(m, 3, 3)
     if err is None:
-        err = float(np.abs(_swap(flat) @ flat - _EYE3).max()) if m else 0.0
+        err = float(_max(np.abs(_swap(flat) @ flat - _EYE3), None)) if m else 0.0
     if not err < 1.0 / 3.0:
         flat, err = Rotation.from_matrix(flat).as_matrix(), 0.0
     K4 = flat.reshape(m, 9) @ _QMAT
@@ -393,8 +436,39 @@ def _quaternions(R: np.ndarray, err: float | None = None) -> np.ndarray:
             K = K @ K
         K4 = K.reshape(m, 16)
     k = K4[:, ::5].argmax(axis=1)                                # the diagonal 4 q_k²
-    k += np.arange(0, 4 * m, 4)
+    k += _row_offsets(m)
     return K4.reshape(4 * m, 4)[k].reshape(R.shape[:-2] + (4,))  # 4 q_k q, |q_k| ≥ 1/2
+
+
+#: Per-thread scratch arrays for the largest temporaries that never leave their function
+#: (all pairs' quaternion products, eq. 10's residual blocks). A fresh array of a few
+#: hundred kB per call is mapped and page-faulted in anew each time the allocator has
+#: trimmed the heap (measured: 376 page faults per 88-pose solve); reusing one does not.
+#: Arrays above ``_SCRATCH_MAX_FLOATS`` are allocated as usual (no memory is held).
+_SCRATCH = threading.local()
+_SCRATCH_MAX_FLOATS = 1 << 18
+
+
+def _scratch(slot: int, shape: tuple[int, ...]) -> np.ndarray:
+    """An uninitialised float array of ``shape``: this thread's buffer ``slot`` (0–4).
+
+    Slot 4 holds the one-block solve's pair translations (:func:`_solve`); slots 0–3
+    temporaries that die in the function that takes them."""
+    size = math.prod(shape)
+    if size > _SCRATCH_MAX_FLOATS:
+        return np.empty(shape)
+    bufs = getattr(_SCRATCH, "bufs", None)
+    if bufs is None:
+        bufs = _SCRATCH.bufs = [np.empty(0)] * 5
+    if bufs[slot].size < size:
+        bufs[slot] = np.empty(size)
+    return bufs[slot][:size].reshape(shape)
+
+
+@functools.lru_cache(maxsize=64)
+def _row_offsets(m: int) -> np.ndarray:
+    """``0, 4, ..., 4(m − 1)``: the first row of each of m stacked 4×4 blocks."""
+    return _read_only(np.arange(0, 4 * m, 4))
 
 
 def _pair_logs(q: np.ndarray, i: np.ndarray, j: np.ndarray,
@@ -411,10 +485,11 @@ def _pair_logs(q: np.ndarray, i: np.ndarray, j: np.ndarray,
     """
     lead, n = q.shape[:-2], q.shape[-2]
     L = (q @ _QLEFT).reshape(lead + (4 * n, 4))                  # [(a, c), b]
-    P = (L @ _swap(q)).reshape(lead + (4 * n * n,))              # c of q_a ⊗ q_b* at (a, c, b)
+    P = np.matmul(L, _swap(q), out=_scratch(0, lead + (4 * n, n)))
+    P = P.reshape(lead + (4 * n * n,))                           # c of q_a ⊗ q_b* at (a, c, b)
     P = P.take(_pair_take(n, i, j) if take is None else take, axis=-1)   # (..., 4, K)
     v, w = P[..., :3, :], P[..., 3, :]
-    s2 = (v * v).sum(axis=-2)
+    s2 = _sum(v * v, axis=-2)
     s = np.sqrt(s2)
     c = np.abs(w)
     if s.size < 1024:
@@ -517,13 +592,13 @@ def _weights(theta: np.ndarray, pair: _Pairs, n: int,
     theta (Su, K) is the unit's rotation angle for the pairs (i, j), i > j. Returns the
     ordered weights W (Su, n, n) and, per unordered pair, ``w_ij + w_ji`` (Su, K).
     """
-    ok = theta >= min_rotation_rad
-    if ok.all():                                  # the usual case: the method's pair set
+    if _min(theta, None) >= min_rotation_rad:    # the usual case: the method's pair set
         Su = theta.shape[0]
         if Su == 1:
             return pair.W_all, pair.wk_all
         return (np.broadcast_to(pair.W_all, (Su, n, n)),
                 np.broadcast_to(pair.wk_all, theta.shape))
+    ok = theta >= min_rotation_rad
     w_ij, w_ji = ok & pair.use_ij, ok & pair.use_ji
     W = np.zeros((theta.shape[0], n * n))
     W[:, pair.ij] = w_ij
@@ -555,7 +630,7 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
         bad = not l1 / l2 >= MIN_AXIS_SPREAD
     else:
         spread = lam[:, 1] / lam[:, 2]
-        bad = not spread.min() >= MIN_AXIS_SPREAD
+        bad = not _min(spread) >= MIN_AXIS_SPREAD
     if bad:
         s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
         raise DegenerateDataError(
@@ -578,7 +653,7 @@ def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
     else:
         cond = np.divide(lam[:, 2], lam[:, 0], out=np.full(len(lam), np.inf),
                          where=lam[:, 0] > 0)
-    if not cond.max() <= MAX_COND_CTC:
+    if not _max(cond) <= MAX_COND_CTC:
         s = int(np.argmax(~(cond <= MAX_COND_CTC)))
         raise DegenerateDataError(
             f"translation along {_fmt_axis(vec[s, :, 0])} (camera frame) is not determined"
@@ -586,6 +661,34 @@ def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
             "7); the motions' rotation axes are nearly parallel; add positions that turn "
             "about a second axis (combine pan with tilt)")
     return cond
+
+
+def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.linalg.eigh(a)`` (float64 (..., k, k), lower triangle) without its per-call
+    set-up (type checks and an errstate context, ~10 µs against 3 µs for a 3×3): the same
+    LAPACK gufunc, so the same numbers. Should LAPACK not converge (NaN output),
+    np.linalg.eigh runs instead and raises its LinAlgError."""
+    if _GU_EIGH is not None:
+        lam, vec = _GU_EIGH(a)
+        if math.isfinite(np.add.reduce(lam, axis=None)):
+            return lam, vec
+    return tuple(np.linalg.eigh(a))
+
+
+def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.linalg.svd(a)`` (float64 (..., 3, 3), full matrices) by its gufunc, as
+    :func:`_eigh` (a NaN result falls back to np.linalg.svd, which raises)."""
+    if _GU_SVD is not None:
+        U, sv, Vt = _GU_SVD(a)
+        if math.isfinite(np.add.reduce(sv, axis=None)):
+            return U, sv, Vt
+    return tuple(np.linalg.svd(a))
+
+
+def _det(a: np.ndarray) -> np.ndarray:
+    """``np.linalg.det(a)`` for float64 (..., k, k) by its gufunc (no checks to skip
+    but the type dispatch)."""
+    return np.linalg.det(a) if _GU_DET is None else _GU_DET(a)
 
 
 def _swap(a: np.ndarray) -> np.ndarray:
@@ -602,25 +705,29 @@ def _stacked(R: np.ndarray) -> np.ndarray:
     return R.transpose(0, 2, 1, 3).reshape(S, 3 * n, 3)
 
 
-def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
+                       out: np.ndarray | None = None) -> np.ndarray:
     """``t_A = t_a − R_a R_bᵀ t_b`` for every ordered pair (a, b): (S, 3, n, n) [i, a, b].
 
     R (S, n, 3, 3), Rs = :func:`_stacked` (R), t (S, n, 3); ``R_a (R_bᵀ t_b)`` for all
-    pairs is one (3n × 3) by (3 × n) product.
+    pairs is one (3n × 3) by (3 × n) product. ``out``: (S, 3n, n) to hold the result.
     """
     S, n = t.shape[:2]
     r = (_swap(R) @ t[..., None])[..., 0]                          # R_bᵀ t_b  (S, n, 3)
-    return _swap(t)[..., None] - (Rs @ _swap(r)).reshape(S, 3, n, n)
+    tA = np.matmul(Rs, _swap(r), out=out).reshape(S, 3, n, n)
+    return np.subtract(_swap(t)[..., None], tA, out=tA)
 
 
 class _Camera(NamedTuple):
     """One block of samples' camera side: R (S, n, 3, 3), Rs = :func:`_stacked` (R),
-    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3)."""
+    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3), G = RᵀR (S, n, 3, 3)
+    (None when ``exact``)."""
 
     R: np.ndarray
     Rs: np.ndarray
     tA: np.ndarray
     CtC: np.ndarray
+    G: np.ndarray | None
 
 
 def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = False,
@@ -640,16 +747,16 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = Fa
     Rs3 = Rs.reshape(S, 3, 3 * n)                                 # [i, (a, k)]
     V = W[:, None] @ Rs.reshape(S, 3, n, 3)                       # Σ_b w_ab R_b
     sum_RA = Rs3 @ _swap(V.reshape(S, 3, 3 * n))
-    w_sum = W.sum(axis=(1, 2))[:, None, None]
+    w_sum = _sum(W.reshape(-1, n * n), axis=1)[:, None, None]
     if exact:
-        CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
+        CtC, G = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA), None
     else:
         G = _swap(R) @ R if G is None else G
         H = (_swap(W) @ G.reshape(S, n, 9)).reshape(S, n, 3, 3)   # Σ_a w_ab G_a
         sum_RAtRA = _stacked(R @ H).reshape(S, 3, 3 * n) @ _swap(Rs3)
         CtC = w_sum * _EYE3 - sum_RA - _swap(sum_RA) + sum_RAtRA
     tA = _pair_translations(R, Rs, T[..., :3, 3]) if tA is None else tA
-    return _Camera(R, Rs, tA, CtC)
+    return _Camera(R, Rs, tA, CtC, G)
 
 
 def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndarray:
@@ -659,10 +766,13 @@ def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndar
     """
     R, Rs = cam.R, cam.Rs
     S, n = R.shape[:2]
-    d = cam.tA - (RX @ tB.reshape(-1, 3, n * n)).reshape(S, 3, n, n)     # [i, a, b]
+    # the n²-sized temporaries go to scratch buffers (see _scratch)
+    d = np.matmul(RX, tB.reshape(-1, 3, n * n), out=_scratch(0, (S, 3, n * n)))
+    d = np.subtract(cam.tA, d.reshape(S, 3, n, n), out=d.reshape(S, 3, n, n))  # [i, a, b]
     sum_d = (d.reshape(S, 3, n * n) @ W.reshape(-1, n * n, 1))[..., 0]
-    e = _swap(R) @ d.transpose(0, 2, 1, 3)                        # R_aᵀ d_ab at [a, k, b]
-    f = (e * W[:, :, None, :]).sum(axis=1)                        # Σ_a w_ab R_aᵀ d_ab [k, b]
+    e = np.matmul(_swap(R), d.transpose(0, 2, 1, 3), out=_scratch(1, (S, n, 3, n)))
+    e *= W[:, :, None, :]                                         # w_ab R_aᵀ d_ab at [a, k, b]
+    f = _sum(e, axis=1)                                           # Σ_a w_ab R_aᵀ d_ab [k, b]
     return sum_d - (Rs.reshape(S, 3, 3 * n) @ _swap(f).reshape(S, 3 * n, 1))[..., 0]
 
 
@@ -672,9 +782,16 @@ def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
     n = Rs.shape[1] // 3
     Ys = (RX @ Qs.reshape(-1, 3, 3 * n)).reshape(S, 3 * n, 3)   # Y_a = R_X Q_a, stacked
     Z = np.concatenate([Ys, Rs], axis=-1)                         # (S, 3n, 6)
-    E = Z @ _swap(Z * _SIGNS)                                     # Y Yᵀ − R Rᵀ
+    E = np.matmul(Z, _swap(Z * _SIGNS), out=_scratch(1, (S, 3 * n, 3 * n)))   # Y Yᵀ − R Rᵀ
     E *= E
-    fro = np.sqrt(E.reshape(S, 3, n, 3, n).sum(axis=1).sum(axis=2))
+    # the sums over the 3×3 entries of each block as explicit additions, in the order a
+    # reduction takes them ((e0 + e1) + e2): the same numbers, faster on these short axes
+    E = E.reshape(S, 3, n, 3, n)
+    E1 = np.add(E[:, 0], E[:, 1], out=_scratch(2, (S, n, 3, n)))
+    E1 += E[:, 2]
+    fro = np.add(E1[:, :, 0], E1[:, :, 1], out=_scratch(3, (S, n, n)))
+    fro += E1[:, :, 2]
+    np.sqrt(fro, out=fro)
     return (fro.reshape(S, n * n) @ _off_diagonal(n)) / (n * (n - 1))
 
 
@@ -708,14 +825,14 @@ def _polar_rotation(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 9: R_X = (MᵀM)^(-1/2) Mᵀ as the polar factor V Uᵀ (det forced to +1).
 
     M (S, 3, 3) → R_X (S, 3, 3) and the singular values of M (S, 3)."""
-    U, sv, Vt = np.linalg.svd(M)
+    U, sv, Vt = _svd(M)
     RX = _swap(U @ Vt)                                            # V Uᵀ
     if len(M) == 1:                     # one sample: the sign of det by hand is cheaper
         (a, b, c), (d, e, f), (g, h, k) = RX[0].tolist()
         flip = [a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) < 0]
         any_flip = flip[0]
     else:
-        flip = np.linalg.det(RX) < 0
+        flip = _det(RX) < 0
         any_flip = flip.any()
     if any_flip:                                                  # V diag(1, 1, −1) Uᵀ
         Vt = Vt.copy()
@@ -739,7 +856,7 @@ def _polar_rotation_many(M: np.ndarray) -> np.ndarray:
     the SVD of :func:`_polar_rotation`.
     """
     X = _swap(M).copy()
-    d0 = np.linalg.det(M)
+    d0 = _det(M)
     norm = np.sqrt((M * M).sum(axis=(1, 2)))
     ok = d0 > 1e-6 * norm ** 3
     X[~ok] = _EYE3
@@ -776,7 +893,7 @@ def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
     is flipped where it points away from ``R_X0 β``, with R_X0 from the other pairs (all
     pairs if fewer than two others are usable). Without half turns α is returned as is.
     """
-    if max(theta_A.max(), theta_B.max()) <= np.pi - _HALF_TURN_TOL:
+    if max(_max(theta_A, None), _max(theta_B, None)) <= np.pi - _HALF_TURN_TOL:
         return alpha
     near = (theta_A > np.pi - _HALF_TURN_TOL) | (theta_B > np.pi - _HALF_TURN_TOL)
     others = bw * ~near[:, None, :]
@@ -811,6 +928,8 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
     i, j, take = pair.i, pair.j, pair.take
     chunk = max(1, _CHUNK_FLOATS // (9 * n * n))
     one_block = chunk >= S
+    if one_block and T_all is None:
+        T_all = np.concatenate([T_cw, T_gp])
     if one_block:
         logs, angle = _pair_logs(_quaternions(T_all[..., :3, :3], err), i, j, take)
         alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
@@ -822,14 +941,15 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
     if one_block:               # both sides' R_a R_bᵀ t_b in one product, too
         R_all = T_all[..., :3, :3]
         Rs_all = _stacked(R_all)
-        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3])
+        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3],      # lives to the end
+                                   _scratch(4, (S + Sq, 3 * n, n)))
         Qs, tB = Rs_all[S:], t_all[S:]
         cam = _camera(T_cw, None if G_all is None else G_all[:S], W, exact, Rs_all[:S],
                       t_all[:S])
-        lam, vec = np.linalg.eigh(np.concatenate([G_unit, cam.CtC]))
+        lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
         eig_unit, eig_ctc = (lam[:Sq], vec[:Sq]), (lam[Sq:], vec[Sq:])
     else:
-        eig_unit = np.linalg.eigh(G_unit)
+        eig_unit = _eigh(G_unit)
     spread, axis = _check_rotation_axes(eig_unit, wk, min_rotation_rad)
 
     def unit_terms(T):
@@ -849,12 +969,15 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
             a, a_theta = alpha, theta_cam
             cond = _check_cond_CtC(eig_ctc, S, c0)
         else:
-            cam = _camera(T_cw[c], None, W[cq], exact)
+            cam = _camera(T_cw[c], None if G_all is None else G_all[c], W[cq], exact)
             lam = np.linalg.eigvalsh(cam.CtC)
             if not (lam[:, 2] <= MAX_COND_CTC * lam[:, 0]).all():   # name the weak axis
-                _check_cond_CtC(np.linalg.eigh(cam.CtC), S, c0)
+                _check_cond_CtC(_eigh(cam.CtC), S, c0)
             cond = lam[:, 2] / lam[:, 0]
-            a, a_theta = _pair_logs(_quaternions(cam.R, err), i, j, take)
+            if err is None:         # RᵀR is at hand: max |RᵀR − I| as _quaternions takes it
+                err_c = float(_max(np.abs(cam.G - _EYE3), None))
+            a, a_theta = _pair_logs(_quaternions(cam.R, err if err is not None else err_c),
+                                    i, j, take)
         a = _align_half_turns(a, a_theta, beta[cq], theta[cq], bw[cq])
         M = bw[cq] @ _swap(a)                                     # eq. 9: M = Σ w β αᵀ
         if one_block:
@@ -880,9 +1003,10 @@ def _diagnostics(out: dict, n: int, pair: _Pairs) -> HandEyeDiagnostics:
     theta = theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]   # the method's
     deg = 180.0 / math.pi
     return HandEyeDiagnostics(
-        n_positions=n, n_pairs=pair.n_pairs, n_pairs_used=int(out["wk"][0].sum()),
+        n_positions=n, n_pairs=pair.n_pairs,
+        n_pairs_used=pair.n_pairs if out["wk"] is pair.wk_all else int(_sum(out["wk"][0])),
         cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][0]),
-        min_rotation_deg=float(theta.min()) * deg, max_rotation_deg=float(theta.max()) * deg,
+        min_rotation_deg=float(_min(theta)) * deg, max_rotation_deg=float(_max(theta)) * deg,
         axis_spread=float(out["axis_spread"][0]),
         dominant_axis=_unit_axis(out["dominant_axis"][0]))
 
