@@ -33,6 +33,7 @@ from rasc.handeye.li import solve_li
 from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
+from rasc.progress import progress
 from rasc.vision.camera import detect_corners, estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
@@ -80,46 +81,24 @@ def _init_worker() -> None:
 def run_tasks(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
               label: str = "") -> list[Any]:
     """Map ``fn`` over ``tasks`` (in order), in ``workers`` processes, with progress."""
-    progress = Progress(label, len(tasks))
-    if workers <= 1 or len(tasks) <= 1:
-        out = []
-        for task in tasks:
-            out.append(fn(task))
-            progress.step()
-        return out
-    results: list[Any] = [None] * len(tasks)
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)
-    try:
-        futures = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
-        from concurrent.futures import as_completed
-        for fut in as_completed(futures):
-            results[futures[fut]] = fut.result()
-            progress.step()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)   # also on an interrupt
-    return results
-
-
-class Progress:
-    """One updating line on stderr: ``[label] k/n (t s)``."""
-
-    def __init__(self, label: str, total: int) -> None:
-        self.label, self.total, self.done = label, total, 0
-        self.t0 = time.perf_counter()
-        self._last = 0.0
-        self.tty = sys.stderr.isatty()
-
-    def step(self, k: int = 1) -> None:
-        self.done += k
-        now = time.perf_counter()
-        if not self.label:
-            return
-        final = self.done >= self.total
-        if final or now - self._last > (0.2 if self.tty else 5.0):
-            self._last = now
-            end = "\n" if final or not self.tty else "\r"
-            print(f"[{self.label}] {self.done}/{self.total} ({now - self.t0:.1f} s)",
-                  end=end, file=sys.stderr, flush=True)
+    with progress(total=len(tasks), desc=label, quiet=not label) as bar:
+        if workers <= 1 or len(tasks) <= 1:
+            out = []
+            for task in tasks:
+                out.append(fn(task))
+                bar.update(1)
+            return out
+        results: list[Any] = [None] * len(tasks)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)
+        try:
+            futures = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
+            from concurrent.futures import as_completed
+            for fut in as_completed(futures):
+                results[futures[fut]] = fut.result()
+                bar.update(1)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)   # also on an interrupt
+        return results
 
 
 def fmt(x: Any) -> str:
