@@ -35,7 +35,12 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_handeye.py
+	$(PY) benchmarks/bench_plugins.py
+	$(PY) benchmarks/compare_inverse.py
 	$(PY) benchmarks/bench_pipeline.py
+	$(PY) benchmarks/bench_sim_units.py
+	$(PY) benchmarks/bench_refine.py
+	$(PY) benchmarks/bench_study.py
 	$(PY) benchmarks/bench_reproduce.py
 
 # Rewrite constraints.txt from a fresh resolve of pyproject.toml's ranges.

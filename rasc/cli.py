@@ -51,14 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="rasc", description="Robust Active Stereo Calibration (Neubert & Ferrier 2002).")
     parser.add_argument("--version", action="version", version=f"rasc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
-        try:
-            module = importlib.import_module(f"rasc.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"rasc.commands.{name}":
-                continue  # not built yet
-            raise
-        module.add_parser(sub)
+    for name in COMMANDS:  # a command that fails to import is a broken install: say so
+        importlib.import_module(f"rasc.commands.{name}").add_parser(sub)
     return parser
 
 

@@ -181,3 +181,14 @@ def test_the_mathematics_needs_numpy_and_scipy_alone(modules):
                           check=False)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[]"
+
+
+def test_every_command_module_is_registered_and_none_is_hidden():
+    """rasc/commands/<name>.py (not _private) is exactly rasc.cli.COMMANDS, and each one
+    builds its parser: a command whose module fails to import is an error, not skipped."""
+    from rasc.cli import COMMANDS, build_parser
+
+    modules = {p.stem for p in (RASC / "commands").glob("*.py") if not p.stem.startswith("_")}
+    assert set(COMMANDS) == modules
+    names = set(build_parser()._subparsers._group_actions[0].choices)
+    assert names == {c.replace("_", "-") for c in COMMANDS}
