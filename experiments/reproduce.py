@@ -41,6 +41,7 @@ EXPERIMENTS = (
     ("e5_base_to_ptu", "E5 — base-to-ptu: loop closure against measured mounts"),
     ("e6a_pixel_noise", "E6a — beyond the paper: error against image-space noise"),
     ("e6b_shootout", "E6b — beyond the paper: hand-eye shoot-out at small motions"),
+    ("e7_model_mismatch", "E7 — beyond the paper: model mismatch (real pan-tilt units)"),
 )
 
 
