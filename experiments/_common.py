@@ -34,6 +34,7 @@ from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
 from rasc.progress import progress
+from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
 from rasc.vision.camera import detect_corners, estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
@@ -383,29 +384,6 @@ def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
-
-
-def save_figure(fig, path_stem: Path) -> list[Path]:
-    """Save a matplotlib figure as PNG and SVG, deterministically (no dates/ids).
-
-    The tight bounding box is computed once and given to both formats: with
-    ``bbox_inches="tight"`` every ``savefig`` draws the figure twice, and drawing (tick
-    labels of log axes above all) is most of a quick reproduction's time (measured: the
-    four E1 figures 3.5 s -> 2.5 s).
-    """
-    import matplotlib
-
-    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)  # savefig's pad
-    paths = []
-    for ext, meta in ((".png", {"Software": None}), (".svg", {"Date": None})):
-        path = path_stem.with_suffix(ext)
-        buf = io.BytesIO()
-        with matplotlib.rc_context({"svg.hashsalt": "rasc"}):
-            fig.savefig(buf, format=ext[1:], dpi=120, metadata=meta, bbox_inches=bbox)
-        from rasc.io import write_bytes_atomic
-        write_bytes_atomic(path, buf.getvalue())
-        paths.append(path)
-    return paths
 
 
 # ===================================================== pose-level noise (E1; E2, E3 use it)
