@@ -60,7 +60,9 @@ check-latest:
 	$(PYTHON) -m venv .venv-latest
 	.venv-latest/bin/python -m pip install --quiet --upgrade pip
 	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test,dask]'
-	.venv-latest/bin/python -m pip freeze --exclude rasc | diff constraints.txt - || true
+	grep -v '^#' constraints.txt > .venv-latest/locked.txt
+	.venv-latest/bin/python -m pip freeze --exclude rasc | diff .venv-latest/locked.txt - \
+	  && echo 'check-latest: the newest versions are the locked ones' || true
 	.venv-latest/bin/python -m pytest -q -n $(JOBS)
 
 clean:
