@@ -25,9 +25,9 @@ import argparse
 
 from rasc.commands import _use_common as common
 from rasc.errors import InputError
+from rasc.geometry.frames import EYES
 
 RESULT_FORMAT = "rasc-look-at/1"
-EYES = ("left", "right")
 #: from this many points (about 1 s at ~5 ms per point and eye) a progress bar is shown
 PROGRESS_MIN_POINTS = 100
 

@@ -18,9 +18,9 @@ import argparse
 
 from rasc.commands import _use_common as common
 from rasc.errors import InputError
+from rasc.geometry.frames import EYES
 
 RESULT_FORMAT = "rasc-projection/1"
-EYES = ("left", "right")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

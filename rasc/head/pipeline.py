@@ -426,8 +426,6 @@ def refine_calibration(cal: Calibration, dataset,
     change :class:`CalibrationOptions` fields (e.g. ``scales="hold"``)."""
     import copy
 
-    from rasc.geometry.frames import EYES as eyes
-
     options = dataclasses.replace(cal.options, model="general", **overrides)
     out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
                       options=options, warnings=list(cal.warnings),
@@ -438,7 +436,7 @@ def refine_calibration(cal: Calibration, dataset,
     timer = _Timer()
     timer.timings = dict(cal.timings)
     timer.timings.pop("model-fit check", None)
-    sizes = {eye: cal.head.__getattribute__(eye).image_size for eye in eyes}
+    sizes = {eye: getattr(cal.head, eye).image_size for eye in EYES}
     _check_and_refine(out, dataset, options, timer, log, sizes)
     out.timings = dict(timer.timings)
     if dataset.ground_truth is not None:

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform
 from rasc.head.model import FORMAT as HEAD_FORMAT
 from rasc.head.model import EyeCalibration, HeadCalibration
@@ -38,7 +39,6 @@ from rasc.io import read_json_document as _read_json_document
 
 #: The document ``rasc calibrate`` writes (rasc.head.pipeline.FORMAT; a test checks).
 CALIBRATION_FORMAT = "rasc-calibration/1"
-EYES = ("left", "right")
 
 #: :func:`look_at` succeeds when the point's ideal image is this close to the principal
 #: point, pixels: far below any corner detector (0.02 px at best), far above the solver's

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from rasc.errors import InputError
+from rasc.geometry.frames import EYES
 
 #: version of the study folder layout (``study.json`` ``format``)
 #: the summary's statistics of each error, and its columns after the cell and axes
@@ -53,7 +54,6 @@ MAX_SPEC_BYTES = 1 << 20
 PAPER_SIGMA_R_PER_LEVEL, PAPER_SIGMA_T_MM_PER_LEVEL = 0.005, 1.0
 LAYOUTS = ("grid", "cross", "ring")
 NOISE_MODELS = ("literal", "exponential")
-EYES = ("left", "right")
 
 
 # ----------------------------------------------------------------- value checkers

@@ -34,12 +34,12 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from rasc.errors import InputError
+from rasc.geometry.frames import EYES
 from rasc.io import read_json_document, write_json_atomic
 from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
 
 FORMAT = "rasc-dataset/1"
 MANIFEST = "manifest.json"
-EYES = ("left", "right")
 ROLES = ("intrinsics", "pose")
 ANGLE_UNITS = ("deg", "rad")
 #: hand-eye needs at least three positions (two independent relative rotations, docs/METHOD.md §3)
