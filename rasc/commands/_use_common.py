@@ -33,6 +33,12 @@ MAX_ABS_VALUE = 1e12
 MAX_CSV_BYTES = 1 << 30
 
 
+def add_calibration(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("calibration", metavar="CAL",
+                        help="calibration JSON (rasc-calibration/1 from rasc calibrate, or "
+                             "rasc-head/1)")
+
+
 def add_angle_unit(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--angle-unit", required=True, choices=ANGLE_UNITS,
                         help=f"unit of {what} (required: deg or rad)")

@@ -37,9 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "look-at", help="pan and tilt of each eye that fixate a base-frame point",
         description="Solve each eye's pan and tilt that put a base-frame point on its "
                     "principal point.")
-    p.add_argument("calibration", metavar="CAL",
-                   help="calibration JSON (rasc-calibration/1 from rasc calibrate, or "
-                        "rasc-head/1)")
+    common.add_calibration(p)
     p.add_argument("--point", metavar="X,Y,Z", action="append", default=[],
                    help="a base-frame point (repeatable; write --point=-1,2,3 for a "
                         "leading minus)")

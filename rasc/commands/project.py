@@ -28,9 +28,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "project", help="base-frame points with pan/tilt -> each eye's pixels",
         description="Project base-frame points into one or both eyes. POINTS.csv columns: "
                     "x,y,z and pan_left,tilt_left and/or pan_right,tilt_right[,label].")
-    p.add_argument("calibration", metavar="CAL",
-                   help="calibration JSON (rasc-calibration/1 from rasc calibrate, or "
-                        "rasc-head/1)")
+    common.add_calibration(p)
     p.add_argument("points", metavar="POINTS.csv", help="base-frame points and angles (CSV)")
     common.add_angle_unit(p, "the pan and tilt columns")
     common.add_out(p)

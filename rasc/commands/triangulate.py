@@ -39,9 +39,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Triangulate matched pixels of both eyes (eq. 15-19, undistorted) into "
                     "base-frame points. POINTS.csv columns: u_left,v_left,u_right,v_right,"
                     "pan_left,tilt_left,pan_right,tilt_right[,label].")
-    p.add_argument("calibration", metavar="CAL",
-                   help="calibration JSON (rasc-calibration/1 from rasc calibrate, or "
-                        "rasc-head/1)")
+    common.add_calibration(p)
     p.add_argument("points", metavar="POINTS.csv", help="matched pixels and angles (CSV)")
     common.add_angle_unit(p, "the pan and tilt columns")
     p.add_argument("--method", choices=("ls", "tls"), default="ls",
