@@ -85,6 +85,34 @@ def random_rigid(rng: np.random.Generator, n: int, max_angle: float = np.pi,
 
 # --------------------------------------------------------- the rendered dataset
 
+#: image size of the plausible head's cameras
+HEAD_IMAGE_SIZE = (1280, 960)
+
+
+def plausible_head(seed: int = 0):
+    """A plausible head and its ``T_ptuL_from_ptuR``: 0.3 m baseline, 1.5° between the
+    mounts, cameras a few cm and ~2° off nominal, different intrinsics and lenses per eye
+    (k1 ≈ −0.2 to −0.3)."""
+    from rasc.head.base_to_ptu import T_ptuL_from_ptuR_from_mounts, cyclopean_base
+    from rasc.head.model import EyeCalibration, HeadCalibration
+
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    T_LR = T_ptuL_from_ptuR_from_mounts([0.0, 0.0, -0.3] + rng.normal(0, 0.005, 3),
+                                        np.radians(1.5) * axis / np.linalg.norm(axis))
+    T_pb = cyclopean_base(T_LR)
+    dists = ([-0.22, 0.06, 0.0008, -0.0005, 0.0], [-0.3, 0.09, -0.0004, 0.0007])
+    eyes = []
+    for k in range(2):
+        f = rng.uniform(950, 1050)
+        K = np.array([[f, 0, 639.5 + rng.normal(0, 5)], [0, f * 1.001, 479.5 + rng.normal(0, 5)],
+                      [0, 0, 1]])
+        T_cg = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.03, 3)),
+                              rng.uniform(-0.05, 0.05, 3))
+        eyes.append(EyeCalibration(K, dists[k], T_cg, T_pb[k], HEAD_IMAGE_SIZE))
+    return HeadCalibration(*eyes), T_LR
+
+
 def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
     """``python -m rasc ARGV`` in a subprocess (text output captured, 300 s limit)."""
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))

@@ -16,34 +16,16 @@ from hypothesis import strategies as st
 
 import rasc
 from rasc.errors import DegenerateDataError, InputError
-from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+from rasc.geometry.transforms import invert_transform, make_transform
 from rasc.head import use
-from rasc.head.base_to_ptu import T_ptuL_from_ptuR_from_mounts, cyclopean_base
 from rasc.head.model import MAX_ABS_ANGLE_RAD, EyeCalibration, HeadCalibration
 
-#: Nominal camera on a gaze frame (x up, y forward, z left): optical axis = gaze +y.
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-SIZE = (1280, 960)
+from conftest import HEAD_IMAGE_SIZE as SIZE
+from conftest import R_CAM_FROM_GAZE_NOMINAL, plausible_head
 
 
 def make_head(seed=0):
-    """A plausible head: 0.3 m baseline, 1.5° between the mounts, cameras a few cm and
-    ~2° off nominal, different intrinsics and lenses per eye."""
-    rng = np.random.default_rng(seed)
-    axis = rng.normal(size=3)
-    T_LR = T_ptuL_from_ptuR_from_mounts([0.0, 0.0, -0.3] + rng.normal(0, 0.005, 3),
-                                        np.radians(1.5) * axis / np.linalg.norm(axis))
-    T_pb = cyclopean_base(T_LR)
-    dists = ([-0.22, 0.06, 0.0008, -0.0005, 0.0], [-0.3, 0.09, -0.0004, 0.0007])
-    eyes = []
-    for k in range(2):
-        f = rng.uniform(950, 1050)
-        K = np.array([[f, 0, 639.5 + rng.normal(0, 5)], [0, f * 1.001, 479.5 + rng.normal(0, 5)],
-                      [0, 0, 1]])
-        T_cg = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.03, 3)),
-                              rng.uniform(-0.05, 0.05, 3))
-        eyes.append(EyeCalibration(K, dists[k], T_cg, T_pb[k], SIZE))
-    return HeadCalibration(*eyes)
+    return plausible_head(seed)[0]
 
 
 def calibration_document(head, pan_deg=(-8.0, 8.0), tilt_deg=(-8.0, 8.0)):
