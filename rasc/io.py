@@ -62,7 +62,8 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
-def _to_jsonable(obj: Any) -> Any:
+def to_jsonable(obj: Any) -> Any:
+    """``json.dumps``'s ``default``: numpy arrays and scalars, and paths, as JSON data."""
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):
@@ -84,7 +85,7 @@ def dumps_json(obj: Any) -> str:
 
     Arrays of plain numbers stay on one line, so a 4×4 matrix reads as four rows.
     """
-    text = json.dumps(obj, indent=2, sort_keys=True, default=_to_jsonable, allow_nan=False)
+    text = json.dumps(obj, indent=2, sort_keys=True, default=to_jsonable, allow_nan=False)
     text = _FLAT_NUMBER_ARRAY.sub(lambda m: "[" + re.sub(r",\s+", ", ", m.group(1)) + "]", text)
     return text + "\n"
 

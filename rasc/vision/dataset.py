@@ -35,7 +35,7 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
-from rasc.io import read_json_document, write_json_atomic
+from rasc.io import read_json_document, to_jsonable, write_json_atomic
 from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
 
 FORMAT = "rasc-dataset/1"
@@ -423,17 +423,10 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     obj = _manifest_dict(board, [dict(im) if isinstance(im, dict) else im for im in images],
                          angle_unit, ground_truth, length_unit)
     # json round trip: numpy scalars become numbers, and what is written is what is checked
-    obj = json.loads(json.dumps(obj, default=_jsonable))
+    try:
+        obj = json.loads(json.dumps(obj, default=to_jsonable))
+    except TypeError as exc:  # a value that is not JSON data
+        raise InputError(f"write_manifest: {exc}") from None
     parse_manifest(obj, manifest.parent, where=str(manifest), check_files=check_files)
     write_json_atomic(manifest, obj)
     return manifest
-
-
-def _jsonable(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, os.PathLike):
-        return os.fspath(o)
-    raise InputError(f"write_manifest: value of type {type(o).__name__} is not JSON data")
