@@ -70,7 +70,7 @@ def to_jsonable(obj: Any) -> Any:
         return obj.item()
     if isinstance(obj, os.PathLike):
         return os.fspath(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    raise TypeError(f"value of type {type(obj).__name__} is not JSON data")
 
 
 #: an array holding only numbers (no nested array or object), as json.dumps(indent=2)
