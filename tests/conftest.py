@@ -26,7 +26,8 @@ folder; the others wait for the lock and reuse them.
 Marker ``slow`` (registered in pyproject.toml): tests that take a second or more each
 (renders, experiments, subprocesses, large property tests); every test that uses one of
 the fixtures above gets it automatically. ``make test-fast`` (``-m "not slow"``) leaves
-them out.
+them out. Slow tests are collected first (see ``pytest_collection_modifyitems``), so that
+under pytest-xdist the long ones start early and the short ones fill in around them.
 """
 
 from __future__ import annotations
@@ -194,3 +195,9 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if DATASET_FIXTURES.intersection(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.slow)
+    # Slow tests first (a stable sort: each group keeps pytest's order, so the same on
+    # every xdist worker, as xdist requires): the run's wall time is bounded by the test
+    # that starts last plus its length, so the long ones should start while the short ones
+    # can still fill the other worker (longest-first scheduling; with `--dist worksteal`,
+    # see the Makefile, an idle worker takes pending tests from the busy one).
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

@@ -149,6 +149,7 @@ def test_detect_canonical_order_and_accuracy(method):
         assert err.max() < 0.1, (method, rotate, err.max())
 
 
+@pytest.mark.slow
 def test_classic_and_sb_number_from_opposite_ends_and_are_reconciled():
     """OpenCV's classic detector numbers from a black corner square, the SB detector from
     a white one (measured, 4.14): raw, their board frames differ by a 180° turn, so mixing

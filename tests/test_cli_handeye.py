@@ -124,6 +124,7 @@ def test_console_script_writes_out_file_identical_to_stdout(tmp_path):
     assert out.read_text(encoding="utf-8") == stdout_run.stdout
 
 
+@pytest.mark.slow
 def test_bad_input_subprocess_one_line_exit_2_no_file(tmp_path):
     bad = write_doc(tmp_path / "poses.json", '{"positions": [\n  {"pan": 1,,}\n]}')
     out = tmp_path / "result.json"

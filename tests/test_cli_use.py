@@ -98,6 +98,7 @@ def _numbers(text: str) -> list[float]:
     return [float(x) for x in re.findall(r"-?\d+\.\d{9,}(?:e-?\d+)?", text)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("index", [0, 1, 2])
 def test_readme_commands_run_as_shown(index):
     """Each README command as a user types it (in a subprocess, from the repository root):
@@ -204,6 +205,7 @@ def test_look_at_warns_outside_the_recorded_range(capsys):
     assert json.loads(out)["points"][0]["left"]["within_recorded_range"] is False
 
 
+@pytest.mark.slow
 def test_look_at_many_points_progress_and_quiet(tmp_path, capsys):
     """From 100 points a progress line appears on stderr; --quiet removes it. Points 2 m
     ahead within ±5 cm of the centre line: every eye within the recorded ±8°."""
@@ -385,6 +387,7 @@ def test_bad_calibration_file(text, message, tmp_path, capsys):
         assert f"{cal}: " in err and message in err
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                   HealthCheck.function_scoped_fixture])
 @given(text=st.text(alphabet=st.sampled_from(list("0123456789.,-+e\n#\"abnfilx_ \r\t")),
@@ -423,6 +426,7 @@ def rendered(tmp_path_factory):
     return cal, truth
 
 
+@pytest.mark.slow
 def test_rendered_calibration_triangulates_and_looks_at_like_the_truth(rendered, tmp_path,
                                                                        capsys):
     """Pixels projected through the true head (from ground_truth.json) at random angles
@@ -458,6 +462,7 @@ def test_rendered_calibration_triangulates_and_looks_at_like_the_truth(rendered,
         assert fix["within_recorded_range"] is True
 
 
+@pytest.mark.slow
 def test_sigterm_during_look_at_leaves_no_file(tmp_path):
     """SIGTERM while 3000 points are solved (about 30 s): exit 130, one line saying so, and
     no output file or temporary left behind."""
@@ -486,6 +491,7 @@ _value = st.one_of(st.floats(-1e12, 1e12), st.sampled_from([0.0, -0.0, 1e-300, 1
                    st.floats(-400, 400))
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(rows=st.lists(st.lists(_value, min_size=8, max_size=8), min_size=1, max_size=4),

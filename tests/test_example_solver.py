@@ -31,6 +31,7 @@ def _example_tests(env: dict, cache: Path) -> subprocess.CompletedProcess:
                           env=env, timeout=900)
 
 
+@pytest.mark.slow
 def test_example_suite_passes_without_installing(tmp_path):
     proc = _example_tests(_env(EXAMPLE_PKG), tmp_path / "cache")
     assert proc.returncode == 0, proc.stdout + proc.stderr

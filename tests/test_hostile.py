@@ -819,6 +819,7 @@ def readme_session() -> list[tuple[str, list[str]]]:
     return session
 
 
+@pytest.mark.slow
 def test_readme_refusal_examples_are_true(ws):
     """Each command of the README's example, run by bash in a folder as the README
     describes; its output must be what the README shows, and an error exits 2."""

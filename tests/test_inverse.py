@@ -165,6 +165,7 @@ def _mean_translation_errors(make_T_cw, n_samples, setup=None):
     return {m: float(np.mean([r[m] for r in errors])) for m in errors[0]}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("level", [1, 4, 8])
 def test_views_beat_every_method_under_the_papers_noise(level):
     """Eq. 13-14 noise perturbs each view's translation by σ_t only; every pair equation

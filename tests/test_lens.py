@@ -171,6 +171,7 @@ def test_bad_points_shape_and_nan():
         lens.project_points(np.array([[0, 0, 1.0], [np.nan, 0, 1]]), K, None)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["k4", "rational", "pincushion"])
 def test_distortion_remap_maps_are_the_inverse(name):
     dist = DISTS[name]

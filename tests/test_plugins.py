@@ -273,6 +273,7 @@ def test_a_name_registered_twice_is_refused(plugins):
 
 # ------------------------------------------------------------ the command line
 
+@pytest.mark.slow
 def test_cli_runs_a_plugin_in_a_subprocess(plugins, tmp_path):
     """``python -m rasc handeye --method my.module:function`` with the module on
     PYTHONPATH, and the entry-point name: the written result names the method and holds
@@ -306,6 +307,7 @@ def test_calibrate_checks_the_method_before_reading_the_dataset(plugins, tmp_pat
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_path, capsys):
     """rasc calibrate --method package.module:function on a rendered dataset: the
     calibration names the method and equals RASC's (the plugin returns RASC's answer);

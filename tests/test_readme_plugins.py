@@ -85,6 +85,7 @@ def test_bring_your_own_solver_console(tmp_path):
             assert f'"method": "{name}"' in proc.stdout
 
 
+@pytest.mark.slow
 def test_bring_your_own_solver_python(tmp_path):
     (code,) = blocks(section("Bring your own solver"), "python")
     script = tmp_path / "example.py"
@@ -96,6 +97,7 @@ def test_bring_your_own_solver_python(tmp_path):
     assert proc.stdout.splitlines()[1] == "module:function True"
 
 
+@pytest.mark.slow
 def test_rasc_testing_example_file(tmp_path):
     """The user's test file as printed, run as the README says (the plugin loads itself
     from the installed rasc), with the dataset cache in a temporary folder."""

@@ -228,6 +228,7 @@ def test_truth_that_disagrees_is_never_written(tmp_path, capsys, monkeypatch):
 
 # -- rendering ---------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_default_render_is_unchanged_by_the_unit_machinery(tmp_path):
     """Every geometric key set to the stock model's own values forces the MjSpec path; the
     images and manifest must be byte-identical to the untouched model's, the truth equal."""
@@ -336,6 +337,7 @@ def test_unit_file_errors_are_one_line(tmp_path, text, message):
     assert "\n" not in str(info.value)
 
 
+@pytest.mark.slow
 def test_cli_options_equal_the_file(tmp_path, capsys):
     common = ["--quiet", "--intrinsics-views", 3, "--poses", "0,0;8,8;-8,-8"]
     path = tmp_path / "unit.toml"

@@ -102,6 +102,7 @@ def test_assert_handeye_close_passes_and_fails_with_both_errors():
 SMALL = {"n_intrinsics": 4, "poses_deg": [(0, 0), (8, 0), (0, 8), (-8, -8)]}
 
 
+@pytest.mark.slow
 def test_rendered_dataset_is_cached_by_its_parameters(tmp_path):
     """Rendered once into the cache; asked again, the same folder comes back untouched;
     any changed option is another key. The ground truth is the model's."""
@@ -171,6 +172,7 @@ def test_too_strict(rasc_pose_set):
 '''
 
 
+@pytest.mark.slow
 def test_fixtures_in_a_users_suite(tmp_path):
     """A user's test file, run by pytest with the plugin: the fixtures work, indirect
     parametrisation works, the dataset lands in --rasc-cache-dir, and a too-strict

@@ -291,6 +291,7 @@ def test_load_calibration_reads_both_formats(tmp_path):
     assert use.read_calibration(tmp_path / "head.json").joint_range is None
 
 
+@pytest.mark.slow
 def test_import_rasc_stays_cheap():
     """``import rasc`` loads neither numpy nor the loader; the attribute brings it."""
     import subprocess
@@ -429,6 +430,7 @@ _VALID = calibration_document(make_head())
 _ALL_PATHS = [p for p in _paths(_VALID) if p]
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(path=st.sampled_from(_ALL_PATHS), value=_JSON | st.just(_DELETE))
 def test_mutated_documents_never_traceback(path, value):
