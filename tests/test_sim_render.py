@@ -49,11 +49,26 @@ def _detect(image, board):
     return corners.reshape(-1, 2).astype(float)
 
 
-def _corner_errors(sim, eye):
-    """Detected minus projected corners (N, 2); OpenCV's order fixed to the contract's."""
+def _corner_errors(sim, eye, crop=False):
+    """Detected minus projected corners (N, 2); OpenCV's order fixed to the contract's.
+
+    ``crop``: detect in the image's rectangle around the projected board plus three
+    squares of margin (the quiet zone and more), then shift the corners back by the
+    rectangle's integer corner. The detector sees the same pixels around the board, only
+    less of the empty image: ~2.5x faster at 1280x960 (1.3 s against 0.5 s per image,
+    measured); its corners move by at most 0.04 px against the whole image (measured on
+    three paper poses), which either way is the detector's own scatter, not the render's.
+    """
     board = sim.board
-    detected = _detect(sim.render(eye), board)
+    image = sim.render(eye)
     projected = sim.project_world_points(eye, board.object_points())
+    lo = np.zeros(2, dtype=int)
+    if crop:
+        square = np.linalg.norm(projected[1] - projected[0])
+        lo = np.floor(projected.min(axis=0) - 3 * square).astype(int).clip(0)
+        hi = np.ceil(projected.max(axis=0) + 3 * square).astype(int)
+        image = image[lo[1]:hi[1], lo[0]:hi[0]]
+    detected = _detect(image, board) + lo
     if np.linalg.norm(detected[0] - projected[-1]) < np.linalg.norm(detected[0] - projected[0]):
         detected = detected[::-1]  # OpenCV started from the other end
     return detected - projected
@@ -71,7 +86,7 @@ def test_corners_match_projection_at_the_nine_paper_poses(sim):
     for pan, tilt in PAPER_POSES_DEG:
         for eye in EYES:
             sim.set_angles(eye, np.radians(pan), np.radians(tilt))
-            err = _corner_errors(sim, eye)
+            err = _corner_errors(sim, eye, crop=True)
             assert _rms(err) < CORNER_RMS_PX, (eye, pan, tilt, _rms(err))
             errors.append(err)
     for eye in EYES:
