@@ -70,9 +70,14 @@ def test_warning_names_only_the_eyes_above_threshold():
 @pytest.mark.slow
 @pytest.mark.parametrize("offset_mm, fires", [(0, False), (5, True)])
 def test_on_renders(tmp_path, offset_mm, fires):
+    # 8 intrinsics views instead of the default 20: the check compares the pose views'
+    # residuals under one board against one board per view, both through the same K, so
+    # the intrinsics views only need to give a good K. Measured with 8: F = 0.68 / 1.4
+    # (left / right) at 0 mm, ~7000-8400 at 5 mm, against the threshold 5.
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     run = [sys.executable, "-m", "rasc"]
     r = subprocess.run([*run, "render", "--out", tmp_path / "ds", "--quiet",
+                        "--intrinsics-views", "8",
                         "--tilt-axis-offset", f"0,{offset_mm},0"], capture_output=True,
                        text=True, env=env)
     assert r.returncode == 0, r.stderr
