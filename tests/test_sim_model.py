@@ -168,6 +168,7 @@ def test_chain_reproduces_rendered_camera_pose(sim, eye):
     rng = np.random.default_rng(4)
     other = "right" if eye == "left" else "left"
     sim.set_angles(other, 0.2, -0.1)  # the other eye must not matter
+    sim.forward()   # body poses are read from data: a fresh sim has not computed them yet
     T_scene_from_base = _body_pose(sim, "base_link")
     for pan, tilt in _random_angles(sim, eye, rng, 25):
         sim.set_angles(eye, pan, tilt)
@@ -178,6 +179,7 @@ def test_chain_reproduces_rendered_camera_pose(sim, eye):
         np.testing.assert_allclose(chain, expected, atol=TOL)
         np.testing.assert_allclose(sim.T_cam_from_base(eye), expected, atol=TOL)
     sim.set_angles(eye, 0.0, 0.0)
+    sim.set_angles(other, 0.0, 0.0)   # leave the module's sim at home for the next test
     sim.set_angles(other, 0.0, 0.0)
 
 
@@ -195,6 +197,8 @@ def test_home_keyframe_is_pan_tilt_zero(sim):
 
 
 def test_joint_ranges_like_a_real_unit(sim):
+    for eye in EYES:   # at home whatever ran before on the module's sim
+        sim.set_angles(eye, 0.0, 0.0)
     for eye in EYES:
         (p0, p1), (t0, t1) = sim.joint_range(eye)
         np.testing.assert_allclose(np.degrees([p0, p1, t0, t1]), [-60, 60, -45, 30], atol=1e-9)
