@@ -1,0 +1,165 @@
+"""The solver's fast paths pinned against a plain formulation (docs/METHOD.md §3, eq. 6–10).
+
+The reference below is eq. 6–10 written out with np.linalg and scipy, a loop over ordered
+pairs with no shared code: the vectorised solver (quaternion pair logs, separable normal
+equations, chunked batches, Newton polar factor, the cond(CᵀC) bound, the power
+iteration for non-orthogonal input) must give the same numbers, so a later speed-up
+cannot silently change the answer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from rasc.handeye import solver
+from rasc.handeye.noise import perturb_T_cam_from_world
+from rasc.handeye.solver import solve_rasc, solve_rasc_batch
+
+from conftest import PAPER, pan_tilt, random_rigid, rig
+
+
+def polar(R: np.ndarray) -> np.ndarray:
+    """Nearest rotation of a 3×3 matrix: U diag(1, 1, det) Vᵀ of its SVD."""
+    U, _, Vt = np.linalg.svd(R)
+    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+
+
+def plain_rasc(T_cw, T_gp, pairs="all", min_rotation_rad=solver.MIN_PAIR_ROTATION_RAD):
+    """Eq. 6–10 as printed: A_ij, B_ij per ordered pair; α = log R_A of the views' nearest
+    rotations, β = log R_B; M = Σ β αᵀ; R_X = V diag(1, 1, ±1) Uᵀ (eq. 9's polar factor);
+    t_X by lstsq on the stacked (I − R_A) t_X = t_A − R_X t_B (eq. 7, matrices as given);
+    eq. 10 over all i ≠ j. Returns (T_cam_from_gaze (4, 4), quality)."""
+    n = len(T_cw)
+    P = [polar(T[:3, :3]) for T in T_cw]
+    M, used, allp = np.zeros((3, 3)), [], []
+    for i in range(n):
+        for j in range(n):
+            if i == j:
+                continue
+            RA = T_cw[i, :3, :3] @ T_cw[j, :3, :3].T
+            tA = T_cw[i, :3, 3] - RA @ T_cw[j, :3, 3]
+            RB = T_gp[i, :3, :3] @ T_gp[j, :3, :3].T
+            tB = T_gp[i, :3, 3] - RB @ T_gp[j, :3, 3]
+            allp.append((RA, RB))
+            beta = Rotation.from_matrix(RB).as_rotvec()
+            if (pairs == "half" and i < j) or np.linalg.norm(beta) < min_rotation_rad:
+                continue
+            alpha = Rotation.from_matrix(P[i] @ P[j].T).as_rotvec()
+            M += np.outer(beta, alpha)
+            used.append((RA, tA, tB))
+    U, _, Vt = np.linalg.svd(M)
+    V = Vt.T
+    RX = V @ np.diag([1.0, 1.0, np.linalg.det(V @ U.T)]) @ U.T
+    C = np.concatenate([np.eye(3) - RA for RA, _, _ in used])
+    d = np.concatenate([tA - RX @ tB for _, tA, tB in used])
+    tX = np.linalg.lstsq(C, d, rcond=None)[0]
+    quality = np.mean([np.linalg.norm(RX @ RB @ RX.T - RA) for RA, RB in allp])
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = RX, tX
+    return T, quality
+
+
+# Tolerance 1e-10 (absolute; rotations are of order 1, translations ≤ ~1): both sides are
+# exact formulas of the same numbers, the normal equations vs lstsq differ by cond(CᵀC)·ε
+# (cond ≈ 2–50 here) and the logs by a few ulp; measured differences ≤ 1e-14.
+TOL = 1e-10
+
+
+def scene(kind: str, seed: int):
+    rng = np.random.default_rng(seed)
+    if kind == "pan-tilt":
+        X, Y = rig(rng)
+        T_gp = PAPER
+    else:
+        X, Y = random_rigid(rng, 2)
+        T_gp = random_rigid(rng, 7, max_angle=1.0)
+    return X @ T_gp @ Y, T_gp, rng
+
+
+@pytest.mark.parametrize("kind", ["pan-tilt", "arm"])
+@pytest.mark.parametrize("variant", ["exponential", "literal"])
+@pytest.mark.parametrize("pairs", ["all", "half"])
+def test_single_solve_equals_plain_eq_6_to_10(kind, variant, pairs):
+    T_true, T_gp, rng = scene(kind, 3)
+    for _ in range(3):
+        T_cw = perturb_T_cam_from_world(T_true, 0.02, 0.004, rng, variant=variant)
+        res = solve_rasc(T_cw, T_gp, pairs=pairs, check_rigid=variant == "exponential")
+        T, quality = plain_rasc(T_cw, T_gp, pairs)
+        np.testing.assert_allclose(res.T_cam_from_gaze, T, atol=TOL, rtol=0)
+        assert abs(res.quality - quality) < TOL
+
+
+@pytest.mark.parametrize("variant", ["exponential", "literal"])
+def test_chunked_batch_equals_plain_eq_6_to_10(variant):
+    """S = 400 nine-view samples exceed one block (``_CHUNK_FLOATS``): the chunked path
+    (Newton polar factor, cond(CᵀC) bound, power iteration for literal input) gives the
+    plain solution for every sample checked, and the one-block single solve."""
+    T_true, T_gp, rng = scene("pan-tilt", 4)
+    S = 400
+    assert S * 9 * 81 > solver._CHUNK_FLOATS
+    T_cw = perturb_T_cam_from_world(np.broadcast_to(T_true, (S, 9, 4, 4)), 0.03, 0.004, rng,
+                                    variant=variant)
+    out = solve_rasc_batch(T_cw, T_gp, check_rigid=False)
+    for s in (0, 1, 137, 398, 399):
+        T, quality = plain_rasc(T_cw[s], T_gp)
+        np.testing.assert_allclose(out.T_cam_from_gaze[s], T, atol=TOL, rtol=0)
+        assert abs(out.quality[s] - quality) < TOL
+        one = solve_rasc(T_cw[s], T_gp, check_rigid=False)
+        np.testing.assert_allclose(out.T_cam_from_gaze[s], one.T_cam_from_gaze, atol=1e-12)
+
+
+@pytest.mark.parametrize("sigma", [1e-6, 1e-3, 2e-2, 4e-2])
+def test_quaternions_of_many_non_orthogonal_matrices(sigma, monkeypatch):
+    """Both ways to the nearest rotation's quaternion (squaring K, or K^p e_k by
+    matrix-vector products for ``_MATVEC_MIN`` matrices and more) give the SVD polar
+    factor's quaternion, up to sign and scale, to 1e-13 (round-off of the power
+    iteration and of scipy's conversion, a few ulp each)."""
+    rng = np.random.default_rng(7)
+    R = Rotation.random(600, random_state=8).as_matrix() + rng.normal(0, sigma, (600, 3, 3))
+    err = float(np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max())
+    assert 1e-14 < err < 1 / 3
+    want = Rotation.from_matrix(np.stack([polar(r) for r in R])).as_quat()
+    for matvec_min in (10 ** 9, 256):
+        monkeypatch.setattr(solver, "_MATVEC_MIN", matvec_min)
+        q = solver._quaternions(R, err)
+        q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        q *= np.sign((q * want).sum(axis=1))[:, None]
+        np.testing.assert_allclose(q, want, atol=1e-13, rtol=0)
+
+
+def test_cond_bound_never_passes_an_ill_conditioned_CtC():
+    """``_cond_CtC_surely_ok`` may say "not certain" but never "fine" when cond(CᵀC) >
+    MAX_COND_CTC; it does say "fine" up to cond = MAX_COND_CTC / 10 (its bound is at
+    most 9× the condition number)."""
+    rng = np.random.default_rng(9)
+    Q = Rotation.random(2000, random_state=10).as_matrix()
+    cond = 10 ** rng.uniform(0, 8, 2000)
+    lam = np.stack([np.ones(2000), 10 ** rng.uniform(0, 1, 2000) * np.sqrt(cond), cond], 1)
+    lam[:, 1] = np.minimum(lam[:, 1], cond)
+    A = (Q * lam[:, None, :]) @ np.swapaxes(Q, 1, 2) * 10 ** rng.uniform(-3, 3, (2000, 1, 1))
+    for k in range(2000):
+        ok = solver._cond_CtC_surely_ok(A[k:k + 1])
+        if cond[k] > solver.MAX_COND_CTC:
+            assert not ok, cond[k]
+        if cond[k] < solver.MAX_COND_CTC / 10:
+            assert ok, cond[k]
+
+
+def test_chunked_batch_names_an_ill_conditioned_sample():
+    """A sample whose motions turn about one axis, in a batch large enough to be chunked,
+    raises the same error as its single solve, naming the sample."""
+    T_true, T_gp, rng = scene("pan-tilt", 5)
+    S = 500
+    T_cw = perturb_T_cam_from_world(np.broadcast_to(T_true, (S, 9, 4, 4)), 0.01, 0.002, rng,
+                                    variant="exponential")
+    T_gp_all = np.repeat(T_gp[None], S, 0)
+    pan_only = pan_tilt([(a, 0.0) for a in np.linspace(-8, 8, 9)])
+    T_gp_all[321] = pan_only
+    T_cw[321] = T_true[0] @ np.linalg.inv(T_gp[0]) @ pan_only     # X pan_only Y
+    with pytest.raises(solver.DegenerateDataError, match=r"\(sample 321\)") as exc:
+        solve_rasc_batch(T_cw, T_gp_all)
+    with pytest.raises(solver.DegenerateDataError) as one:
+        solve_rasc(T_cw[321], pan_only)
+    assert str(exc.value).replace(" (sample 321)", "") == str(one.value)
