@@ -9,6 +9,13 @@ figure (PNG and SVG) and table beside the paper's values, the protocol parameter
 seed, the software versions and the wall time of every stage. Raw results (CSV/JSON)
 are byte-identical for the same seed, whatever ``--workers``.
 
+``--quick`` is the reduced protocol, for tests (each module's docstring says what it
+keeps; E4 and E5 then save their figures as PNG only). With ``--workers N`` (N > 1) the
+experiments run in a pool of N processes forked from a forkserver that has imported the
+libraries and the experiment modules once (``experiments._warm``); the pool is built, and
+E7 (which needs neither the default dataset nor its calibration) started, while this
+process renders and calibrates the default dataset.
+
 Reuse: ``DIR/data/dataset`` is reused only when its ``render_options.json`` matches this
 run exactly (seed, render options, rasc version); otherwise it is rendered afresh (so
 ``--seed 1`` into a seed-0 folder re-renders, and says so). Every experiment writes into
@@ -270,7 +277,8 @@ def _run(argv: list[str] | None, state: dict) -> int:
         "Everything below was computed from images rendered by the MuJoCo model of the "
         "head (`rasc/sim/models/`) and passed through the real pipeline (OpenCV detection, "
         "camera calibration, per-pose extrinsics) into the solvers. Raw results are in "
-        "the CSV/JSON files beside this report; figures are PNG and SVG.\n",
+        "the CSV/JSON files beside this report; figures are PNG"
+        + (" (SVG too in the full protocol)" if ctx.quick else " and SVG") + ".\n",
         "![The simulated stereo head](rig.png)\n",
         "## Contents\n",
         "\n".join(f"{k + 1}. {s.title}" for k, s in enumerate(sections)) + "\n",
