@@ -49,6 +49,12 @@ def warm() -> None:
     for fmt in ("png", "svg"):
         fig.savefig(io.BytesIO(), format=fmt, dpi=40)
     plt.close(fig)
+    global WARMED
+    WARMED = True
+
+
+#: whether :func:`warm` ran to its end in this process (tests check it)
+WARMED = False
 
 
 # a failed warm-up only costs time (the workers then import what they need themselves)
