@@ -35,6 +35,10 @@ Run::
 Writes ``<out>/e4/``: ``poses.csv``, ``detections.csv``, ``points.csv`` (raw, per point),
 ``mount_draws.csv``, then from those ``table1.csv``, ``summary.json`` and
 ``fig_table1.png``/``.svg``.
+
+``--quick`` (the reduced protocol, for tests) keeps the middle plane (1.771 m) with its
+two poses (924 points, every model and both methods as in the full run), 4 draws of
+the mount error instead of 20, and the figure as PNG only.
 """
 
 from __future__ import annotations
@@ -49,12 +53,12 @@ from experiments._common import (
     Section,
     md_table,
     read_csv,
-    save_figure,
     script_main,
     spawn_rngs,
     write_csv,
     write_json,
 )
+from experiments._figures import save_experiment_figure
 from rasc.errors import DegenerateDataError
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import rotvec_from_matrix
@@ -392,7 +396,7 @@ def report(ctx: Context, out, depths: Sequence[float], n_points: int) -> Section
     write_json(out / "summary.json", summary)
     files = [out / n for n in ("poses.csv", "detections.csv", "points.csv", "mount_draws.csv",
                                "table1.csv", "summary.json")]
-    files += plot(P, stats, draws, depths, baseline_m, out)
+    files += plot(P, stats, draws, depths, baseline_m, out, quick=ctx.quick)
     return Section(NAME, "E4 — Table 1: triangulation with the calibrated model",
                    markdown(ctx, P, stats, draws, depths, n_points, corner_rms, baseline_m,
                             summary["ls_tls_max_difference_mm"]),
@@ -402,7 +406,7 @@ def report(ctx: Context, out, depths: Sequence[float], n_points: int) -> Section
 # ------------------------------------------------------------------------ figure
 
 def plot(P: dict[str, np.ndarray], stats: dict, draws: list[dict[str, str]],
-         depths: Sequence[float], baseline_m: float, out) -> list:
+         depths: Sequence[float], baseline_m: float, out, quick: bool = False) -> list:
     """Figure from points.csv and mount_draws.csv (three panels, see the titles)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -454,7 +458,7 @@ def plot(P: dict[str, np.ndarray], stats: dict, draws: list[dict[str, str]],
     ax.set_title("(c) measured mounts: depth bias per draw")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    paths = save_figure(fig, out / "fig_table1")
+    paths = save_experiment_figure(fig, out / "fig_table1", quick)
     plt.close(fig)
     return paths
 

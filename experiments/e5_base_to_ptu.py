@@ -27,6 +27,11 @@ Run::
 Writes ``<out>/e5/``: ``loop_closure.json``, ``measured_draws.csv``, ``montecarlo.csv``
 (raw, per sample), then from those ``e5_table.csv``, ``summary.json`` and
 ``fig_base_to_ptu.png``/``.svg``.
+
+``--quick`` (the reduced protocol, for tests) keeps the loop closure on the rendered
+views unchanged, 5 measured-mount draws instead of 20, three Monte-Carlo levels (0, the
+upper sub-paper level and the paper's level 2) with 8 samples each instead of eleven
+levels with 100, both variants, and the figure as PNG only.
 """
 
 from __future__ import annotations
@@ -43,12 +48,12 @@ from experiments._common import (
     md_table,
     read_csv,
     run_tasks,
-    save_figure,
     script_main,
     spawn_rngs,
     write_csv,
     write_json,
 )
+from experiments._figures import save_experiment_figure
 from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.geometry.transforms import (
     invert_transform,
@@ -288,12 +293,13 @@ def report(ctx: Context, out) -> Section:
     write_json(out / "summary.json", summary)
     files = [out / n for n in ("loop_closure.json", "measured_draws.csv", "montecarlo.csv",
                                "e5_table.csv", "summary.json")]
-    files += plot(stats, loop, m_rot, m_tr, out)
+    files += plot(stats, loop, m_rot, m_tr, out, quick=ctx.quick)
     return Section(NAME, "E5 — base-to-ptu: loop closure against measured mounts",
                    markdown(ctx, loop, m_rot, m_tr, m_bl, stats, summary), files, summary)
 
 
-def plot(stats: dict, loop: dict, m_rot: np.ndarray, m_tr: np.ndarray, out) -> list:
+def plot(stats: dict, loop: dict, m_rot: np.ndarray, m_tr: np.ndarray, out,
+         quick: bool = False) -> list:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -334,7 +340,7 @@ def plot(stats: dict, loop: dict, m_rot: np.ndarray, m_tr: np.ndarray, out) -> l
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8,
                bbox_to_anchor=(0.5, -0.02))
     fig.tight_layout(rect=(0, 0.14, 1, 1))
-    paths = save_figure(fig, out / "fig_base_to_ptu")
+    paths = save_experiment_figure(fig, out / "fig_base_to_ptu", quick)
     plt.close(fig)
     return paths
 

@@ -9,6 +9,13 @@ figure (PNG and SVG) and table beside the paper's values, the protocol parameter
 seed, the software versions and the wall time of every stage. Raw results (CSV/JSON)
 are byte-identical for the same seed, whatever ``--workers``.
 
+``--quick`` is the reduced protocol, for tests (each module's docstring says what it
+keeps; E4 and E5 then save their figures as PNG only). With ``--workers N`` (N > 1) the
+experiments run in a pool of N processes forked from a forkserver that has imported the
+libraries and the experiment modules once (``experiments._warm``); the pool is built, and
+E7 (which needs neither the default dataset nor its calibration) started, while this
+process renders and calibrates the default dataset.
+
 Reuse: ``DIR/data/dataset`` is reused only when its ``render_options.json`` matches this
 run exactly (seed, render options, rasc version); otherwise it is rendered afresh (so
 ``--seed 1`` into a seed-0 folder re-renders, and says so). Every experiment writes into
@@ -113,9 +120,11 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
-#: experiments that must start after another has finished (none: in the parallel run
-#: E3 recomputes E1's RASC samples, the same numbers, rather than wait for E1)
-AFTER: dict[str, str] = {}
+#: experiments that need neither the default dataset nor its calibration (E7 renders or
+#: projects its own heads): the parallel run starts them first, while the main process
+#: calibrates the default dataset, so the longest experiment (E7 in the full run) is
+#: off the critical path
+EARLY = ("e7_model_mismatch",)
 
 
 def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
@@ -127,49 +136,92 @@ def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
     finished[name] = (section, seconds)
 
 
-def _run_parallel(ctx: Context, state: dict, finished: dict) -> None:
+class _ParallelRun:
     """The experiments in ``ctx.workers`` processes (forkserver: none inherits this
-    process's EGL context), each single-threaded, E1 (the longest) first; results do not depend
-    on the order they finish. An interrupt terminates the workers."""
-    import copy
-    import multiprocessing
+    process's EGL context), each single-threaded.
 
-    from experiments._common import init_experiment_worker, run_experiment
+    :meth:`start` builds the pool in a background thread (the forkserver imports
+    ``experiments._warm`` once: numpy, scipy, OpenCV, mujoco, matplotlib and its fonts,
+    every experiment module; the workers are forked from it warm) and submits the
+    :data:`EARLY` experiments, while the main thread renders and calibrates the default
+    dataset; :meth:`finish` then submits the others, longest (E1) first, and collects
+    them. Results do not depend on the order they finish. An interrupt terminates the
+    workers."""
 
-    child = copy.copy(ctx)
-    child.workers = 1
-    child.reuse_e1 = False      # E3 does not wait for E1 (nor read its folder meanwhile)
-    keys = {name: importlib.import_module(f"experiments.{name}").NAME
-            for name, _ in EXPERIMENTS}
-    waiting = [name for name, _ in EXPERIMENTS]
-    pending: dict = {}
-    pool = multiprocessing.get_context("forkserver").Pool(
-        processes=min(ctx.workers, len(EXPERIMENTS)), initializer=init_experiment_worker)
-    ok = False
-    try:
-        while waiting or pending:
-            for name in list(waiting):
-                dep = AFTER.get(name)
-                if dep is None or dep in finished:
-                    waiting.remove(name)
-                    print(f"== {dict(EXPERIMENTS)[name]}", file=sys.stderr, flush=True)
-                    pending[name] = pool.apply_async(run_experiment, ((child, name),))
-                    state["running"].append(keys[name])
-            done = [n for n, r in pending.items() if r.ready()]
+    def __init__(self, ctx: Context, state: dict) -> None:
+        self.ctx, self.state = ctx, state
+        self.keys = {name: importlib.import_module(f"experiments.{name}").NAME
+                     for name, _ in EXPERIMENTS}
+        self.pending: dict = {}
+        self.pool = None
+        self.error: BaseException | None = None
+        self.thread = None
+
+    def _child(self) -> Context:
+        import copy
+        child = copy.copy(self.ctx)
+        child.workers = 1
+        child.reuse_e1 = False      # E3 does not wait for E1 (nor read its folder meanwhile)
+        return child
+
+    def _submit(self, name: str, child: Context) -> None:
+        from experiments._common import run_experiment
+        print(f"== {dict(EXPERIMENTS)[name]}", file=sys.stderr, flush=True)
+        self.pending[name] = self.pool.apply_async(run_experiment, ((child, name),))
+        self.state["running"].append(self.keys[name])
+
+    def _build(self, early: list[str], child: Context) -> None:
+        import multiprocessing
+
+        from experiments._common import init_experiment_worker
+        try:
+            mp = multiprocessing.get_context("forkserver")
+            mp.set_forkserver_preload(["experiments._warm"])
+            self.pool = mp.Pool(processes=min(self.ctx.workers, len(EXPERIMENTS)),
+                                initializer=init_experiment_worker)
+            for name in early:
+                self._submit(name, child)
+        except BaseException as exc:   # re-raised in the main thread by finish()
+            self.error = exc
+
+    def start(self) -> None:
+        import threading
+        early = [name for name, _ in EXPERIMENTS if name in EARLY]
+        # the context as it is now: no calibration (EARLY experiments do not use it)
+        self.thread = threading.Thread(target=self._build, args=(early, self._child()),
+                                       daemon=True)
+        self.thread.start()
+
+    def finish(self, finished: dict) -> None:
+        self.thread.join()
+        if self.error is not None:
+            raise self.error
+        child = self._child()       # now with the default dataset's calibration
+        for name, _ in EXPERIMENTS:
+            if name not in self.pending:
+                self._submit(name, child)
+        while self.pending:
+            done = [n for n, r in self.pending.items() if r.ready()]
             if not done:
                 time.sleep(0.02)
             for name in done:
-                _, section, seconds = pending.pop(name).get()
+                _, section, seconds = self.pending.pop(name).get()
                 print(f"== {dict(EXPERIMENTS)[name]}: {seconds:.1f} s", file=sys.stderr,
                       flush=True)
-                _finish(ctx, state, name, keys[name], section, seconds, finished)
-        ok = True
-    finally:
+                _finish(self.ctx, self.state, name, self.keys[name], section, seconds,
+                        finished)
+
+    def close(self, ok: bool) -> None:
+        """Let the pool's workers end (``ok``) or terminate them (an error, an interrupt)."""
+        if self.thread is not None:
+            self.thread.join()
+        if self.pool is None:
+            return
         if ok:
-            pool.close()
+            self.pool.close()
         else:
-            pool.terminate()
-        pool.join()
+            self.pool.terminate()
+        self.pool.join()
 
 
 def _run(argv: list[str] | None, state: dict) -> int:
@@ -183,22 +235,31 @@ def _run(argv: list[str] | None, state: dict) -> int:
     timings: list[tuple[str, float]] = []
     sections: list[Section] = []
 
-    t0 = time.perf_counter()
-    sections.append(pipeline_section(ctx))
-    timings.append(("render + calibrate the default dataset", time.perf_counter() - t0))
-    rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
-    if rig.is_file():
-        shutil.copyfile(rig, ctx.out / "rig.png")
     finished: dict[str, tuple[Section, float]] = {}
-    if ctx.workers <= 1:
-        for name, title in EXPERIMENTS:
-            module = importlib.import_module(f"experiments.{name}")
-            state["running"] = [module.NAME]
-            with stage(title) as st:
-                section = module.run(ctx)
-            _finish(ctx, state, name, module.NAME, section, st.seconds, finished)
-    else:
-        _run_parallel(ctx, state, finished)
+    parallel = _ParallelRun(ctx, state) if ctx.workers > 1 else None
+    ok = False
+    try:
+        if parallel is not None:
+            parallel.start()
+        t0 = time.perf_counter()
+        sections.append(pipeline_section(ctx))
+        timings.append(("render + calibrate the default dataset", time.perf_counter() - t0))
+        rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
+        if rig.is_file():
+            shutil.copyfile(rig, ctx.out / "rig.png")
+        if parallel is not None:
+            parallel.finish(finished)
+        else:
+            for name, title in EXPERIMENTS:
+                module = importlib.import_module(f"experiments.{name}")
+                state["running"] = [module.NAME]
+                with stage(title) as st:
+                    section = module.run(ctx)
+                _finish(ctx, state, name, module.NAME, section, st.seconds, finished)
+        ok = True
+    finally:
+        if parallel is not None:
+            parallel.close(ok)
     for name, title in EXPERIMENTS:
         section, seconds = finished[name]
         section.title = title
@@ -216,7 +277,8 @@ def _run(argv: list[str] | None, state: dict) -> int:
         "Everything below was computed from images rendered by the MuJoCo model of the "
         "head (`rasc/sim/models/`) and passed through the real pipeline (OpenCV detection, "
         "camera calibration, per-pose extrinsics) into the solvers. Raw results are in "
-        "the CSV/JSON files beside this report; figures are PNG and SVG.\n",
+        "the CSV/JSON files beside this report; figures are PNG"
+        + (" (SVG too in the full protocol)" if ctx.quick else " and SVG") + ".\n",
         "![The simulated stereo head](rig.png)\n",
         "## Contents\n",
         "\n".join(f"{k + 1}. {s.title}" for k, s in enumerate(sections)) + "\n",

@@ -64,9 +64,9 @@ def test_e4_structure_and_point_count(quick):
     values = np.array([[float(r[k]) for k in r if k not in ("model",)] for r in points])
     assert np.all(np.isfinite(values))
     assert len(read_csv(out / "poses.csv")) == 2 * len(EYES) * len(e4.QUICK_DEPTHS_M)
-    for f in ("table1.csv", "summary.json", "mount_draws.csv", "fig_table1.png",
-              "fig_table1.svg"):
+    for f in ("table1.csv", "summary.json", "mount_draws.csv", "fig_table1.png"):
         assert (out / f).is_file(), f
+    assert not (out / "fig_table1.svg").exists()   # --quick: PNG only
     assert all(Path(f).is_file() for f in sec.files)
     md = sec.markdown
     assert f"**{s['n_points']} points**" in md
@@ -188,8 +188,9 @@ def test_e5_structure(quick):
     ctx, _, sec = quick
     out = ctx.out / "e5"
     for f in ("loop_closure.json", "measured_draws.csv", "montecarlo.csv", "e5_table.csv",
-              "summary.json", "fig_base_to_ptu.png", "fig_base_to_ptu.svg"):
+              "summary.json", "fig_base_to_ptu.png"):
         assert (out / f).is_file(), f
+    assert not (out / "fig_base_to_ptu.svg").exists()   # --quick: PNG only
     mc = read_csv(out / "montecarlo.csv")
     assert len(mc) == len(e5.QUICK_LEVELS) * len(e5.VARIANTS) * e5.N_SAMPLES_QUICK
     assert np.all(np.isfinite([[float(r[k]) for k in ("rotation_deg", "translation_mm",

@@ -154,3 +154,22 @@ def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(tmp_path,
     assert "e1" in names and "e2" not in names and "REPORT.md" not in names
     assert not [n for n in names if n.startswith(".")]
     assert not [p for p in out.rglob("*.tmp")]
+
+
+def test_forkserver_warm_up_loads_the_libraries_and_every_experiment():
+    """experiments._warm (imported once by the pool's forkserver) swallows its errors, so
+    a broken warm-up would only show as slow workers: check that it loads everything."""
+    import os
+    import subprocess
+
+    code = ("import sys, experiments._warm\n"
+            "need = ['cv2', 'mujoco', 'matplotlib.pyplot', 'scipy.optimize', "
+            "'matplotlib.backends.backend_svg'] + "
+            "['experiments.' + n for n, _ in __import__('experiments.reproduce', "
+            "fromlist=['x']).EXPERIMENTS]\n"
+            "print([m for m in need if m not in sys.modules], experiments._warm.WARMED)\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=EXPERIMENTS.parent,
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "MUJOCO_GL": "egl"})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[] True"

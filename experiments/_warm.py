@@ -1,0 +1,62 @@
+"""Warm-up for ``reproduce.py``'s worker pool: imported once in the forkserver process.
+
+Every worker of the pool is forked from the forkserver, so what this module loads there
+(numpy, scipy, OpenCV, mujoco, matplotlib with its fonts and mathtext parser, the
+experiment modules) is loaded once instead of once per worker, and the workers start
+warm. Nothing here computes a result or creates an OpenGL context (the workers still
+create their own, after the fork). The single-threaded settings are made before numpy
+is imported, so its BLAS starts with one thread in every worker.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+def warm() -> None:
+    """Import the heavy libraries and draw one throw-away figure (loads the fonts, the
+    Agg and SVG backends and the mathtext parser's caches)."""
+    import importlib
+
+    import cv2  # noqa: F401
+    import matplotlib
+    import numpy  # noqa: F401
+    import scipy.optimize  # noqa: F401
+    import scipy.spatial.transform  # noqa: F401
+    import scipy.stats  # noqa: F401
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with contextlib.suppress(ImportError):  # the rendering experiments will say so
+        import mujoco  # noqa: F401  (import only: no rendering context here)
+    from experiments.reproduce import EXPERIMENTS
+    for name, _ in EXPERIMENTS:
+        importlib.import_module(f"experiments.{name}")
+
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.plot([1.0, 10.0, 100.0], [1.0, 2.0, 3.0], "o-", label="σ (°)")
+    ax.set_xscale("log")
+    ax.set_yscale("symlog", linthresh=1.0)
+    ax.set_title("warm-up")
+    ax.legend()
+    fig.tight_layout()
+    for fmt in ("png", "svg"):
+        fig.savefig(io.BytesIO(), format=fmt, dpi=40)
+    plt.close(fig)
+    global WARMED
+    WARMED = True
+
+
+#: whether :func:`warm` ran to its end in this process (tests check it)
+WARMED = False
+
+
+# a failed warm-up only costs time (the workers then import what they need themselves)
+with contextlib.suppress(Exception):
+    warm()
