@@ -225,6 +225,7 @@ class Context:
         self.workers: int = args.workers
         self._calibration = None
         self._truth = None
+        self._study_dataset = None
         #: reproduce.py sets this: experiments then write into ``.partial-<name>`` and
         #: :meth:`commit` renames the folder when the experiment has finished
         self.staging = False
@@ -334,6 +335,16 @@ class Context:
             write_json(self.out / "data" / "calibration.json", doc)
         return self._calibration
 
+    def study_dataset(self) -> dict:
+        """The default dataset as the study engine takes it (``rasc.study.engine
+        .dataset_document``): the pipeline's poses, kept pose corners (``EyeResult.corners``)
+        and intrinsics from :meth:`calibration`, the truth from :meth:`truth`. Made once."""
+        if self._study_dataset is None:
+            from rasc.study.engine import dataset_document
+            board = load_dataset(self.dataset_dir()).board
+            self._study_dataset = dataset_document(self.calibration(), board, self.truth())
+        return self._study_dataset
+
     def truth(self) -> dict:
         if self._truth is None:
             self._truth = read_json_document(self.dataset_dir() / "ground_truth.json",
@@ -384,6 +395,70 @@ def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
+
+
+# ===================================================== experiments as studies
+
+#: the experiments' study specs (TOML, read by rasc.study.spec.load_spec)
+SPECS = Path(__file__).resolve().parent / "specs"
+
+
+def experiment_spec(ctx: Context, name: str):
+    """``experiments/specs/<name>.toml`` at ``ctx.seed``, narrowed by its ``[quick]``
+    table under ``--quick`` (the reduced protocol for tests)."""
+    from dataclasses import replace
+
+    from rasc.study.spec import load_spec
+    return replace(load_spec(SPECS / f"{name}.toml", quick=ctx.quick), seed=ctx.seed)
+
+
+def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False):
+    """Run spec ``name`` on the default dataset (:meth:`Context.study_dataset`, never
+    rendered again) into ``folder/<name>`` with ``ctx.workers`` processes; finished cells
+    of an earlier run of the same spec on the same dataset are reused (``--resume``),
+    anything else there is replaced. Returns ``(spec, rows)``: the spec and the tidy
+    samples (dicts of ``samples.csv``)."""
+    import shutil
+
+    from rasc.study import run_study
+
+    spec = experiment_spec(ctx, name)
+    out = folder / name
+    data = ctx.study_dataset()
+    resume = (out / "study.json").is_file()
+    try:
+        run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True, dataset=data,
+                  estimates=estimates, figures=False)
+    except InputError:
+        if not resume:
+            raise
+        shutil.rmtree(out)                  # another spec or dataset: start afresh
+        run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
+                  estimates=estimates, figures=False)
+    return spec, read_csv(out / "samples.csv")
+
+
+def noise_rows(spec, rows: list[dict], one_noise_free: bool = True) -> list[list]:
+    """The tidy samples of a pose-noise study in the E1 layout (:data:`HEADER`), in the
+    study's order: eye, variant (= noise_model), level (the cell's ``noise_level``, 1 when
+    σ is given directly), σ_r, σ_t mm, sample, method, status, errors, quality, estimate.
+    With ``one_noise_free`` a cell without noise keeps only sample 0 (its samples are the
+    same pose set, solved once)."""
+    cells = spec.cells()
+    out = []
+    for r in rows:
+        p = cells[int(r["cell"])].params
+        if one_noise_free and p["sigma_r"] == 0 and p["sigma_t_mm"] == 0 and r["sample"] != "0":
+            continue
+        level = p["noise_level"] if p["noise_level"] is not None else 1
+        status = r["status"]
+        nums = ([float(r[k]) for k in ("translation_mm", "rotation_fro", "rotation_deg",
+                                       "quality")]
+                + [float(r[k]) for k in ("t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)]
+                if status == "ok" else [""] * (len(HEADER) - 8))
+        out.append([p["eye"], p["noise_model"], level, p["sigma_r"], p["sigma_t_mm"],
+                    int(r["sample"]), r["method"], status, *nums])
+    return out
 
 
 # ===================================================== pose-level noise (E1; E2, E3 use it)
