@@ -438,12 +438,14 @@ def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False):
     return spec, read_csv(out / "samples.csv")
 
 
-def noise_rows(spec, rows: list[dict], one_noise_free: bool = True) -> list[list]:
+def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,
+               estimates: bool = True) -> list[list]:
     """The tidy samples of a pose-noise study in the E1 layout (:data:`HEADER`), in the
     study's order: eye, variant (= noise_model), level (the cell's ``noise_level``, 1 when
     σ is given directly), σ_r, σ_t mm, sample, method, status, errors, quality, estimate.
     With ``one_noise_free`` a cell without noise keeps only sample 0 (its samples are the
-    same pose set, solved once)."""
+    same pose set, solved once). Without ``estimates`` (a study run without them) the
+    estimate columns are empty."""
     cells = spec.cells()
     out = []
     for r in rows:
@@ -454,7 +456,8 @@ def noise_rows(spec, rows: list[dict], one_noise_free: bool = True) -> list[list
         status = r["status"]
         nums = ([float(r[k]) for k in ("translation_mm", "rotation_fro", "rotation_deg",
                                        "quality")]
-                + [float(r[k]) for k in ("t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)]
+                + ([float(r[k]) for k in ("t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)]
+                   if estimates else [""] * 12)
                 if status == "ok" else [""] * (len(HEADER) - 8))
         out.append([p["eye"], p["noise_model"], level, p["sigma_r"], p["sigma_t_mm"],
                     int(r["sample"]), r["method"], status, *nums])
