@@ -35,7 +35,7 @@ from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
 from rasc.progress import progress
 from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
-from rasc.vision.camera import detect_corners, estimate_extrinsics
+from rasc.vision.camera import estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
 REPO = Path(__file__).resolve().parents[1]
@@ -701,35 +701,36 @@ class EyeData:
 
 
 def pose_eye_data(ctx: Context) -> dict[str, EyeData]:
-    """Detect (method "saddle") the default dataset's pose images of both eyes, once.
+    """The default dataset's pose views of both eyes with the corners the pipeline
+    detected and kept (``ctx.calibration().eyes[eye].corners["pose"]``: never detected
+    again), in the pipeline's view order.
 
     Raises
     ------
     rasc.errors.InputError
-        A pose image without a detectable board (names the file).
+        A pose view the pipeline did not use (its board was not found; names the file).
     """
     ds = load_dataset(ctx.dataset_dir())
     cal, truth = ctx.calibration(), ctx.truth()
     out = {}
     for eye in EYES:
+        res = cal.eyes[eye]
+        kept = res.corners.get("pose", {})
         entries = ds.select(eye, "pose")
-        corners = []
         for e in entries:
-            c = detect_corners(ds.read(e), ds.board, method="saddle")
-            if c is None:
+            if e.file not in kept:
                 raise InputError(f"{ds.manifest_path}: images[{e.index}] ({e.file}): board "
-                                 "not found; E6 needs every pose view")
-            corners.append(c)
-        pan = np.array([e.pan for e in entries])
-        tilt = np.array([e.tilt for e in entries])
-        intr = cal.eyes[eye].intrinsics
+                                 "not found by the pipeline; E6 needs every pose view")
+        files = list(res.pose_files)
+        pan_tilt = np.asarray(res.pan_tilt, dtype=float)
+        intr = res.intrinsics
         out[eye] = EyeData(
-            eye=eye, files=tuple(e.file for e in entries), corners=np.array(corners),
-            T_gaze_from_ptu=T_gaze_from_ptu(pan, tilt), K=np.array(intr.K),
-            dist=np.array(intr.dist),
+            eye=eye, files=tuple(files), corners=np.array([kept[f] for f in files]),
+            T_gaze_from_ptu=T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
+            K=np.array(intr.K), dist=np.array(intr.dist),
             T_cam_from_gaze_true=np.array(truth[eye]["T_cam_from_gaze"], dtype=float),
-            T_cam_from_world_true=np.array([truth["views"][e.file]["T_cam_from_world"]
-                                            for e in entries], dtype=float))
+            T_cam_from_world_true=np.array([truth["views"][f]["T_cam_from_world"]
+                                            for f in files], dtype=float))
     return out
 
 
