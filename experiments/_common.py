@@ -25,13 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
+from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.geometry.transforms import rotation_error_deg, rotvec_from_matrix
-from rasc.handeye.li import solve_li
-from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
-from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
 from rasc.progress import progress
 from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
@@ -466,200 +463,17 @@ def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,
 
 # ===================================================== pose-level noise (E1; E2, E3 use it)
 
-#: E1's folder (E3 reuses its raw samples)
-E1_NAME = "e1"
-#: first element of every E1 seed key: (E1_KEY, eye index, level) → one generator
-E1_KEY = 1
-SAMPLES, QUICK_SAMPLES = 30, 8
-#: paper levels (1-based) kept by --quick, besides level 0
-QUICK_LEVELS = (1, 4, 8)
 #: the variant of the main figures: the paper printed the literal form (eq. 13)
 MAIN_VARIANT = "literal"
+#: the paper's two methods (E1's figures, E2)
 METHOD_NAMES = ("rasc", "li")
 
 RAW_CSV = "noise_samples.csv"
 R_COLS = tuple(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+#: the raw rows of E1 and E2 (:func:`noise_rows`): one per sample and method
 HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "method", "status",
           "t_err_mm", "R_err_fro", "R_err_deg", "quality", "t_x_mm", "t_y_mm", "t_z_mm",
           *R_COLS)
-
-
-# ------------------------------------------------------------------------ inputs
-
-def levels(quick: bool) -> list[tuple[int, float, float]]:
-    """``(level, σ_r rad, σ_t mm)``: level 0 (no noise) and the paper's levels 1–8."""
-    keep = QUICK_LEVELS if quick else range(1, len(PAPER_LEVELS) + 1)
-    return [(0, 0.0, 0.0)] + [(k, *PAPER_LEVELS[k - 1]) for k in keep]
-
-
-def eye_inputs(ctx: Context) -> dict[str, dict]:
-    """Per eye: the pipeline's ``T_cam_from_world`` (n, 4, 4), eq. 3 ``T_gaze_from_ptu``
-    (n, 4, 4) from the commanded angles, the home view's index and the true
-    ``T_cam_from_gaze`` (4, 4)."""
-    cal, truth = ctx.calibration(), ctx.truth()
-    out = {}
-    for eye in EYES:
-        r = cal.eyes[eye]
-        pan_tilt = np.asarray(r.pan_tilt, dtype=float)
-        home = np.flatnonzero(np.all(pan_tilt == 0.0, axis=1))
-        if home.size != 1:
-            raise DegenerateDataError(
-                f"{eye} eye: {home.size} pose views at pan = tilt = 0; E1/E2 need exactly "
-                "one home view (add the (0, 0) position or remove duplicates)")
-        out[eye] = {"T_cam_from_world": np.asarray(r.T_cam_from_world, dtype=float),
-                    "T_gaze_from_ptu": T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
-                    "pan_tilt_rad": pan_tilt, "home": int(home[0]),
-                    "T_cam_from_gaze_true": np.asarray(truth[eye]["T_cam_from_gaze"], float)}
-    return out
-
-
-def protocol(ctx: Context, inputs: dict[str, dict]) -> dict:
-    """Everything the raw samples depend on (E3 reuses them only if this matches)."""
-    return {"experiment": E1_NAME, "seed": ctx.seed, "quick": ctx.quick,
-            "samples": QUICK_SAMPLES if ctx.quick else SAMPLES,
-            "levels": [list(lv) for lv in levels(ctx.quick)], "variants": list(VARIANTS),
-            "methods": list(METHOD_NAMES), "seed_key": [E1_KEY, "eye index", "level"],
-            "inputs": {eye: {k: np.asarray(v).tolist() for k, v in d.items()}
-                       for eye, d in inputs.items()}}
-
-
-# ------------------------------------------------------------------ Monte Carlo
-
-def _solve_rasc_samples(T_cw: np.ndarray, T_gp: np.ndarray, check_rigid: bool) -> list:
-    """RASC on (S, n, 4, 4) samples: ``[(T (4, 4) | None, quality | None, status)]``.
-
-    The batch solver raises for the whole batch if one sample is degenerate; then every
-    sample is solved alone so only the degenerate ones are lost (never given a number).
-    """
-    try:
-        b = solve_rasc_batch(T_cw, T_gp, check_rigid=check_rigid)
-        return [(b.T_cam_from_gaze[s], float(b.quality[s]), "ok") for s in range(len(T_cw))]
-    except DegenerateDataError:
-        out = []
-        for T in T_cw:
-            try:
-                r = solve_rasc(T, T_gp, check_rigid=check_rigid)
-                out.append((r.T_cam_from_gaze, r.quality, "ok"))
-            except DegenerateDataError:
-                out.append((None, None, "degenerate"))
-        return out
-
-
-def _solve_li_samples(T_cw: np.ndarray, T_gp: np.ndarray, home: int,
-                      check_rigid: bool) -> list:
-    out = []
-    for T in T_cw:
-        try:
-            r = solve_li(T, T_gp, home=home, check_rigid=check_rigid)
-            out.append((r.T_cam_from_gaze, r.quality, "ok"))
-        except DegenerateDataError:
-            out.append((None, None, "degenerate"))
-        except SolverFailure:
-            out.append((None, None, "not converged"))
-    return out
-
-
-def solve_methods(noisy: np.ndarray, T_gp: np.ndarray, home: int, methods, variant: str):
-    """``{method: [(T, quality, status)] per sample}`` for noisy (S, n, 4, 4) poses."""
-    check_rigid = variant != "literal"    # literal eq. 13 matrices are not rotations
-    out = {}
-    for m in methods:
-        if m == "rasc":
-            out[m] = _solve_rasc_samples(noisy, T_gp, check_rigid)
-        elif m == "li":
-            out[m] = _solve_li_samples(noisy, T_gp, home, check_rigid)
-        else:
-            out[m] = _solve_named_samples(m, noisy, T_gp, check_rigid)
-    return out
-
-
-def _solve_named_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray,
-                         check_rigid: bool) -> list:
-    """Any method by name (rasc.handeye.methods.solve), one sample at a time; a failure
-    is that sample's status, never a number."""
-    from rasc.handeye.methods import solve
-
-    out = []
-    for T in T_cw:
-        try:
-            r = solve(method, T, T_gp, check_rigid=check_rigid)
-        except DegenerateDataError:
-            out.append((None, None, "degenerate"))
-            continue
-        except FAILURES:
-            out.append((None, None, "failed"))
-            continue
-        T_est = np.asarray(r.T_cam_from_gaze, dtype=float)
-        if T_est.shape != (4, 4) or not np.all(np.isfinite(T_est)):
-            out.append((None, None, "non-finite"))
-        else:
-            out.append((T_est, float(r.quality), "ok"))
-    return out
-
-
-def method_available(name: str) -> bool:
-    """Whether ``name`` names a hand-eye method here (e.g. a variant added later)."""
-    from rasc.study.spec import check_method
-    try:
-        check_method(name)
-    except InputError:
-        return False
-    return True
-
-
-def sample_row(head: list, T: np.ndarray | None, quality: float | None, status: str,
-               T_true: np.ndarray) -> list:
-    """One raw CSV row: ``head`` (eye … method) + status, errors, quality, estimate."""
-    if T is None:
-        return head + [status] + [""] * (len(HEADER) - len(head) - 1)
-    t_mm, R = T[:3, 3] * 1000.0, T[:3, :3]
-    R_true = T_true[:3, :3]
-    return head + [status,
-                   float(np.linalg.norm(t_mm - T_true[:3, 3] * 1000.0)),
-                   float(np.linalg.norm(R - R_true)),
-                   float(rotation_error_deg(R, R_true)), float(quality),
-                   *(float(x) for x in t_mm), *(float(x) for x in R.ravel())]
-
-
-def noise_task(task: dict) -> list[list]:
-    """One eye at one level, every variant: perturb, solve, one row per sample and method.
-
-    The generator is spawned from ``(seed, E1_KEY, eye index, level)`` afresh for each
-    variant, so the variants see the same ω and t draws (``rasc.handeye.noise``).
-    """
-    T_cw, T_gp, T_true = task["T_cam_from_world"], task["T_gaze_from_ptu"], task["T_true"]
-    rows = []
-    for variant in task["variants"]:
-        if task["level"] == 0:     # the pipeline's own floor: no noise, one solve
-            noisy = T_cw[None]
-        else:
-            rng = spawn_rngs(task["seed"], 1, E1_KEY, task["eye_index"], task["level"])[0]
-            noisy = perturb_T_cam_from_world(
-                np.broadcast_to(T_cw, (task["samples"],) + T_cw.shape), task["sigma_r"],
-                task["sigma_t_mm"] / 1000.0, rng, variant)          # mm → metres
-        solved = solve_methods(noisy, T_gp, task["home"], task["methods"], variant)
-        for m in task["methods"]:
-            for s, (T, q, status) in enumerate(solved[m]):
-                head = [task["eye"], variant, task["level"], task["sigma_r"],
-                        task["sigma_t_mm"], s, m]
-                rows.append(sample_row(head, T, q, status, T_true))
-    return rows
-
-
-def compute_rows(ctx: Context, inputs: dict, level_list, methods=METHOD_NAMES,
-                 samples: int | None = None, label: str = "E1 noise",
-                 variants: tuple[str, ...] = VARIANTS) -> list[list]:
-    """Raw rows for ``level_list`` [(level, σ_r, σ_t mm)]: one task per eye and level,
-    fixed independently of ``ctx.workers``."""
-    samples = samples or (QUICK_SAMPLES if ctx.quick else SAMPLES)
-    tasks = [{"eye": eye, "eye_index": e, "level": lv, "sigma_r": sr, "sigma_t_mm": st,
-              "samples": samples, "seed": ctx.seed, "variants": variants,
-              "methods": tuple(methods), "home": inputs[eye]["home"],
-              "T_cam_from_world": inputs[eye]["T_cam_from_world"],
-              "T_gaze_from_ptu": inputs[eye]["T_gaze_from_ptu"],
-              "T_true": inputs[eye]["T_cam_from_gaze_true"]}
-             for e, eye in enumerate(EYES) for lv, sr, st in level_list]
-    return [row for rows in run_tasks(noise_task, tasks, ctx.workers, label) for row in rows]
 
 
 # ===================================================== corner noise (E6a and E6b)
