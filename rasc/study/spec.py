@@ -19,6 +19,20 @@ measurements: pose-level noise eq. 13-14, corner noise, the eye) or a *render* p
 distance, intrinsics views, the MJCF model); cells with the same render parameters share
 one rendered and calibrated dataset. :data:`PARAMS` lists them with their defaults.
 
+Later keys (at their defaults they leave a cell's identity, seeds and bytes unchanged):
+
+- ``noise_on = "home"`` (sample): eq. 13-14 noise on the home view only (E2);
+- head-model render parameters ``tilt_axis_offset_mm`` (the axis distance along the
+  common normal, mm), ``axis_skew_deg``, ``pan_zero_deg``, ``tilt_zero_deg``,
+  ``pan_scale``, ``tilt_scale``, applied to the unit(s) of ``units_eye`` ("both", "left",
+  "right") as a :class:`rasc.sim.units.UnitBuild`; the truth is the renderer's;
+- ``paired = ["noise_model"]`` (top level): axes left out of the sample seed, so cells
+  that differ only in them draw the same noise (common random numbers; not ``eye``);
+- ``[fixed] dataset = "folder"``: an existing dataset instead of rendering (no render
+  parameter beside it); ``run_study(..., dataset=doc)`` does the same from Python;
+- ``[quick]`` with ``samples``, ``methods`` and ``[quick.axes]`` (subsets): the reduced
+  protocol ``load_spec(path, quick=True)`` returns, made of the full protocol's cells.
+
 Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
 empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
 been read in full.
