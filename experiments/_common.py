@@ -25,17 +25,14 @@ from typing import Any
 
 import numpy as np
 
-from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
+from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.geometry.transforms import rotation_error_deg, rotvec_from_matrix
-from rasc.handeye.li import solve_li
-from rasc.handeye.noise import VARIANTS, perturb_T_cam_from_world
-from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
 from rasc.progress import progress
 from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
-from rasc.vision.camera import detect_corners, estimate_extrinsics
+from rasc.vision.camera import estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
 REPO = Path(__file__).resolve().parents[1]
@@ -225,6 +222,7 @@ class Context:
         self.workers: int = args.workers
         self._calibration = None
         self._truth = None
+        self._study_dataset = None
         #: reproduce.py sets this: experiments then write into ``.partial-<name>`` and
         #: :meth:`commit` renames the folder when the experiment has finished
         self.staging = False
@@ -334,6 +332,16 @@ class Context:
             write_json(self.out / "data" / "calibration.json", doc)
         return self._calibration
 
+    def study_dataset(self) -> dict:
+        """The default dataset as the study engine takes it (``rasc.study.engine
+        .dataset_document``): the pipeline's poses, kept pose corners (``EyeResult.corners``)
+        and intrinsics from :meth:`calibration`, the truth from :meth:`truth`. Made once."""
+        if self._study_dataset is None:
+            from rasc.study.engine import dataset_document
+            board = load_dataset(self.dataset_dir()).board
+            self._study_dataset = dataset_document(self.calibration(), board, self.truth())
+        return self._study_dataset
+
     def truth(self) -> dict:
         if self._truth is None:
             self._truth = read_json_document(self.dataset_dir() / "ground_truth.json",
@@ -386,202 +394,86 @@ def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+# ===================================================== experiments as studies
+
+#: the experiments' study specs (TOML, read by rasc.study.spec.load_spec)
+SPECS = Path(__file__).resolve().parent / "specs"
+
+
+def experiment_spec(ctx: Context, name: str):
+    """``experiments/specs/<name>.toml`` at ``ctx.seed``, narrowed by its ``[quick]``
+    table under ``--quick`` (the reduced protocol for tests)."""
+    from dataclasses import replace
+
+    from rasc.study.spec import load_spec
+    return replace(load_spec(SPECS / f"{name}.toml", quick=ctx.quick), seed=ctx.seed)
+
+
+def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False):
+    """Run spec ``name`` on the default dataset (:meth:`Context.study_dataset`, never
+    rendered again) into ``folder/<name>`` with ``ctx.workers`` processes; finished cells
+    of an earlier run of the same spec on the same dataset are reused (``--resume``),
+    anything else there is replaced. Returns ``(spec, rows)``: the spec and the tidy
+    samples (dicts of ``samples.csv``)."""
+    import shutil
+
+    from rasc.study import run_study
+
+    spec = experiment_spec(ctx, name)
+    out = folder / name
+    data = ctx.study_dataset()
+    resume = (out / "study.json").is_file()
+    try:
+        run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True, dataset=data,
+                  estimates=estimates, figures=False)
+    except InputError:
+        if not resume:
+            raise
+        shutil.rmtree(out)                  # another spec or dataset: start afresh
+        run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
+                  estimates=estimates, figures=False)
+    return spec, read_csv(out / "samples.csv")
+
+
+def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,
+               estimates: bool = True) -> list[list]:
+    """The tidy samples of a pose-noise study in the E1 layout (:data:`HEADER`), in the
+    study's order: eye, variant (= noise_model), level (the cell's ``noise_level``, 1 when
+    σ is given directly), σ_r, σ_t mm, sample, method, status, errors, quality, estimate.
+    With ``one_noise_free`` a cell without noise keeps only sample 0 (its samples are the
+    same pose set, solved once). Without ``estimates`` (a study run without them) the
+    estimate columns are empty."""
+    cells = spec.cells()
+    out = []
+    for r in rows:
+        p = cells[int(r["cell"])].params
+        if one_noise_free and p["sigma_r"] == 0 and p["sigma_t_mm"] == 0 and r["sample"] != "0":
+            continue
+        level = p["noise_level"] if p["noise_level"] is not None else 1
+        status = r["status"]
+        nums = ([float(r[k]) for k in ("translation_mm", "rotation_fro", "rotation_deg",
+                                       "quality")]
+                + ([float(r[k]) for k in ("t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)]
+                   if estimates else [""] * 12)
+                if status == "ok" else [""] * (len(HEADER) - 8))
+        out.append([p["eye"], p["noise_model"], level, p["sigma_r"], p["sigma_t_mm"],
+                    int(r["sample"]), r["method"], status, *nums])
+    return out
+
+
 # ===================================================== pose-level noise (E1; E2, E3 use it)
 
-#: E1's folder (E3 reuses its raw samples)
-E1_NAME = "e1"
-#: first element of every E1 seed key: (E1_KEY, eye index, level) → one generator
-E1_KEY = 1
-SAMPLES, QUICK_SAMPLES = 30, 8
-#: paper levels (1-based) kept by --quick, besides level 0
-QUICK_LEVELS = (1, 4, 8)
 #: the variant of the main figures: the paper printed the literal form (eq. 13)
 MAIN_VARIANT = "literal"
+#: the paper's two methods (E1's figures, E2)
 METHOD_NAMES = ("rasc", "li")
 
 RAW_CSV = "noise_samples.csv"
 R_COLS = tuple(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+#: the raw rows of E1 and E2 (:func:`noise_rows`): one per sample and method
 HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "method", "status",
           "t_err_mm", "R_err_fro", "R_err_deg", "quality", "t_x_mm", "t_y_mm", "t_z_mm",
           *R_COLS)
-
-
-# ------------------------------------------------------------------------ inputs
-
-def levels(quick: bool) -> list[tuple[int, float, float]]:
-    """``(level, σ_r rad, σ_t mm)``: level 0 (no noise) and the paper's levels 1–8."""
-    keep = QUICK_LEVELS if quick else range(1, len(PAPER_LEVELS) + 1)
-    return [(0, 0.0, 0.0)] + [(k, *PAPER_LEVELS[k - 1]) for k in keep]
-
-
-def eye_inputs(ctx: Context) -> dict[str, dict]:
-    """Per eye: the pipeline's ``T_cam_from_world`` (n, 4, 4), eq. 3 ``T_gaze_from_ptu``
-    (n, 4, 4) from the commanded angles, the home view's index and the true
-    ``T_cam_from_gaze`` (4, 4)."""
-    cal, truth = ctx.calibration(), ctx.truth()
-    out = {}
-    for eye in EYES:
-        r = cal.eyes[eye]
-        pan_tilt = np.asarray(r.pan_tilt, dtype=float)
-        home = np.flatnonzero(np.all(pan_tilt == 0.0, axis=1))
-        if home.size != 1:
-            raise DegenerateDataError(
-                f"{eye} eye: {home.size} pose views at pan = tilt = 0; E1/E2 need exactly "
-                "one home view (add the (0, 0) position or remove duplicates)")
-        out[eye] = {"T_cam_from_world": np.asarray(r.T_cam_from_world, dtype=float),
-                    "T_gaze_from_ptu": T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
-                    "pan_tilt_rad": pan_tilt, "home": int(home[0]),
-                    "T_cam_from_gaze_true": np.asarray(truth[eye]["T_cam_from_gaze"], float)}
-    return out
-
-
-def protocol(ctx: Context, inputs: dict[str, dict]) -> dict:
-    """Everything the raw samples depend on (E3 reuses them only if this matches)."""
-    return {"experiment": E1_NAME, "seed": ctx.seed, "quick": ctx.quick,
-            "samples": QUICK_SAMPLES if ctx.quick else SAMPLES,
-            "levels": [list(lv) for lv in levels(ctx.quick)], "variants": list(VARIANTS),
-            "methods": list(METHOD_NAMES), "seed_key": [E1_KEY, "eye index", "level"],
-            "inputs": {eye: {k: np.asarray(v).tolist() for k, v in d.items()}
-                       for eye, d in inputs.items()}}
-
-
-# ------------------------------------------------------------------ Monte Carlo
-
-def _solve_rasc_samples(T_cw: np.ndarray, T_gp: np.ndarray, check_rigid: bool) -> list:
-    """RASC on (S, n, 4, 4) samples: ``[(T (4, 4) | None, quality | None, status)]``.
-
-    The batch solver raises for the whole batch if one sample is degenerate; then every
-    sample is solved alone so only the degenerate ones are lost (never given a number).
-    """
-    try:
-        b = solve_rasc_batch(T_cw, T_gp, check_rigid=check_rigid)
-        return [(b.T_cam_from_gaze[s], float(b.quality[s]), "ok") for s in range(len(T_cw))]
-    except DegenerateDataError:
-        out = []
-        for T in T_cw:
-            try:
-                r = solve_rasc(T, T_gp, check_rigid=check_rigid)
-                out.append((r.T_cam_from_gaze, r.quality, "ok"))
-            except DegenerateDataError:
-                out.append((None, None, "degenerate"))
-        return out
-
-
-def _solve_li_samples(T_cw: np.ndarray, T_gp: np.ndarray, home: int,
-                      check_rigid: bool) -> list:
-    out = []
-    for T in T_cw:
-        try:
-            r = solve_li(T, T_gp, home=home, check_rigid=check_rigid)
-            out.append((r.T_cam_from_gaze, r.quality, "ok"))
-        except DegenerateDataError:
-            out.append((None, None, "degenerate"))
-        except SolverFailure:
-            out.append((None, None, "not converged"))
-    return out
-
-
-def solve_methods(noisy: np.ndarray, T_gp: np.ndarray, home: int, methods, variant: str):
-    """``{method: [(T, quality, status)] per sample}`` for noisy (S, n, 4, 4) poses."""
-    check_rigid = variant != "literal"    # literal eq. 13 matrices are not rotations
-    out = {}
-    for m in methods:
-        if m == "rasc":
-            out[m] = _solve_rasc_samples(noisy, T_gp, check_rigid)
-        elif m == "li":
-            out[m] = _solve_li_samples(noisy, T_gp, home, check_rigid)
-        else:
-            out[m] = _solve_named_samples(m, noisy, T_gp, check_rigid)
-    return out
-
-
-def _solve_named_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray,
-                         check_rigid: bool) -> list:
-    """Any method by name (rasc.handeye.methods.solve), one sample at a time; a failure
-    is that sample's status, never a number."""
-    from rasc.handeye.methods import solve
-
-    out = []
-    for T in T_cw:
-        try:
-            r = solve(method, T, T_gp, check_rigid=check_rigid)
-        except DegenerateDataError:
-            out.append((None, None, "degenerate"))
-            continue
-        except FAILURES:
-            out.append((None, None, "failed"))
-            continue
-        T_est = np.asarray(r.T_cam_from_gaze, dtype=float)
-        if T_est.shape != (4, 4) or not np.all(np.isfinite(T_est)):
-            out.append((None, None, "non-finite"))
-        else:
-            out.append((T_est, float(r.quality), "ok"))
-    return out
-
-
-def method_available(name: str) -> bool:
-    """Whether ``name`` names a hand-eye method here (e.g. a variant added later)."""
-    from rasc.study.spec import check_method
-    try:
-        check_method(name)
-    except InputError:
-        return False
-    return True
-
-
-def sample_row(head: list, T: np.ndarray | None, quality: float | None, status: str,
-               T_true: np.ndarray) -> list:
-    """One raw CSV row: ``head`` (eye … method) + status, errors, quality, estimate."""
-    if T is None:
-        return head + [status] + [""] * (len(HEADER) - len(head) - 1)
-    t_mm, R = T[:3, 3] * 1000.0, T[:3, :3]
-    R_true = T_true[:3, :3]
-    return head + [status,
-                   float(np.linalg.norm(t_mm - T_true[:3, 3] * 1000.0)),
-                   float(np.linalg.norm(R - R_true)),
-                   float(rotation_error_deg(R, R_true)), float(quality),
-                   *(float(x) for x in t_mm), *(float(x) for x in R.ravel())]
-
-
-def noise_task(task: dict) -> list[list]:
-    """One eye at one level, every variant: perturb, solve, one row per sample and method.
-
-    The generator is spawned from ``(seed, E1_KEY, eye index, level)`` afresh for each
-    variant, so the variants see the same ω and t draws (``rasc.handeye.noise``).
-    """
-    T_cw, T_gp, T_true = task["T_cam_from_world"], task["T_gaze_from_ptu"], task["T_true"]
-    rows = []
-    for variant in task["variants"]:
-        if task["level"] == 0:     # the pipeline's own floor: no noise, one solve
-            noisy = T_cw[None]
-        else:
-            rng = spawn_rngs(task["seed"], 1, E1_KEY, task["eye_index"], task["level"])[0]
-            noisy = perturb_T_cam_from_world(
-                np.broadcast_to(T_cw, (task["samples"],) + T_cw.shape), task["sigma_r"],
-                task["sigma_t_mm"] / 1000.0, rng, variant)          # mm → metres
-        solved = solve_methods(noisy, T_gp, task["home"], task["methods"], variant)
-        for m in task["methods"]:
-            for s, (T, q, status) in enumerate(solved[m]):
-                head = [task["eye"], variant, task["level"], task["sigma_r"],
-                        task["sigma_t_mm"], s, m]
-                rows.append(sample_row(head, T, q, status, T_true))
-    return rows
-
-
-def compute_rows(ctx: Context, inputs: dict, level_list, methods=METHOD_NAMES,
-                 samples: int | None = None, label: str = "E1 noise",
-                 variants: tuple[str, ...] = VARIANTS) -> list[list]:
-    """Raw rows for ``level_list`` [(level, σ_r, σ_t mm)]: one task per eye and level,
-    fixed independently of ``ctx.workers``."""
-    samples = samples or (QUICK_SAMPLES if ctx.quick else SAMPLES)
-    tasks = [{"eye": eye, "eye_index": e, "level": lv, "sigma_r": sr, "sigma_t_mm": st,
-              "samples": samples, "seed": ctx.seed, "variants": variants,
-              "methods": tuple(methods), "home": inputs[eye]["home"],
-              "T_cam_from_world": inputs[eye]["T_cam_from_world"],
-              "T_gaze_from_ptu": inputs[eye]["T_gaze_from_ptu"],
-              "T_true": inputs[eye]["T_cam_from_gaze_true"]}
-             for e, eye in enumerate(EYES) for lv, sr, st in level_list]
-    return [row for rows in run_tasks(noise_task, tasks, ctx.workers, label) for row in rows]
 
 
 # ===================================================== corner noise (E6a and E6b)
@@ -623,35 +515,36 @@ class EyeData:
 
 
 def pose_eye_data(ctx: Context) -> dict[str, EyeData]:
-    """Detect (method "saddle") the default dataset's pose images of both eyes, once.
+    """The default dataset's pose views of both eyes with the corners the pipeline
+    detected and kept (``ctx.calibration().eyes[eye].corners["pose"]``: never detected
+    again), in the pipeline's view order.
 
     Raises
     ------
     rasc.errors.InputError
-        A pose image without a detectable board (names the file).
+        A pose view the pipeline did not use (its board was not found; names the file).
     """
     ds = load_dataset(ctx.dataset_dir())
     cal, truth = ctx.calibration(), ctx.truth()
     out = {}
     for eye in EYES:
+        res = cal.eyes[eye]
+        kept = res.corners.get("pose", {})
         entries = ds.select(eye, "pose")
-        corners = []
         for e in entries:
-            c = detect_corners(ds.read(e), ds.board, method="saddle")
-            if c is None:
+            if e.file not in kept:
                 raise InputError(f"{ds.manifest_path}: images[{e.index}] ({e.file}): board "
-                                 "not found; E6 needs every pose view")
-            corners.append(c)
-        pan = np.array([e.pan for e in entries])
-        tilt = np.array([e.tilt for e in entries])
-        intr = cal.eyes[eye].intrinsics
+                                 "not found by the pipeline; E6 needs every pose view")
+        files = list(res.pose_files)
+        pan_tilt = np.asarray(res.pan_tilt, dtype=float)
+        intr = res.intrinsics
         out[eye] = EyeData(
-            eye=eye, files=tuple(e.file for e in entries), corners=np.array(corners),
-            T_gaze_from_ptu=T_gaze_from_ptu(pan, tilt), K=np.array(intr.K),
-            dist=np.array(intr.dist),
+            eye=eye, files=tuple(files), corners=np.array([kept[f] for f in files]),
+            T_gaze_from_ptu=T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
+            K=np.array(intr.K), dist=np.array(intr.dist),
             T_cam_from_gaze_true=np.array(truth[eye]["T_cam_from_gaze"], dtype=float),
-            T_cam_from_world_true=np.array([truth["views"][e.file]["T_cam_from_world"]
-                                            for e in entries], dtype=float))
+            T_cam_from_world_true=np.array([truth["views"][f]["T_cam_from_world"]
+                                            for f in files], dtype=float))
     return out
 
 

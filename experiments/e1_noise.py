@@ -36,17 +36,15 @@ from experiments._common import (
     HEADER,
     MAIN_VARIANT,
     METHOD_NAMES,
+    PAPER_LEVELS,
     R_COLS,
     RAW_CSV,
     Context,
     Section,
-    compute_rows,
-    eye_inputs,
-    levels,
     md_table,
-    method_available,
-    protocol,
+    noise_rows,
     read_csv,
+    run_spec,
     save_figure,
     script_main,
     stage,
@@ -57,6 +55,10 @@ from rasc.geometry.frames import EYES
 from rasc.handeye.noise import VARIANTS
 
 NAME = "e1"
+#: the study specs (experiments/specs/): RASC and Li; every other method
+SPEC, PEERS_SPEC = "e1_noise", "e1_all_methods"
+#: the paper's set k: (0.005 k rad, k mm)
+PAPER_SIGMA_R, PAPER_SIGMA_T_MM = PAPER_LEVELS[0]
 #: significance level of the paired tests (per level, uncorrected; stated in the report)
 ALPHA = 0.05
 SUMMARY_CSV, TESTS_CSV = "noise_summary.csv", "paired_tests.csv"
@@ -153,7 +155,19 @@ def paired_tests(raw: list[dict]) -> list[list]:
 
 # ------------------------------------------------------------------------ figures
 
-def plot_figures(summary_csv: Path, variant: str, folder: Path) -> list[Path]:
+def _log_y(ax, draft: bool) -> None:
+    """A log y axis with a grid; a draft (--quick) leaves out the minor ticks, which
+    cost a third of the drawing."""
+    ax.set_yscale("log")
+    if draft:
+        from matplotlib.ticker import NullLocator
+        ax.yaxis.set_minor_locator(NullLocator())
+    ax.grid(True, which="major" if draft else "both", alpha=0.3)
+
+
+def plot_figures(summary_csv: Path, variant: str, folder: Path,
+                 formats: tuple[str, ...] = (".png", ".svg"), draft: bool = False
+                 ) -> list[Path]:
     """Figures 3 and 4 for one variant, from the summary CSV: rows mean and std of the
     estimates, columns the eyes; RASC and Li on one axis; level 0 = no added noise."""
     import matplotlib
@@ -176,8 +190,7 @@ def plot_figures(summary_csv: Path, variant: str, folder: Path) -> list[Path]:
                            and r[key] != ""]
                     ax.plot([int(r["level"]) for r in sel], [float(r[key]) for r in sel],
                             style, label="RASC" if method == "rasc" else "Li", ms=4)
-                ax.set_yscale("log")
-                ax.grid(True, which="both", alpha=0.3)
+                _log_y(ax, draft)
                 ax.set_title(f"{eye} eye: {what}", fontsize=10)
                 if col == 0:
                     ax.set_ylabel(ylabel)
@@ -186,7 +199,7 @@ def plot_figures(summary_csv: Path, variant: str, folder: Path) -> list[Path]:
                       "std needs ≥ 2 samples)", fontsize=10)
         fig.suptitle(f"Figure {fig_no}: {ylabel.split()[0]} error of T_cam_from_gaze vs "
                      f"input noise ({variant} eq. 13 noise)", fontsize=11)
-        files += save_figure(fig, folder / f"{stem}{suffix}")
+        files += save_figure(fig, folder / f"{stem}{suffix}", formats, draft)
         plt.close(fig)
     return files
 
@@ -286,39 +299,56 @@ def _level_table(summary: list[dict], tests: list[dict], variant: str) -> str:
                      "mean angle ° RASC / Li", "failed RASC / Li"), rows)
 
 
+def protocol(ctx: Context, spec, peers) -> dict:
+    """What E1's numbers depend on (written to ``inputs.json``)."""
+    from rasc.study.engine import dataset_digest_of
+
+    levels_ = [(k, PAPER_SIGMA_R * k, PAPER_SIGMA_T_MM * k) for k in spec.axes["noise_level"]]
+    return {"experiment": NAME, "seed": ctx.seed, "quick": ctx.quick,
+            "samples": spec.samples, "levels": [list(lv) for lv in levels_],
+            "variants": list(spec.axes["noise_model"]), "methods": list(spec.methods),
+            "peers": list(peers.methods), "spec_sha256": spec.digest,
+            "peers_spec_sha256": peers.digest,
+            "dataset_sha256": dataset_digest_of(ctx.study_dataset())}
+
+
 def run(ctx: Context) -> Section:
+    """E1 through the study engine: ``specs/e1_noise.toml`` (RASC, Li) and
+    ``specs/e1_all_methods.toml`` (every other method) on the default dataset, then the
+    analysis from the files, then figures and text."""
     folder = ctx.dir(NAME)
-    with stage("E1 Figures 3-4: RASC vs Li under eq. 13-14 noise"):
-        inputs = eye_inputs(ctx)
-        proto = protocol(ctx, inputs)
-        rows = compute_rows(ctx, inputs, levels(ctx.quick))
-        write_json(folder / "inputs.json", proto)
-        write_csv(folder / RAW_CSV, HEADER, rows)
+    with stage("E1 Figures 3-4: RASC vs Li under eq. 13-14 noise (study engine)"):
+        spec, tidy = run_spec(ctx, SPEC, folder, estimates=True)
+        write_csv(folder / RAW_CSV, HEADER, noise_rows(spec, tidy))
         raw = read_csv(folder / RAW_CSV)                # everything below from the files
         write_csv(folder / SUMMARY_CSV, SUMMARY_HEADER, summarise(raw))
         write_csv(folder / TESTS_CSV, TESTS_HEADER, paired_tests(raw))
         summary, tests = read_csv(folder / SUMMARY_CSV), read_csv(folder / TESTS_CSV)
-        files = [folder / n for n in ("inputs.json", RAW_CSV, SUMMARY_CSV, TESTS_CSV)]
-        for variant in VARIANTS:
-            files += plot_figures(folder / SUMMARY_CSV, variant, folder)
-        result = _summary(summary, tests, proto)
-        write_json(folder / "summary.json", result)
-        files.append(folder / "summary.json")
-    with stage(f"E1 every method: {', '.join(all_methods())} on the same samples"):
-        peers = [m for m in all_methods() if m not in METHOD_NAMES]
-        extra = compute_rows(ctx, inputs, levels(ctx.quick), methods=peers,
-                             label="E1 every method", variants=(ALL_VARIANT,))
+    with stage("E1 every method on the same samples (study engine)"):
+        peers, tidy = run_spec(ctx, PEERS_SPEC, folder, estimates=True)
+        proto = protocol(ctx, spec, peers)
+        write_json(folder / "inputs.json", proto)
         same = [r for r in raw if r["variant"] == ALL_VARIANT]   # RASC and Li, as above
         write_csv(folder / ALL_RAW_CSV, HEADER,
-                  [[r[k] for k in HEADER] for r in same] + extra)
+                  [[r[k] for k in HEADER] for r in same] + noise_rows(peers, tidy))
         all_raw = read_csv(folder / ALL_RAW_CSV)
         write_csv(folder / ALL_SUMMARY_CSV, SUMMARY_HEADER, summarise(all_raw))
         all_summary = read_csv(folder / ALL_SUMMARY_CSV)
-        files += [folder / ALL_RAW_CSV, folder / ALL_SUMMARY_CSV]
-        files += plot_all_methods(all_summary, folder)
         verdict = peer_verdict(all_summary)
         write_json(folder / "all_methods.json", verdict)
-        files.append(folder / "all_methods.json")
+        result = _summary(summary, tests, proto)
+        write_json(folder / "summary.json", result)
+    with stage("E1 figures"):
+        files = [folder / n for n in ("inputs.json", RAW_CSV, SUMMARY_CSV, TESTS_CSV,
+                                      "summary.json", ALL_RAW_CSV, ALL_SUMMARY_CSV,
+                                      "all_methods.json")]
+        # --quick: the main variant's figures only, drafts (PNG at 72 dpi, no tight
+        # box: the figures cost more than the reduced computation); the full protocol
+        # draws all, PNG and SVG
+        draft = {"formats": (".png",), "draft": True} if ctx.quick else {}
+        for variant in ((MAIN_VARIANT,) if ctx.quick else VARIANTS):
+            files += plot_figures(folder / SUMMARY_CSV, variant, folder, **draft)
+        files += plot_all_methods(all_summary, folder, **draft)
     return Section(NAME, "E1 — Figures 3 and 4: hand-eye error against input noise, "
                    "RASC vs Li", _markdown(summary, tests, proto, result)
                    + _all_methods_markdown(all_summary, verdict, proto), files, result)
@@ -336,12 +366,6 @@ ALL_VARIANT = "exponential"
 ALL_RAW_CSV, ALL_SUMMARY_CSV = "all_methods_samples.csv", "all_methods_summary.csv"
 #: rotation errors within this relative difference count as "the same rotation"
 SAME_ROTATION_REL = 0.05
-
-
-def all_methods() -> tuple[str, ...]:
-    """RASC, Li, OpenCV's five and the named RASC variants this installation has."""
-    return (*METHOD_NAMES, *OPENCV_METHODS,
-            *(m for m in VARIANT_METHODS if method_available(m)))
 
 
 def _mean(row: dict, key: str) -> float | None:
@@ -380,7 +404,9 @@ def peer_verdict(summary: list[dict]) -> dict:
     return out
 
 
-def plot_all_methods(summary: list[dict], folder: Path) -> list[Path]:
+def plot_all_methods(summary: list[dict], folder: Path,
+                     formats: tuple[str, ...] = (".png", ".svg"), draft: bool = False
+                     ) -> list[Path]:
     """Mean translation and rotation error against the set, every method, both eyes."""
     import matplotlib
     matplotlib.use("Agg")
@@ -397,8 +423,7 @@ def plot_all_methods(summary: list[dict], folder: Path) -> list[Path]:
                              if r["eye"] == eye and r["method"] == m and r[key] != "")
                 ax.plot([x for x, _ in sel], [y for _, y in sel], marker="osD^v<>px"[k % 9],
                         linestyle="-" if m.startswith("rasc") else "--", ms=4, label=m)
-            ax.set_yscale("log")
-            ax.grid(True, which="both", alpha=0.3)
+            _log_y(ax, draft)
             ax.set_title(f"{eye} eye", fontsize=10)
             if col == 0:
                 ax.set_ylabel(ylabel)
@@ -406,7 +431,7 @@ def plot_all_methods(summary: list[dict], folder: Path) -> list[Path]:
     fig.supxlabel("noise set k: σ_r = 0.005k rad, σ_t = k mm (exponential eq. 13)",
                   fontsize=10)
     fig.suptitle("E1 with every method: the same noisy samples", fontsize=11)
-    files = save_figure(fig, folder / "fig_all_methods")
+    files = save_figure(fig, folder / "fig_all_methods", formats, draft)
     plt.close(fig)
     return files
 

@@ -27,27 +27,24 @@ from experiments._common import (
     METHOD_NAMES,
     Context,
     Section,
-    eye_inputs,
     md_table,
+    noise_rows,
     read_csv,
-    run_tasks,
-    sample_row,
+    run_spec,
     save_figure,
     script_main,
-    solve_methods,
-    spawn_rngs,
     stage,
     write_csv,
     write_json,
 )
 from rasc.geometry.frames import EYES
-from rasc.handeye.noise import VARIANTS, perturb_one_view
+from rasc.study.engine import home_view
 
 NAME = "e2"
-E2_KEY = 2
+#: the study spec (experiments/specs/e2_home_view.toml)
+SPEC = "e2_home_view"
 #: the paper's "moderate amount of noise" on the home view (rad, mm)
 SIGMA_R, SIGMA_T_MM = 0.030, 6.0
-SAMPLES, QUICK_SAMPLES = 30, 8
 #: the paper: "an order of magnitude more error" for Li
 PAPER_RATIO = 10.0
 
@@ -57,22 +54,6 @@ SUMMARY_HEADER = ("eye", "variant", "n_ok_rasc", "n_ok_li", "rasc_t_mean_mm", "l
                   "ratio_t", "median_ratio_t", "rasc_R_fro_mean", "li_R_fro_mean", "ratio_R",
                   "median_ratio_R", "rasc_R_deg_mean", "li_R_deg_mean", "frac_li_worse_t",
                   "frac_li_worse_R")
-
-
-def home_task(task: dict) -> list[list]:
-    """One eye, every variant: home-view noise, RASC and Li on the same samples."""
-    T_cw, T_gp, home = task["T_cam_from_world"], task["T_gaze_from_ptu"], task["home"]
-    rows = []
-    for variant in VARIANTS:   # same generator state for both: the same ω and t draws
-        rng = spawn_rngs(task["seed"], 1, E2_KEY, task["eye_index"])[0]
-        noisy = perturb_one_view(np.broadcast_to(T_cw, (task["samples"],) + T_cw.shape),
-                                 home, SIGMA_R, SIGMA_T_MM / 1000.0, rng, variant)
-        solved = solve_methods(noisy, T_gp, home, METHOD_NAMES, variant)
-        for m in METHOD_NAMES:
-            for s, (T, q, status) in enumerate(solved[m]):
-                head = [task["eye"], variant, 1, SIGMA_R, SIGMA_T_MM, s, m]
-                rows.append(sample_row(head, T, q, status, task["T_true"]))
-    return rows
 
 
 def summarise(raw: list[dict]) -> list[list]:
@@ -100,7 +81,7 @@ def summarise(raw: list[dict]) -> list[list]:
     return out
 
 
-def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
+def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list[Path]:
     """Box plots of both errors per eye and method (log axes), from the raw CSV."""
     import matplotlib
     matplotlib.use("Agg")
@@ -121,33 +102,30 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
         ax.grid(True, axis="y", alpha=0.3)
     fig.suptitle(f"E2: ({SIGMA_R} rad, {SIGMA_T_MM:g} mm) {variant} noise on the home view "
                  "only", fontsize=11)
-    files = save_figure(fig, folder / "e2_home_view")
+    files = save_figure(fig, folder / "e2_home_view",
+                        (".png",) if draft else (".png", ".svg"), draft)
     plt.close(fig)
     return files
 
 
 def run(ctx: Context) -> Section:
+    """E2 through the study engine (``specs/e2_home_view.toml`` on the default dataset),
+    then the ratios from the raw file, the box plots and the text."""
     folder = ctx.dir(NAME)
-    samples = QUICK_SAMPLES if ctx.quick else SAMPLES
-    with stage("E2 home-view noise: RASC vs Li"):
-        inputs = eye_inputs(ctx)
-        tasks = [{"eye": eye, "eye_index": k, "seed": ctx.seed, "samples": samples,
-                  "home": inputs[eye]["home"],
-                  "T_cam_from_world": inputs[eye]["T_cam_from_world"],
-                  "T_gaze_from_ptu": inputs[eye]["T_gaze_from_ptu"],
-                  "T_true": inputs[eye]["T_cam_from_gaze_true"]}
-                 for k, eye in enumerate(EYES)]
-        rows = [r for rs in run_tasks(home_task, tasks, ctx.workers, "E2 home view")
-                for r in rs]
-        write_csv(folder / RAW_CSV, HEADER, rows)
+    with stage("E2 home-view noise: RASC vs Li (study engine)"):
+        spec, tidy = run_spec(ctx, SPEC, folder)
+        write_csv(folder / RAW_CSV, HEADER, noise_rows(spec, tidy, estimates=False))
         raw = read_csv(folder / RAW_CSV)
         write_csv(folder / SUMMARY_CSV, SUMMARY_HEADER, summarise(raw))
         summary = read_csv(folder / SUMMARY_CSV)
         files = [folder / RAW_CSV, folder / SUMMARY_CSV]
-        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder)
-        result = {"samples": samples, "seed": ctx.seed, "sigma_r": SIGMA_R,
+        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder, draft=ctx.quick)
+        cal = ctx.study_dataset()
+        result = {"samples": spec.samples, "seed": ctx.seed, "sigma_r": SIGMA_R,
                   "sigma_t_mm": SIGMA_T_MM, "main_variant": MAIN_VARIANT,
-                  "home": {eye: inputs[eye]["home"] for eye in EYES},
+                  "spec_sha256": spec.digest,
+                  "home": {eye: home_view(cal["eyes"][eye]["pan_tilt_rad"], eye)
+                           for eye in EYES},
                   **{f"{r['eye']}_{r['variant']}": {k: float(v) for k, v in r.items()
                                                     if k not in ("eye", "variant")}
                      for r in summary}}

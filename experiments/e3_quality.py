@@ -4,13 +4,12 @@
 
 Protocol (docs/METHOD.md §9, E3): RASC's eq. 10 quality (mean over i ≠ j of
 ‖R_X R_B R_Xᵀ − R_A‖_F) against its true rotation and translation errors, over every
-RASC sample of E1 (sets 0–8, both eyes, both noise variants; E1's raw CSV is reused when
-``<out>/e1/inputs.json`` shows it was made with this protocol and these poses, else E1's
-computation is run here) plus an extended set of larger noise levels, because the paper's
-levels leave the quality far below the paper's threshold of 1: sets 9–15 at
-(0.005k rad, k mm) for k = 12, 16, 24, 32, 48, 64, 80 (up to 0.4 rad / 80 mm), same
-seeding scheme as E1 (one generator per (E1_KEY, eye, set)), 30 samples (quick: sets
-12 and 15, 8 samples).
+RASC sample of E1 (sets 0–8, both eyes, both noise variants: the study
+``experiments/specs/e3_quality.toml`` holds E1's cells, whose keys and therefore draws are
+E1's, recomputed here for RASC alone) plus larger noise sets, because the paper's
+levels leave the quality far below the paper's threshold of 1: sets k = 12, 16, 24, 32,
+48, 64, 80 at (0.005k rad, k mm) (up to 0.4 rad / 80 mm; the ``level`` column is k),
+30 samples (quick: sets 0, 1, 4, 8, 32 and 80, 6 samples).
 
 "Unusable" is defined here (the paper does not define it): rotation error > 5° or
 translation error > 50 mm. At the paper's working depths (1.6–1.9 m, Table 1) a 5°
@@ -26,7 +25,6 @@ raw file).
 
 from __future__ import annotations
 
-import json
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -34,39 +32,30 @@ from pathlib import Path
 import numpy as np
 
 from experiments._common import (
-    E1_NAME,
+    HEADER as E1_HEADER,
+)
+from experiments._common import (
     MAIN_VARIANT,
-    QUICK_SAMPLES,
-    SAMPLES,
     Context,
     Section,
-    compute_rows,
-    eye_inputs,
     fmt,
-    levels,
     md_table,
-    protocol,
+    noise_rows,
     read_csv,
+    run_spec,
     save_figure,
     script_main,
     stage,
     write_csv,
     write_json,
 )
-from experiments._common import (
-    HEADER as E1_HEADER,
-)
-from experiments._common import (
-    RAW_CSV as E1_RAW_CSV,
-)
 from rasc.handeye.noise import VARIANTS
-from rasc.io import dumps_json
 
 NAME = "e3"
-#: extended noise sets: multipliers k of (0.005 rad, 1 mm), numbered after the paper's 8
+#: the study spec (experiments/specs/e3_quality.toml)
+SPEC = "e3_quality"
+#: extended noise sets k of (0.005k rad, k mm) beyond the paper's 8 (the spec's axis)
 EXT_K = (12, 16, 24, 32, 48, 64, 80)
-EXT_LEVELS = tuple((9 + i, 0.005 * k, 1.0 * k) for i, k in enumerate(EXT_K))
-QUICK_EXT = (12, 15)                  # set numbers kept by --quick (k = 32 and 80)
 #: the paper: "if the Frobenius norm exceeds unity then the solution is unusable"
 PAPER_THRESHOLD = 1.0
 #: our definition of unusable (see the module docstring)
@@ -79,31 +68,6 @@ HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "source"
 LEVELS_HEADER = ("variant", "level", "sigma_r", "sigma_t_mm", "n", "quality_median",
                  "quality_max", "frac_quality_above_1", "frac_unusable", "R_err_deg_median",
                  "t_err_mm_median", "quality_over_sigma_r")
-
-
-def ext_levels(quick: bool) -> list[tuple[int, float, float]]:
-    return [lv for lv in EXT_LEVELS if not quick or lv[0] in QUICK_EXT]
-
-
-def e1_rasc_rows(ctx: Context, inputs: dict) -> tuple[list[dict], str]:
-    """E1's RASC rows as CSV dicts: read from ``<out>/e1`` when its protocol and input
-    poses match this run, else computed (same numbers either way). Returns (rows, how)."""
-    folder = ctx.out / E1_NAME
-    want = json.loads(dumps_json(protocol(ctx, inputs)))   # as it reads back: lists
-    try:
-        with open(folder / "inputs.json") as f:
-            reuse = json.load(f) == want and (folder / E1_RAW_CSV).is_file()
-    except (OSError, ValueError):
-        reuse = False
-    reuse = reuse and ctx.reuse_e1
-    if reuse:
-        rows, how = read_csv(folder / E1_RAW_CSV), "reused E1's raw CSV"
-    else:
-        raw = compute_rows(ctx, inputs, levels(ctx.quick), methods=("rasc",),
-                              label="E3: E1 samples")
-        rows = [dict(zip(E1_HEADER, (fmt(v) for v in r), strict=True)) for r in raw]
-        how = "recomputed E1's samples (no matching E1 output)"
-    return [r for r in rows if r["method"] == "rasc"], how
 
 
 def sample_rows(rows: list[dict], source: str) -> list[list]:
@@ -209,7 +173,7 @@ def per_level(raw: list[dict]) -> list[list]:
     return out
 
 
-def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
+def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list[Path]:
     """Scatter of quality against both true errors (log axes), coloured by noise set,
     with the paper's threshold and our unusable limits, from the raw CSV."""
     import matplotlib
@@ -226,7 +190,7 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
              " mm")), strict=True):
         y = np.array([float(r[key]) for r in raw])
         sc = ax.scatter(q, y, c=level, cmap="viridis", s=9, alpha=0.75, vmin=0,
-                        vmax=max(EXT_LEVELS)[0])
+                        vmax=max(EXT_K))
         ax.axvline(PAPER_THRESHOLD, color="red", lw=1.2, label="paper's threshold (quality 1)")
         ax.axhline(limit, color="k", ls="--", lw=1, label=f"unusable above {limit:g}{unit}")
         ax.set_xscale("log")
@@ -238,7 +202,8 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
     fig.colorbar(sc, ax=axes, label="noise set (0 none, 1–8 paper, 9–15 extended)")
     fig.suptitle(f"E3: RASC quality measure against the true error ({variant} noise, "
                  "both eyes)", fontsize=11)
-    files = save_figure(fig, folder / "e3_quality_vs_error")
+    files = save_figure(fig, folder / "e3_quality_vs_error",
+                        (".png",) if draft else (".png", ".svg"), draft)
     plt.close(fig)
     return files
 
@@ -246,26 +211,29 @@ def plot(raw_csv: Path, variant: str, folder: Path) -> list[Path]:
 # ------------------------------------------------------------------------ run
 
 def run(ctx: Context) -> Section:
+    """E3 through the study engine (``specs/e3_quality.toml`` on the default dataset: its
+    sets 0-8 are E1's cells, so these are E1's RASC samples), then the analysis from the
+    raw file, the figure and the text."""
     folder = ctx.dir(NAME)
-    with stage("E3 quality measure (eq. 10) against the true error"):
-        inputs = eye_inputs(ctx)
-        base, how = e1_rasc_rows(ctx, inputs)
-        ext = compute_rows(ctx, inputs, ext_levels(ctx.quick), methods=("rasc",),
-                              label="E3 extended noise")
-        ext = [dict(zip(E1_HEADER, (fmt(v) for v in r), strict=True)) for r in ext]
-        failed = sum(r["status"] != "ok" for r in base + ext)
-        write_csv(folder / RAW_CSV, HEADER, sample_rows(base, "e1") + sample_rows(ext, "e3"))
+    with stage("E3 quality measure (eq. 10) against the true error (study engine)"):
+        spec, tidy = run_spec(ctx, SPEC, folder)
+        rows = [dict(zip(E1_HEADER, (fmt(v) for v in r), strict=True))
+                for r in noise_rows(spec, tidy, estimates=False)]
+        failed = sum(r["status"] != "ok" for r in rows)
+        write_csv(folder / RAW_CSV, HEADER,
+                  sample_rows([r for r in rows if int(r["level"]) <= 8], "e1")
+                  + sample_rows([r for r in rows if int(r["level"]) > 8], "e3"))
         raw = read_csv(folder / RAW_CSV)
         write_csv(folder / LEVELS_CSV, LEVELS_HEADER, per_level(raw))
         analysis = analyse(raw)
+        ext = [k for k in spec.axes["noise_level"] if k > 8]
         analysis.update({"failed_samples": failed, "seed": ctx.seed,
-                         "samples": QUICK_SAMPLES if ctx.quick else SAMPLES,
-                         "extended_levels": [list(lv) for lv in ext_levels(ctx.quick)],
-                         "main_variant": MAIN_VARIANT})
+                         "samples": spec.samples,
+                         "extended_levels": [[k, 0.005 * k, 1.0 * k] for k in ext],
+                         "main_variant": MAIN_VARIANT, "spec_sha256": spec.digest})
         write_json(folder / ANALYSIS_JSON, analysis)
         files = [folder / RAW_CSV, folder / LEVELS_CSV, folder / ANALYSIS_JSON]
-        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder)
-        print(f"E3: {how}", file=sys.stderr)
+        files += plot(folder / RAW_CSV, MAIN_VARIANT, folder, draft=ctx.quick)
     return Section(NAME, "E3 — the quality measure (eq. 10) against the true error",
                    _markdown(analysis, read_csv(folder / LEVELS_CSV)), files, analysis)
 

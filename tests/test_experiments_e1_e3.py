@@ -1,9 +1,10 @@
-"""Experiments E1 (Figs. 3–4), E2 (home-view noise) and E3 (quality measure), --quick.
+"""Experiments E1 (Figs. 3–4), E2 (home-view noise) and E3 (quality measure), --quick,
+run through the study engine on the default dataset.
 
-The default dataset is rendered once per module and shared (symlinked) by every run's
+The default dataset is rendered once per test run and shared (symlinked) by every run's
 output folder; each run calibrates it through the real pipeline. Quick runs: A (workers
-1; E3 reuses E1's CSV) and B (workers 2) of E1–E3, and C (workers 1) of E3 alone, which
-recomputes E1's samples. Their result files must be byte-identical.
+1) and B (workers 2) of E1–E3, and C (workers 1) of E3 alone. Their result files must
+be byte-identical.
 """
 
 from __future__ import annotations
@@ -22,16 +23,35 @@ import experiments._common as common  # noqa: E402
 from experiments import e1_noise as e1  # noqa: E402
 from experiments import e2_home_view as e2  # noqa: E402
 from experiments import e3_quality as e3  # noqa: E402
-from experiments._common import Context, read_csv, spawn_rngs  # noqa: E402
+from experiments._common import Context, experiment_spec, read_csv  # noqa: E402
 from rasc.geometry.frames import EYES  # noqa: E402
+from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
 from rasc.handeye.li import solve_li  # noqa: E402
 from rasc.handeye.noise import VARIANTS, perturb_one_view, perturb_T_cam_from_world  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
+from rasc.study.engine import cell_task, home_view, sample_rng  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
-QUICK_LEVELS = [0, *common.QUICK_LEVELS]
+#: the quick protocol of specs/e1_noise.toml
+QUICK_LEVELS, QUICK_SAMPLES = [0, 1, 4, 8], 6
+
+
+def test_quick_protocol_is_the_documented_reduction():
+    full = experiment_spec(_Args(False), "e1_noise")
+    quick = experiment_spec(_Args(True), "e1_noise")
+    assert (full.samples, list(full.axes["noise_level"])) == (30, list(range(9)))
+    assert (quick.samples, list(quick.axes["noise_level"])) == (QUICK_SAMPLES, QUICK_LEVELS)
+    # the quick cells are full-protocol cells (same keys: the same draws)
+    assert {c.key for c in quick.cells()} <= {c.key for c in full.cells()}
+    e3_quick = experiment_spec(_Args(True), "e3_quality")
+    assert {c.key for c in quick.cells()} <= {c.key for c in e3_quick.cells()}
+
+
+class _Args:
+    def __init__(self, quick: bool) -> None:
+        self.quick, self.seed = quick, 0
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +82,7 @@ def runs(dataset, tmp_path_factory):
 
 def result_files(root: Path, names=("e1", "e2", "e3")) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes()
-            for name in names for p in sorted((root / name).iterdir())}
+            for name in names for p in sorted((root / name).rglob("*")) if p.is_file()}
 
 
 # --------------------------------------------------------------------------- E1
@@ -73,13 +93,15 @@ def test_e1_files_rows_and_report(runs):
     raw = read_csv(folder / common.RAW_CSV)
     assert tuple(raw[0].keys()) == common.HEADER
     # level 0: one solve; other quick levels: QUICK_SAMPLES; per eye, variant, method
-    assert len(raw) == 2 * 2 * 2 * (1 + len(common.QUICK_LEVELS) * common.QUICK_SAMPLES)
+    assert len(raw) == 2 * 2 * 2 * (1 + (len(QUICK_LEVELS) - 1) * QUICK_SAMPLES)
     assert {r["status"] for r in raw} == {"ok"}
     assert sorted({int(r["level"]) for r in raw}) == QUICK_LEVELS
-    for stem in ("fig3_translation", "fig4_rotation", "fig3_translation_exponential",
-                 "fig4_rotation_exponential"):
-        for ext in (".png", ".svg"):
-            assert (folder / f"{stem}{ext}").stat().st_size > 1000
+    # --quick: the main variant's figures and every method's, draft PNGs
+    for stem in ("fig3_translation", "fig4_rotation", "fig_all_methods"):
+        assert (folder / f"{stem}.png").stat().st_size > 1000
+    # the studies the numbers came from are kept beside them
+    for name in (e1.SPEC, e1.PEERS_SPEC):
+        assert (folder / name / "study.json").is_file()
     # the report embeds the main figures by a path relative to --out, and they exist
     for rel in ("e1/fig3_translation.png", "e1/fig4_rotation.png"):
         assert f"]({rel})" in sec.markdown and (ctx.out / rel).is_file()
@@ -97,29 +119,35 @@ def test_e1_rasc_translation_error_grows_with_noise(runs):
             assert t[-1] > t[1] > t[0], (variant, eye, t)
 
 
+def eye_poses(ctx, eye):
+    d = ctx.study_dataset()["eyes"][eye]
+    pt = np.asarray(d["pan_tilt_rad"])
+    return (np.asarray(d["T_cam_from_world"]), T_gaze_from_ptu(pt[:, 0], pt[:, 1]), pt,
+            np.asarray(d["T_cam_from_gaze_true"]))
+
+
 def test_e1_samples_are_the_documented_noise_and_shared_by_both_methods(runs):
-    """Regenerate one (eye, level) from the stated seeding, solve each sample with the
-    single-sample solvers, and find the CSV's numbers: both methods saw these samples."""
+    """Regenerate one cell from the engine's seeding (SeedSequence([seed, *cell, s])),
+    solve each sample with the single-sample solvers, and find the CSV's numbers: both
+    methods saw these samples, and the exponential cell drew the same ω and t."""
     ctx = runs["A"]["ctx"]
-    inputs = common.eye_inputs(ctx)
-    eye, e, level = "right", 1, 4
-    sr, st = common.PAPER_LEVELS[level - 1]
-    d = inputs[eye]
-    rng = spawn_rngs(ctx.seed, 1, common.E1_KEY, e, level)[0]
-    noisy = perturb_T_cam_from_world(
-        np.broadcast_to(d["T_cam_from_world"], (common.QUICK_SAMPLES, 9, 4, 4)), sr, st / 1000,
-        rng, "literal")
+    spec = experiment_spec(ctx, "e1_noise")
+    eye, level = "right", 4
+    T_cw, T_gp, _, X = eye_poses(ctx, eye)
+    cells = {(c.params["noise_model"], c.params["noise_level"], c.params["eye"]): c
+             for c in spec.cells()}
+    cell = cells[("literal", level, eye)]
+    assert cell.seed_words == cells[("exponential", level, eye)].seed_words     # paired
     raw = {(r["method"], int(r["sample"])): r for r in read_csv(ctx.out / "e1" / common.RAW_CSV)
            if (r["eye"], r["variant"], int(r["level"])) == (eye, "literal", level)}
-    X = d["T_cam_from_gaze_true"]
-    for s in range(common.QUICK_SAMPLES):
-        for method, res in (("rasc", solve_rasc(noisy[s], d["T_gaze_from_ptu"],
-                                                check_rigid=False)),
-                            ("li", solve_li(noisy[s], d["T_gaze_from_ptu"], home=d["home"],
-                                            check_rigid=False))):
+    for s in range(QUICK_SAMPLES):
+        noisy = perturb_T_cam_from_world(T_cw, 0.005 * level, level / 1000,
+                                         sample_rng(ctx.seed, cell, s), "literal")
+        for method, res in (("rasc", solve_rasc(noisy, T_gp, check_rigid=False)),
+                            ("li", solve_li(noisy, T_gp, check_rigid=False))):
             T = res.T_cam_from_gaze
             r = raw[(method, s)]
-            # batch vs single solve and CSV repr: agree to round-off (measured < 1e-12)
+            # the same solver, written with repr: equal to round-off
             assert float(r["t_err_mm"]) == pytest.approx(
                 1000 * np.linalg.norm(T[:3, 3] - X[:3, 3]), rel=1e-9)
             assert float(r["R_err_deg"]) == pytest.approx(
@@ -177,21 +205,24 @@ def test_e1_paired_tests_match_scipy(runs):
         assert float(row["frac_rasc_better"]) == pytest.approx((d > 0).mean())
     # pooled rows exist per eye and for both eyes, over all quick levels x samples
     pooled = tests[("both", "literal", "all", "t_err_mm")]
-    assert int(pooled["n"]) == 2 * len(common.QUICK_LEVELS) * common.QUICK_SAMPLES
+    assert int(pooled["n"]) == 2 * (len(QUICK_LEVELS) - 1) * QUICK_SAMPLES
 
 
-def test_e1_seed_changes_the_noise_not_the_floor(runs, dataset, tmp_path):
-    # the same (seed-0) poses, E1's draws from seed 1 (a seed-1 run would also render its
-    # own dataset: the default dataset is reused only with the options it was made with)
-    ctx1 = make_ctx(tmp_path, dataset, seed=1)
-    rows1 = common.compute_rows(ctx1, common.eye_inputs(runs["A"]["ctx"]), common.levels(True))
-    raw0 = read_csv(runs["A"]["ctx"].out / "e1" / common.RAW_CSV)
-    key = lambda r: (r[0], r[1], int(r[2]), int(r[5]), r[6])  # noqa: E731
-    t1 = {key(r): r[8] for r in rows1}
-    t0 = {key([r[h] for h in common.HEADER]): float(r["t_err_mm"]) for r in raw0}
-    assert t1.keys() == t0.keys()
-    for k, v in t0.items():
-        assert (t1[k] == v) == (k[2] == 0), k      # level 0 has no noise: same numbers
+def test_e1_seed_changes_the_noise_not_the_floor(runs):
+    ctx = runs["A"]["ctx"]
+    spec = experiment_spec(ctx, "e1_noise")
+    raw0 = read_csv(ctx.out / "e1" / common.RAW_CSV)
+    for cell in spec.cells():
+        if cell.params["noise_model"] != "literal" or cell.params["eye"] != "left":
+            continue
+        rows1 = cell_task({"cell": cell, "dataset": ctx.study_dataset(), "seed": 1,
+                           "samples": QUICK_SAMPLES, "methods": ("rasc",)})
+        level = cell.params["noise_level"]
+        t0 = {int(r["sample"]): float(r["t_err_mm"]) for r in raw0
+              if (r["eye"], r["variant"], int(r["level"]), r["method"]) ==
+              ("left", "literal", level, "rasc")}
+        for s, v in t0.items():
+            assert (rows1[s][3] == v) == (level == 0), (level, s)  # level 0: no noise
 
 
 # --------------------------------------------------------------------------- E2
@@ -207,26 +238,29 @@ def test_e2_li_error_exceeds_rasc(runs):
         assert float(r["ratio_t"]) > 2 and float(r["ratio_R"]) > 2, r
         assert float(r["li_t_mean_mm"]) > float(r["rasc_t_mean_mm"])
     assert "](e2/e2_home_view.png)" in sec.markdown
-    assert (runs["A"]["ctx"].out / "e2" / "e2_home_view.svg").is_file()
+    assert (runs["A"]["ctx"].out / "e2" / "e2_home_view.png").is_file()
 
 
 def test_e2_noise_is_on_the_home_view_only(runs):
-    """Regenerate eye 0's samples with perturb_one_view: Li's CSV errors match, and the
-    perturbed poses differ from the pipeline's at the home view only."""
+    """Regenerate the left eye's samples with perturb_one_view and the engine's seeding:
+    Li's CSV errors match, and the perturbed poses differ from the pipeline's at the home
+    view only."""
     ctx = runs["A"]["ctx"]
-    d = common.eye_inputs(ctx)["left"]
-    rng = spawn_rngs(ctx.seed, 1, e2.E2_KEY, 0)[0]
-    T0 = np.broadcast_to(d["T_cam_from_world"], (e2.QUICK_SAMPLES, 9, 4, 4))
-    noisy = perturb_one_view(T0, d["home"], e2.SIGMA_R, e2.SIGMA_T_MM / 1000, rng, "literal")
-    changed = np.abs(noisy - T0).max(axis=(2, 3)) > 0
-    assert changed[:, d["home"]].all() and changed.sum() == e2.QUICK_SAMPLES
+    spec = experiment_spec(ctx, "e2_home_view")
+    cell = [c for c in spec.cells() if (c.params["eye"], c.params["noise_model"]) ==
+            ("left", "literal")][0]
+    T_cw, T_gp, pt, X = eye_poses(ctx, "left")
+    home = home_view(pt, "left")
     raw = {int(r["sample"]): float(r["t_err_mm"])
            for r in read_csv(ctx.out / "e2" / e2.RAW_CSV)
            if (r["eye"], r["variant"], r["method"]) == ("left", "literal", "li")}
-    X = d["T_cam_from_gaze_true"]
-    for s in range(e2.QUICK_SAMPLES):
-        T = solve_li(noisy[s], d["T_gaze_from_ptu"], home=d["home"],
-                     check_rigid=False).T_cam_from_gaze
+    assert len(raw) == spec.samples == 8
+    for s in range(spec.samples):
+        noisy = perturb_one_view(T_cw, home, e2.SIGMA_R, e2.SIGMA_T_MM / 1000,
+                                 sample_rng(ctx.seed, cell, s), "literal")
+        changed = np.abs(noisy - T_cw).max(axis=(1, 2)) > 0
+        assert changed[home] and changed.sum() == 1
+        T = solve_li(noisy, T_gp, home=home, check_rigid=False).T_cam_from_gaze
         assert raw[s] == pytest.approx(1000 * np.linalg.norm(T[:3, 3] - X[:3, 3]), rel=1e-9)
 
 
@@ -237,8 +271,8 @@ def test_e3_structure_and_threshold_exercised(runs):
     folder = ctx.out / "e3"
     raw = read_csv(folder / e3.RAW_CSV)
     assert tuple(raw[0].keys()) == e3.HEADER
-    n_e1 = 2 * 2 * (1 + len(common.QUICK_LEVELS) * common.QUICK_SAMPLES)     # RASC rows of E1
-    n_ext = 2 * 2 * len(e3.QUICK_EXT) * common.QUICK_SAMPLES
+    n_e1 = 2 * 2 * (1 + (len(QUICK_LEVELS) - 1) * QUICK_SAMPLES)     # RASC rows of E1
+    n_ext = 2 * 2 * 2 * QUICK_SAMPLES                                 # sets 32 and 80
     assert sum(r["source"] == "e1" for r in raw) == n_e1
     assert sum(r["source"] == "e3" for r in raw) == n_ext
     for r in raw:        # the flag is the stated definition
@@ -257,30 +291,26 @@ def test_e3_structure_and_threshold_exercised(runs):
         # quality ranks the errors (measured ρ ≈ 0.9): positive correlation
         assert a[variant]["all"]["spearman_quality_t_err"]["rho"] > 0.5
     assert "](e3/e3_quality_vs_error.png)" in sec.markdown
-    assert (folder / "e3_quality_vs_error.svg").is_file()
+    assert (folder / "e3_quality_vs_error.png").is_file()
     assert (folder / e3.LEVELS_CSV).is_file()
 
 
-def test_e3_reuses_e1_only_when_protocol_matches(runs, dataset, tmp_path):
+def test_e3_samples_at_the_papers_sets_are_e1s(runs):
     ctx = runs["A"]["ctx"]
-    inputs = common.eye_inputs(ctx)
-    rows, how = e3.e1_rasc_rows(ctx, inputs)
-    assert how.startswith("reused")
-    # a stale E1 output (another seed) is not reused
-    other = make_ctx(tmp_path, dataset, seed=0)
-    (other.out / "e1").mkdir()
-    text = (ctx.out / "e1" / "inputs.json").read_text().replace('"seed": 0', '"seed": 7')
-    (other.out / "e1" / "inputs.json").write_text(text)
-    (other.out / "e1" / common.RAW_CSV).write_bytes((ctx.out / "e1" / common.RAW_CSV).read_bytes())
-    rows2, how2 = e3.e1_rasc_rows(other, common.eye_inputs(other))
-    assert how2.startswith("recomputed")
-    assert rows2 == rows            # same protocol otherwise: same numbers either way
+    e1_rows = {(r["eye"], r["variant"], r["level"], r["sample"]): r
+               for r in read_csv(ctx.out / "e1" / common.RAW_CSV) if r["method"] == "rasc"}
+    e3_rows = [r for r in read_csv(ctx.out / "e3" / e3.RAW_CSV) if r["source"] == "e1"]
+    assert len(e3_rows) == len(e1_rows)
+    for r in e3_rows:
+        a = e1_rows[(r["eye"], r["variant"], r["level"], r["sample"])]
+        assert (r["quality"], r["t_err_mm"], r["R_err_deg"]) == (
+            a["quality"], a["t_err_mm"], a["R_err_deg"])
 
 
 # ----------------------------------------------------------------- determinism
 
 def test_same_seed_same_bytes_any_worker_count(runs):
-    # B: a second run with --workers 2; C: E3 alone, recomputing E1's samples
+    # B: a second run with --workers 2; C: E3 alone
     for other, names in (("B", ("e1", "e2", "e3")), ("C", ("e3",))):
         a = result_files(runs["A"]["ctx"].out, names)
         assert any(k.endswith(".csv") for k in a) and any(k.endswith(".png") for k in a)

@@ -279,9 +279,20 @@ REPO = Path(__file__).resolve().parents[1]
 
 def test_shipped_specs_of_the_papers_experiments_load():
     specs = sorted((REPO / "experiments" / "specs").glob("*.toml"))
-    assert [p.stem for p in specs] == ["e1_noise", "e6a_pixel_noise", "e6b_shootout"]
+    assert [p.stem for p in specs] == ["e1_all_methods", "e1_noise", "e2_home_view",
+                                       "e3_quality", "e6a_pixel_noise", "e6b_shootout"]
     cells = {p.stem: load_spec(p).cells() for p in specs}
+    assert {p.stem: len(load_spec(p, quick=True).cells()) for p in specs} == {
+        "e1_all_methods": 4 * 2, "e1_noise": 4 * 2 * 2, "e2_home_view": 2 * 2,
+        "e3_quality": 6 * 2 * 2, "e6a_pixel_noise": 6 * 2, "e6b_shootout": 3 * 2}
     assert len(cells["e1_noise"]) == 9 * 2 * 2
+    # E1's every-method cells draw what E1's exponential cells draw (paired noise_model)
+    e1 = {(c.params["noise_level"], c.params["eye"]): c.seed_words
+          for c in cells["e1_noise"] if c.params["noise_model"] == "exponential"}
+    assert all(e1[(c.params["noise_level"], c.params["eye"])] == c.seed_words
+               for c in cells["e1_all_methods"])
+    # E3's paper sets are E1's cells
+    assert {c.key for c in cells["e1_noise"]} <= {c.key for c in cells["e3_quality"]}
     # E1's set k is the paper's (0.005k rad, k mm)
     k8 = [c for c in cells["e1_noise"] if c.params["noise_level"] == 8][0]
     assert (k8.params["sigma_r"], k8.params["sigma_t_mm"]) == (0.04, 8.0)

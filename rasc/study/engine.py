@@ -44,7 +44,8 @@ from typing import Any
 
 import numpy as np
 
-from rasc.errors import InputError, RascError
+from rasc.errors import DegenerateDataError, InputError, RascError
+from rasc.geometry.frames import EYES
 from rasc.io import dumps_json, write_json_atomic, write_text_atomic
 from rasc.study.executors import Executor, make_executor, worker_environment
 from rasc.study.spec import (
@@ -52,6 +53,7 @@ from rasc.study.spec import (
     PARAMS,
     STATS,
     SUMMARY_TAIL,
+    UNIT_PARAMS,
     Cell,
     Spec,
     pose_grid,
@@ -98,6 +100,60 @@ def dataset_key(render: dict[str, Any], seed: int) -> str:
     return _digest({"render": render, "seed": seed})[:20]
 
 
+def unit_builds(render: dict[str, Any]) -> dict | None:
+    """``{eye: rasc.sim.units.UnitBuild}`` from a cell's head-model parameters (applied
+    to the unit(s) of ``units_eye``); None when every one is at its default (the stock
+    head, exactly as before these parameters existed)."""
+    from rasc.sim.units import UnitBuild
+
+    v = {k: render.get(k, PARAMS[k].default) for k in UNIT_PARAMS}
+    if all(v[k] == PARAMS[k].default for k in UNIT_PARAMS):
+        return None
+    offset = v["tilt_axis_offset_mm"]
+    # the stock units' axes: pan x, tilt z at home; their common normal is y (forward)
+    build = UnitBuild(tilt_axis_offset_mm=(0.0, offset, 0.0) if offset else None,
+                      axis_skew_deg=v["axis_skew_deg"] or None,
+                      pan_zero_deg=v["pan_zero_deg"], tilt_zero_deg=v["tilt_zero_deg"],
+                      pan_scale=v["pan_scale"], tilt_scale=v["tilt_scale"])
+    which = render.get("units_eye", PARAMS["units_eye"].default)
+    return {eye: build for eye in EYES if which in ("both", eye)}
+
+
+def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
+    """What the cells need from a calibrated dataset (JSON-ready): per eye the pipeline's
+    poses, angles, kept pose corners (``EyeResult.corners``), intrinsics, and the
+    reference ``T_cam_from_gaze``.
+
+    Parameters
+    ----------
+    cal : rasc.head.pipeline.Calibration
+    board : rasc.vision.board.Board
+    truth : dict or None
+        The renderer's ``ground_truth.json``; its ``T_cam_from_gaze`` per eye is the
+        reference. None (a real head's dataset): the reference is the pipeline's own RASC
+        solution on the measured poses (``"reference": "measured"``), so errors are
+        deviations from what the data give without added noise.
+    """
+    eyes = {}
+    for eye, res in cal.eyes.items():
+        ref = (truth[eye]["T_cam_from_gaze"] if truth is not None
+               else np.asarray(res.handeye.T_cam_from_gaze, float).tolist())
+        eyes[eye] = {
+            "files": list(res.pose_files),
+            "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
+            "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
+            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
+                        for f in res.pose_files],
+            "K": np.asarray(res.intrinsics.K, float).tolist(),
+            "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
+            "T_cam_from_gaze_true": ref}
+    return {"format": "rasc-study-dataset/1", **extra,
+            **({} if truth is not None else {"reference": "measured"}),
+            "board": {"inner_corners": list(board.inner_corners),
+                      "square_size": board.square_size},
+            "eyes": eyes}
+
+
 def render_task(task: dict) -> dict:
     """Render one dataset in a temporary folder, calibrate it with the real pipeline
     (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
@@ -110,16 +166,18 @@ def render_task(task: dict) -> dict:
     from rasc.vision.dataset import load_dataset
 
     r = task["render"]
+    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     options = RenderOptions(
-        poses_deg=pose_grid(r["layout"], r["positions"], r["motion_deg"]),
-        n_intrinsics=r["intrinsics_views"], target_distance=r["distance"],
-        seed=task["seed"], noise_sigma=r["image_noise"], blur_sigma=r["blur"],
-        dist=tuple(r["distortion"]))
+        poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
+        n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
+        seed=task["seed"], noise_sigma=full["image_noise"], blur_sigma=full["blur"],
+        dist=tuple(full["distortion"]))
     tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
     try:
         folder = tmp / "dataset"
         try:
-            render_dataset(folder, options, model_path=task["model_path"], quiet=True)
+            render_dataset(folder, options, model_path=task["model_path"], quiet=True,
+                           units=unit_builds(r))
             ds = load_dataset(folder)
             cal = calibrate_dataset(ds)
         except RascError as exc:     # name the cell's render parameters, not a CLI flag
@@ -127,25 +185,26 @@ def render_task(task: dict) -> dict:
             raise type(exc)(f"the dataset for {what}: "
                             f"{' '.join(str(exc).split())}") from None
         truth = json.loads((folder / "ground_truth.json").read_text())
-        eyes = {}
-        for eye, res in cal.eyes.items():
-            eyes[eye] = {
-                "files": list(res.pose_files),
-                "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
-                "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-                "corners": [np.asarray(res.corners["pose"][f], float).tolist()
-                            for f in res.pose_files],
-                "K": np.asarray(res.intrinsics.K, float).tolist(),
-                "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
-                "T_cam_from_gaze_true": truth[eye]["T_cam_from_gaze"]}
-        board = ds.board
-        return {"format": "rasc-study-dataset/1", "key": task["key"], "render": r,
-                "seed": task["seed"],
-                "board": {"inner_corners": list(board.inner_corners),
-                          "square_size": board.square_size},
-                "eyes": eyes}
+        return dataset_document(cal, ds.board, truth, key=task["key"], render=r,
+                                seed=task["seed"])
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def folder_task(task: dict) -> dict:
+    """Calibrate an existing dataset folder (``[fixed] dataset``) with the real pipeline;
+    its ``ground_truth.json``, when present, is the reference (else the measured RASC
+    solution, see :func:`dataset_document`)."""
+    worker_environment()
+    from rasc.head.pipeline import calibrate_dataset
+    from rasc.vision.dataset import load_dataset
+
+    folder = Path(task["folder"])
+    ds = load_dataset(folder)
+    cal = calibrate_dataset(ds)
+    gt = folder / "ground_truth.json"
+    truth = json.loads(gt.read_text()) if gt.is_file() else None
+    return dataset_document(cal, ds.board, truth, key=task["key"])
 
 
 # ---------------------------------------------------------------------- samples
@@ -160,32 +219,67 @@ def _solve(method: str, T_cw: np.ndarray, T_gp: np.ndarray, literal: bool):
     return solve(method, T_cw, T_gp, **options)
 
 
+def _scored(T: np.ndarray, quality: float, T_true: np.ndarray) -> tuple:
+    from rasc.geometry.transforms import rotation_error_deg
+
+    R, R_true = T[:3, :3], T_true[:3, :3]
+    return ("ok", 1000.0 * float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
+            float(rotation_error_deg(R, R_true)), float(np.linalg.norm(R - R_true)),
+            float(quality), T)
+
+
+def _score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
+           literal: bool) -> tuple:
+    nan = float("nan")
+    try:
+        res = _solve(method, T_cw, T_gp, literal)
+    except FAILURES as exc:
+        return f"failed: {type(exc).__name__}", nan, nan, nan, nan, None
+    T = np.asarray(res.T_cam_from_gaze, dtype=float)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        return "non-finite", nan, nan, nan, nan, None
+    return _scored(T, res.quality, T_true)
+
+
 def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
           literal: bool) -> tuple[str, float, float, float, float]:
     """(status, translation_mm, rotation_deg, rotation_fro, quality) of one solve; a
     failed or non-finite solve has status "failed: <error class>" or "non-finite" and no
     numbers (never an error value)."""
-    from rasc.geometry.transforms import rotation_error_deg
+    return _score(method, T_cw, T_gp, T_true, literal)[:5]
 
-    nan = float("nan")
-    try:
-        res = _solve(method, T_cw, T_gp, literal)
-    except FAILURES as exc:
-        return f"failed: {type(exc).__name__}", nan, nan, nan, nan
-    T = np.asarray(res.T_cam_from_gaze, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return "non-finite", nan, nan, nan, nan
-    R, R_true = T[:3, :3], T_true[:3, :3]
-    return ("ok", 1000.0 * float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
-            float(rotation_error_deg(R, R_true)), float(np.linalg.norm(R - R_true)),
-            float(res.quality))
+
+def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
+                   literal: bool) -> list[tuple]:
+    """:func:`_score` for each of S pose sets (S, n, 4, 4), one solve per set (not RASC's
+    batch solver: its last bits depend on the batch's size, and a sample's numbers must
+    not depend on how many samples its cell has)."""
+    return [_score(method, T, T_gp, T_true, literal) for T in T_cw]
+
+
+#: the estimate's columns of samples.csv with ``estimates=True`` (mm; R row-major)
+ESTIMATE_COLUMNS = ("t_x_mm", "t_y_mm", "t_z_mm",
+                    *(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)))
+
+
+def home_view(pan_tilt: np.ndarray, where: str) -> int:
+    """The index of the one view at pan = tilt = 0; DegenerateDataError otherwise."""
+    home = np.flatnonzero(np.all(np.asarray(pan_tilt) == 0.0, axis=1))
+    if home.size != 1:
+        raise DegenerateDataError(f"{where}: {home.size} pose views at pan = tilt = 0; "
+                                  "noise_on = 'home' needs exactly one home view")
+    return int(home[0])
 
 
 def cell_task(task: dict) -> list[list]:
-    """Every sample of one cell: ``[sample, method, status, errors..., quality]`` rows."""
+    """Every sample of one cell: ``[sample, method, status, errors..., quality]`` rows
+    (and the estimate, :data:`ESTIMATE_COLUMNS`, with ``task["estimates"]``).
+
+    A cell without sample-level noise (σ = 0 and no corner noise) solves once and repeats
+    that row for every sample: its samples are the same pose set."""
     worker_environment()
     from rasc.geometry.kinematics import T_gaze_from_ptu
-    from rasc.handeye.noise import perturb_T_cam_from_world
+    from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
     from rasc.vision.board import Board
     from rasc.vision.camera import estimate_extrinsics
 
@@ -197,22 +291,41 @@ def cell_task(task: dict) -> list[list]:
     T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
     T_true = np.asarray(eye["T_cam_from_gaze_true"], float)
     literal = p["noise_model"] == "literal"
-    board = Board(tuple(data["board"]["inner_corners"]), data["board"]["square_size"])
-    corners = [np.asarray(c, float) for c in eye["corners"]]
-    K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
-    rows = []
-    for s in range(task["samples"]):
+    pose_noise = p["sigma_r"] > 0 or p["sigma_t_mm"] > 0
+    noisy = pose_noise or p["corner_noise_px"] > 0
+    home = (home_view(pan_tilt, f"the {p['eye']} eye's dataset")
+            if pose_noise and p.get("noise_on", "all") == "home" else None)
+    if p["corner_noise_px"] > 0:
+        board = Board(tuple(data["board"]["inner_corners"]), data["board"]["square_size"])
+        corners = [np.asarray(c, float) for c in eye["corners"]]
+        K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
+    sets = []
+    for s in range(task["samples"] if noisy else 1):
         rng = sample_rng(task["seed"], cell, s)
         T_cw = T_cw0
         if p["corner_noise_px"] > 0:
             T_cw = np.array([estimate_extrinsics(c + p["corner_noise_px"]
                                                  * rng.standard_normal(c.shape),
                                                  board, K, dist)[0] for c in corners])
-        if p["sigma_r"] > 0 or p["sigma_t_mm"] > 0:
-            T_cw = perturb_T_cam_from_world(T_cw, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
-                                            rng, p["noise_model"])        # mm -> metres
+        if pose_noise:                                                # mm -> metres
+            if home is None:
+                T_cw = perturb_T_cam_from_world(T_cw, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
+                                                rng, p["noise_model"])
+            else:
+                T_cw = perturb_one_view(T_cw, home, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
+                                        rng, p["noise_model"])
+        sets.append(T_cw)
+    sets = np.array(sets)
+    scored = {m: _score_samples(m, sets, T_gp, T_true, literal) for m in task["methods"]}
+    rows = []
+    for s in range(task["samples"]):
         for method in task["methods"]:
-            rows.append([s, method, *score(method, T_cw, T_gp, T_true, literal)])
+            *res, T = scored[method][s if noisy else 0]
+            row = [s, method, *res]
+            if task.get("estimates"):
+                row += ([*(1000.0 * T[:3, 3]), *T[:3, :3].ravel()] if T is not None
+                        else [float("nan")] * len(ESTIMATE_COLUMNS))
+            rows.append(row)
     return rows
 
 
@@ -268,14 +381,23 @@ class StudyResult:
     figures: list[Path]
 
 
-def _manifest(spec: Spec, cells: list[Cell]) -> dict:
+def dataset_digest_of(doc: dict) -> str:
+    """The key of a given dataset document: sha256 of its JSON (20 hex digits)."""
+    import hashlib
+    return hashlib.sha256(dumps_json(doc).encode()).hexdigest()[:20]
+
+
+def _manifest(spec: Spec, cells: list[Cell], dataset: str | None = None) -> dict:
     import rasc
-    return {"format": FORMAT, "spec_sha256": spec.digest, "spec": spec.to_dict(),
-            "rasc_version": rasc.__version__,
-            "cells": [{"index": c.index, "key": c.key, "axes": c.axes} for c in cells]}
+    out = {"format": FORMAT, "spec_sha256": spec.digest, "spec": spec.to_dict(),
+           "rasc_version": rasc.__version__,
+           "cells": [{"index": c.index, "key": c.key, "axes": c.axes} for c in cells]}
+    if dataset is not None:
+        out["dataset"] = dataset
+    return out
 
 
-def prepare_folder(out: Path, spec: Spec, resume: bool) -> None:
+def prepare_folder(out: Path, spec: Spec, resume: bool, dataset: str | None = None) -> None:
     """Check ``out`` before any work: new or empty (or, with ``resume``, a study of this
     very spec); never the spec itself or a folder holding it as an output name."""
     out = Path(out)
@@ -292,9 +414,13 @@ def prepare_folder(out: Path, spec: Spec, resume: bool) -> None:
         if not manifest.is_file():
             raise InputError(f"{out}: --resume: no study.json (not a study folder)")
         try:
-            old = json.loads(manifest.read_text()).get("spec_sha256")
+            doc = json.loads(manifest.read_text())
+            old, old_dataset = doc.get("spec_sha256"), doc.get("dataset")
         except (OSError, ValueError, AttributeError) as exc:
             raise InputError(f"{manifest}: unreadable study manifest ({exc})") from None
+        if old == spec.digest and old_dataset != dataset:
+            raise InputError(f"{out}: --resume: the folder holds this study on another "
+                             "dataset; --resume continues only the same dataset")
         if old != spec.digest:
             raise InputError(f"{out}: --resume: the folder holds a study of a different "
                              f"spec (sha256 {str(old)[:12]}, this one {spec.digest[:12]}); "
@@ -310,8 +436,21 @@ def prepare_folder(out: Path, spec: Spec, resume: bool) -> None:
 def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
               dask: str | None = None, resume: bool = False, quiet: bool = False,
               executor: Executor | None = None,
-              log: Callable[[str], None] | None = None) -> StudyResult:
+              log: Callable[[str], None] | None = None, dataset: dict | None = None,
+              estimates: bool = False, figures: bool = True) -> StudyResult:
     """Run (or, with ``resume``, continue) ``spec`` into the folder ``out``.
+
+    Parameters
+    ----------
+    dataset : dict, optional
+        A calibrated dataset to run every cell on instead of rendering (as
+        :func:`dataset_document` makes it, e.g. from the reproduction's default dataset);
+        the spec may then have no render parameter (InputError). Its sha256 is recorded in
+        ``study.json`` and ``--resume`` continues only the same dataset.
+    estimates : bool
+        Add the estimate (:data:`ESTIMATE_COLUMNS`) to every row of ``samples.csv``.
+    figures : bool
+        Draw ``figures/<axis>.png`` (callers that plot their own may skip them).
 
     On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
     the finished cells stay in ``out/cells`` (each file whole), no partial file is left,
@@ -325,29 +464,56 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     if out.resolve() == spec_path or out.resolve() in spec_path.parents and \
             spec_path.relative_to(out.resolve()).parts[0] in OUTPUT_NAMES:
         raise InputError(f"{out}: --out would overwrite the spec {spec.path}")
-    prepare_folder(out, spec, resume)
-    created = not out.exists()
     cells = spec.cells()
+    given = None
+    if dataset is not None:
+        if spec.dataset_path() is not None:
+            raise InputError(f"{spec.path}: fixed.dataset: the caller gives the dataset "
+                             "already; leave it out of the spec")
+        for table, t in (("fixed", spec.fixed), ("axes", spec.axes)):
+            for key in t:
+                if PARAMS[key].kind == "render":
+                    raise InputError(f"{spec.path}: {table}.{key}: a render parameter, but "
+                                     "the study runs on a given dataset")
+        given = dataset_digest_of(dataset)
+    elif spec.dataset_path() is not None:
+        given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    prepare_folder(out, spec, resume, given)
+    created = not out.exists()
     owned = executor is None
     executor = executor or make_executor(workers, dask)
     for sub in ("cells", "datasets"):
         (out / sub).mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / "study.json", _manifest(spec, cells))
+    write_json_atomic(out / "study.json", _manifest(spec, cells, given))
     cells_done = rendered = 0
+    header = SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
     try:
-        # 1. datasets: one per distinct set of render parameters
-        keys = {c.index: dataset_key(c.render_params(), spec.seed) for c in cells}
-        wanted = {}
-        for c in cells:
-            wanted.setdefault(keys[c.index], c.render_params())
+        # 1. datasets: the one given, or one per distinct set of render parameters
+        if given is not None:
+            keys = {c.index: given for c in cells}
+            wanted = {given: None}
+        else:
+            keys = {c.index: dataset_key(c.render_params(), spec.seed) for c in cells}
+            wanted = {}
+            for c in cells:
+                wanted.setdefault(keys[c.index], c.render_params())
         missing = [k for k in wanted if not (out / "datasets" / f"{k}.json").is_file()]
-        tasks = [{"key": k, "render": wanted[k], "seed": spec.seed,
-                  "model_path": (str(spec.model_path(wanted[k]["model"]))
-                                 if wanted[k]["model"] else None)} for k in missing]
+        if dataset is not None:
+            for k in missing:
+                write_json_atomic(out / "datasets" / f"{k}.json", dataset)
+            missing = []
+        if spec.dataset_path() is not None:
+            fn, tasks = folder_task, [{"key": k, "folder": str(spec.dataset_path())}
+                                      for k in missing]
+        else:
+            fn, tasks = render_task, [
+                {"key": k, "render": wanted[k], "seed": spec.seed,
+                 "model_path": (str(spec.model_path(wanted[k]["model"]))
+                                if wanted[k].get("model") else None)} for k in missing]
         if tasks:
             with progress(total=len(tasks), desc="render datasets", quiet=quiet,
                           unit="dataset") as bar:
-                for i, doc in executor.map_unordered(render_task, tasks):
+                for i, doc in executor.map_unordered(fn, tasks):
                     write_json_atomic(out / "datasets" / f"{missing[i]}.json", doc)
                     rendered += 1
                     bar.update(1)
@@ -356,10 +522,10 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
             datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
 
         # 2. cells
-        header = SAMPLE_COLUMNS
         todo = [c for c in cells if not _cell_done(out, c, header)]
         tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
-                  "samples": spec.samples, "methods": spec.methods} for c in todo]
+                  "samples": spec.samples, "methods": spec.methods,
+                  "estimates": estimates} for c in todo]
         with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
             for i, rows in executor.map_unordered(cell_task, tasks):
@@ -373,7 +539,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
-        n = sum(_cell_done(out, c, SAMPLE_COLUMNS) for c in cells)
+        n = sum(_cell_done(out, c, header) for c in cells)
         log(f"rasc study: interrupted: kept {n} of {len(cells)} finished cells and "
             f"{len(list((out / 'datasets').glob('*.json')))} dataset(s) in {out}; no "
             "samples.csv, summary.csv or figures written; continue with --resume")
@@ -386,16 +552,28 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     # 3. assemble: tidy samples, summary, figures
     rows_by_cell = {c.index: _read_cell(out, c) for c in cells}
     axes = list(spec.axes)
-    sample_rows = [[c.index, *c.axes.values(), *r] for c in cells
-                   for r in rows_by_cell[c.index]]
-    write_text_atomic(out / "samples.csv", csv_text(("cell", *axes, *SAMPLE_COLUMNS),
-                                                    sample_rows))
+    write_text_atomic(out / "samples.csv", _samples_text(out, cells, axes, header))
     summary = summarise(spec, cells, rows_by_cell)
     write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
-    from rasc.study.figures import plot_study
-    figures = plot_study(spec, summary, out / "figures")
+    files = []
+    if figures:
+        from rasc.study.figures import plot_study
+        files = plot_study(spec, summary, out / "figures")
     return StudyResult(out, len(cells), cells_done, rendered, out / "samples.csv",
-                       out / "summary.csv", figures)
+                       out / "summary.csv", files)
+
+
+def _samples_text(out: Path, cells: list[Cell], axes: list[str], header) -> str:
+    """samples.csv: each finished cell's lines (already formatted by :func:`csv_text`)
+    behind the cell's index and axis values, in cell order (the same bytes as formatting
+    the rows again, without doing it twice)."""
+    parts = [csv_text(("cell", *axes, *header), [])]
+    for c in cells:
+        prefix = csv_text(("x",), [[c.index, *c.axes.values()]]).split("\n", 1)[1][:-1]
+        with open(_cell_path(out, c), newline="") as f:
+            f.readline()
+            parts += [f"{prefix},{line}" for line in f]
+    return "".join(parts)
 
 
 def _cell_path(out: Path, cell: Cell) -> Path:
@@ -423,4 +601,5 @@ def _read_cell(out: Path, cell: Cell) -> list[list]:
 
 
 __all__ = ["run_study", "StudyResult", "summarise", "cell_task", "render_task", "PARAMS",
-           "dumps_json"]
+           "dumps_json", "dataset_document", "unit_builds", "ESTIMATE_COLUMNS",
+           "SAMPLE_COLUMNS"]

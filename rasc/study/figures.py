@@ -15,18 +15,23 @@ PANELS = (("translation_mm", "translation error (mm)"), ("rotation_deg", "rotati
 MARKERS = "osD^v<>px*h"
 
 
-def save_figure(fig, path_stem: Path) -> list[Path]:
-    """Save a matplotlib figure as PNG and SVG with no dates or random ids (same figure,
-    same bytes), each written atomically. The tight bounding box is computed once."""
+def save_figure(fig, path_stem: Path, formats: tuple[str, ...] = (".png", ".svg"),
+                draft: bool = False) -> list[Path]:
+    """Save a matplotlib figure as PNG and SVG (or the ``formats`` given) with no dates or
+    random ids (same figure, same bytes), each written atomically. The tight bounding box
+    is computed once; a ``draft`` (the experiments' --quick) skips it and uses 72 dpi."""
     import matplotlib
 
-    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
+    bbox = None if draft else fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
+    dpi = 72 if draft else 120
     paths = []
     for ext, meta in ((".png", {"Software": None}), (".svg", {"Date": None})):
+        if ext not in formats:
+            continue
         path = path_stem.with_suffix(ext)
         buf = io.BytesIO()
         with matplotlib.rc_context({"svg.hashsalt": "rasc"}):
-            fig.savefig(buf, format=ext[1:], dpi=120, metadata=meta, bbox_inches=bbox)
+            fig.savefig(buf, format=ext[1:], dpi=dpi, metadata=meta, bbox_inches=bbox)
         write_bytes_atomic(path, buf.getvalue())
         paths.append(path)
     return paths

@@ -19,6 +19,20 @@ measurements: pose-level noise eq. 13-14, corner noise, the eye) or a *render* p
 distance, intrinsics views, the MJCF model); cells with the same render parameters share
 one rendered and calibrated dataset. :data:`PARAMS` lists them with their defaults.
 
+Later keys (at their defaults they leave a cell's identity, seeds and bytes unchanged):
+
+- ``noise_on = "home"`` (sample): eq. 13-14 noise on the home view only (E2);
+- head-model render parameters ``tilt_axis_offset_mm`` (the axis distance along the
+  common normal, mm), ``axis_skew_deg``, ``pan_zero_deg``, ``tilt_zero_deg``,
+  ``pan_scale``, ``tilt_scale``, applied to the unit(s) of ``units_eye`` ("both", "left",
+  "right") as a :class:`rasc.sim.units.UnitBuild`; the truth is the renderer's;
+- ``paired = ["noise_model"]`` (top level): axes left out of the sample seed, so cells
+  that differ only in them draw the same noise (common random numbers; not ``eye``);
+- ``[fixed] dataset = "folder"``: an existing dataset instead of rendering (no render
+  parameter beside it); ``run_study(..., dataset=doc)`` does the same from Python;
+- ``[quick]`` with ``samples``, ``methods`` and ``[quick.axes]`` (subsets): the reduced
+  protocol ``load_spec(path, quick=True)`` returns, made of the full protocol's cells.
+
 Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
 empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
 been read in full.
@@ -33,7 +47,7 @@ import math
 import os
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +68,10 @@ MAX_SPEC_BYTES = 1 << 20
 PAPER_SIGMA_R_PER_LEVEL, PAPER_SIGMA_T_MM_PER_LEVEL = 0.005, 1.0
 LAYOUTS = ("grid", "cross", "ring")
 NOISE_MODELS = ("literal", "exponential")
+NOISE_ON = ("all", "home")
+UNITS_EYES = ("both", *EYES)
+#: |axis_skew_deg| below this (rasc.sim.units: at 90° the axes would be parallel)
+MAX_SKEW_DEG = 45.0
 
 
 # ----------------------------------------------------------------- value checkers
@@ -109,6 +127,13 @@ def _coefficients(x) -> tuple[float, ...]:
     return tuple(_number(v) for v in x)
 
 
+def _skew(x) -> float:
+    x = _number(x)
+    if abs(x) >= MAX_SKEW_DEG:
+        raise ValueError(f"expected an angle within ±{MAX_SKEW_DEG:g} degrees, got {x:g}")
+    return x
+
+
 def _text(x) -> str:
     if not isinstance(x, str):
         raise ValueError(f"expected a string, got {_show(x)}")
@@ -153,11 +178,39 @@ PARAMS: dict[str, Param] = {
     "intrinsics_views": Param(_int_at_least(3), 20, "render", "intrinsics views per eye"),
     "model": Param(_text, "", "render",
                    "MJCF scene (path relative to the spec; '' = the package's model)"),
+    # ---- added after rasc-study/1's first specs: at their defaults they are left out of
+    # a cell's identity (IDENTITY_OPTIONAL), so older specs keep their seeds and bytes
+    "noise_on": Param(_choice(NOISE_ON), "all", "sample",
+                      "eq. 13-14 pose noise on every view (all) or on the home view "
+                      "(pan = tilt = 0) only"),
+    "tilt_axis_offset_mm": Param(_number, 0.0, "render",
+                                 "distance of the tilt axis from the pan axis along their "
+                                 "common normal (forward, y), mm"),
+    "axis_skew_deg": Param(_skew, 0.0, "render",
+                           "non-orthogonality: angle between the axes = 90° - skew"),
+    "pan_zero_deg": Param(_number, 0.0, "render", "pan encoder zero offset, deg"),
+    "tilt_zero_deg": Param(_number, 0.0, "render", "tilt encoder zero offset, deg"),
+    "pan_scale": Param(_positive, 1.0, "render", "pan encoder scale (1 = exact)"),
+    "tilt_scale": Param(_positive, 1.0, "render", "tilt encoder scale (1 = exact)"),
+    "units_eye": Param(_choice(UNITS_EYES), "both", "render",
+                       "which pan-tilt unit(s) the head-model parameters apply to"),
+    "dataset": Param(_text, "", "dataset",
+                     "an existing dataset folder (relative to the spec) instead of "
+                     "rendering; [fixed] only, no render parameter beside it"),
 }
+
+#: the head-model parameters: a rasc.sim.units.UnitBuild for the unit(s) of ``units_eye``
+UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zero_deg",
+               "pan_scale", "tilt_scale")
+#: parameters that enter a cell's identity only when they differ from their default
+IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None, "bootstrap": _int_at_least(100),
-            "confidence": None, "fixed": None, "axes": None}
+            "confidence": None, "paired": None, "fixed": None, "axes": None,
+            "quick": None}
+#: what a [quick] table may narrow (load_spec(..., quick=True))
+QUICK_KEYS = ("samples", "methods", "axes")
 REQUIRED = ("seed", "samples", "methods")
 
 
@@ -198,6 +251,14 @@ def pose_grid(layout: str, positions: int, motion_deg: float
         for i in range(n))
 
 
+def identity(params: dict[str, Any]) -> dict[str, Any]:
+    """``params`` without the :data:`IDENTITY_OPTIONAL` ones left at their default (what
+    a cell's key and a dataset's key hash: specs written before those parameters existed
+    keep their keys, seeds and bytes)."""
+    return {k: v for k, v in params.items()
+            if not (k in IDENTITY_OPTIONAL and v == PARAMS[k].default)}
+
+
 @dataclass(frozen=True)
 class Cell:
     """One point of the study's grid: its index, every parameter, and its identity."""
@@ -205,19 +266,32 @@ class Cell:
     index: int
     params: dict[str, Any]          # every parameter of PARAMS, resolved
     axes: dict[str, Any]            # the swept ones, in the spec's order
+    paired: tuple[str, ...] = ()    # axes left out of the sample seed (common draws)
 
     @property
     def key(self) -> str:
         """sha256 of the cell's parameters (its identity, independent of its index)."""
-        return _digest(self.params)
+        return _digest(identity(self.params))
 
     @property
     def seed_words(self) -> tuple[int, ...]:
-        """Four 32-bit words of :attr:`key`: the cell's part of every sample's seed."""
-        return tuple(int(self.key[i:i + 8], 16) for i in range(0, 32, 8))
+        """Four 32-bit words of the sha256 of the cell's parameters without its
+        :attr:`paired` axes (and, with ``noise_level`` paired, without the σ it sets):
+        the cell's part of every sample's seed. Without pairing, of :attr:`key`."""
+        drop = set(self.paired)
+        if "noise_level" in drop:
+            drop |= {"sigma_r", "sigma_t_mm"}
+        key = _digest({k: v for k, v in identity(self.params).items() if k not in drop}) \
+            if drop else self.key
+        return tuple(int(key[i:i + 8], 16) for i in range(0, 32, 8))
 
     def render_params(self) -> dict[str, Any]:
-        return {k: v for k, v in self.params.items() if PARAMS[k].kind == "render"}
+        """The parameters that change the images (those at an optional default left out)."""
+        return {k: v for k, v in identity(self.params).items()
+                if PARAMS[k].kind == "render"}
+
+    def render_value(self, name: str) -> Any:
+        return self.params.get(name, PARAMS[name].default)
 
 
 @dataclass(frozen=True)
@@ -235,16 +309,25 @@ class Spec:
     fixed: dict[str, Any]
     axes: dict[str, tuple[Any, ...]]
     model_digests: dict[str, str]
+    paired: tuple[str, ...] = ()
+    dataset_digests: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The normalised spec (what its hash covers; relative model paths resolved to
-        the digest of the model file's bytes)."""
-        return {"name": self.name, "description": self.description, "seed": self.seed,
-                "samples": self.samples, "methods": list(self.methods),
-                "bootstrap": self.bootstrap, "confidence": self.confidence,
-                "fixed": {k: _plain(v) for k, v in self.fixed.items()},
-                "axes": {k: [_plain(v) for v in vs] for k, vs in self.axes.items()},
-                "model_digests": dict(self.model_digests)}
+        the digest of the model file's bytes, a dataset folder to the digest of its
+        manifest and ground truth). ``paired`` and ``dataset_digests`` appear only when
+        given, so older specs keep their hash."""
+        out = {"name": self.name, "description": self.description, "seed": self.seed,
+               "samples": self.samples, "methods": list(self.methods),
+               "bootstrap": self.bootstrap, "confidence": self.confidence,
+               "fixed": {k: _plain(v) for k, v in self.fixed.items()},
+               "axes": {k: [_plain(v) for v in vs] for k, vs in self.axes.items()},
+               "model_digests": dict(self.model_digests)}
+        if self.paired:
+            out["paired"] = list(self.paired)
+        if self.dataset_digests:
+            out["dataset_digests"] = dict(self.dataset_digests)
+        return out
 
     @property
     def digest(self) -> str:
@@ -264,8 +347,15 @@ class Spec:
                 params["sigma_t_mm"] = PAPER_SIGMA_T_MM_PER_LEVEL * params["noise_level"]
             if params["model"]:
                 params["model"] = self.model_digests[params["model"]]
-            out.append(Cell(k, params, swept))
+            if params["dataset"]:
+                params["dataset"] = self.dataset_digests[params["dataset"]]
+            out.append(Cell(k, params, swept, self.paired))
         return out
+
+    def dataset_path(self) -> Path | None:
+        """The ``[fixed] dataset`` folder, resolved against the spec's folder (or None)."""
+        rel = self.fixed.get("dataset", "")
+        return (self.path.parent / rel).resolve() if rel else None
 
     def model_path(self, digest: str) -> Path | None:
         """The model file whose bytes have ``digest`` ('' → the package's model)."""
@@ -305,8 +395,8 @@ def check_method(name: str) -> None:
     _method_checker()(name)
 
 
-def load_spec(path: str | os.PathLike) -> Spec:
-    """Read and check a study spec.
+def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
+    """Read and check a study spec; with ``quick``, narrowed by its ``[quick]`` table.
 
     Raises
     ------
@@ -429,8 +519,98 @@ def load_spec(path: str | os.PathLike) -> Spec:
         if not file.is_file():
             fail(key, f"{file}: no such model file")
         digests[rel] = "sha256:" + hashlib.sha256(file.read_bytes()).hexdigest()
-    return Spec(path=path, name=top.get("name", path.stem),
+
+    # an existing dataset instead of rendering: [fixed] only, and no render parameter
+    if "dataset" in axes:
+        fail("axes.dataset", "a study runs on one dataset; give it in [fixed]")
+    dataset_digests: dict[str, str] = {}
+    if fixed.get("dataset"):
+        for table, t in (("fixed", fixed), ("axes", axes)):
+            for key in t:
+                if PARAMS[key].kind == "render":
+                    fail(f"{table}.{key}", "a render parameter, but [fixed] dataset is "
+                         "given: the study runs on that dataset's images")
+        folder = path.parent / fixed["dataset"]
+        if not (folder / "manifest.json").is_file():
+            fail("fixed.dataset", f"{folder}: not a dataset folder (no manifest.json)")
+        dataset_digests[fixed["dataset"]] = dataset_digest(folder)
+
+    # common random numbers: axes left out of the sample seed
+    paired = doc.get("paired", [])
+    if not isinstance(paired, list):
+        fail("paired", f"expected a list of axis names, got {_show(paired)}")
+    for k, name in enumerate(paired):
+        if not isinstance(name, str) or name not in axes:
+            fail(f"paired[{k}]", f"expected the name of an axis ({', '.join(axes) or 'none'})"
+                 f", got {_show(name)}")
+        if paired.index(name) != k:
+            fail(f"paired[{k}]", f"{name!r} given twice")
+        if name == "eye":
+            fail(f"paired[{k}]", "'eye' cannot be paired: the eyes have different poses")
+
+    spec = Spec(path=path, name=top.get("name", path.stem),
                 description=top.get("description", ""), seed=top["seed"],
                 samples=top["samples"], methods=tuple(methods),
                 bootstrap=top.get("bootstrap", 1000), confidence=confidence, fixed=fixed,
-                axes=axes, model_digests=digests)
+                axes=axes, model_digests=digests, paired=tuple(paired),
+                dataset_digests=dataset_digests)
+    narrowed = _quick(doc.get("quick", {}), spec, fail)
+    return narrowed if quick else spec
+
+
+def _quick(table: Any, spec: Spec, fail: Callable[[str, str], None]) -> Spec:
+    """The spec narrowed by its ``[quick]`` table (checked whether or not it is used):
+    fewer samples, a subset of the methods, a subset of each axis's values."""
+    if not isinstance(table, dict):
+        fail("quick", f"expected a table [quick], got {_show(table)}")
+    for key in table:
+        if key not in QUICK_KEYS:
+            fail(f"quick.{key}", f"unknown key (expected {', '.join(QUICK_KEYS)})")
+    changes: dict[str, Any] = {}
+    if "samples" in table:
+        try:
+            changes["samples"] = _int_at_least(1)(table["samples"])
+        except ValueError as exc:
+            fail("quick.samples", str(exc))
+    if "methods" in table:
+        methods = table["methods"]
+        if not isinstance(methods, list) or not methods:
+            fail("quick.methods", f"expected a non-empty list of methods, got {_show(methods)}")
+        for k, m in enumerate(methods):
+            if m not in spec.methods or methods.index(m) != k:
+                fail(f"quick.methods[{k}]", f"expected one of the spec's methods, once each, "
+                     f"got {_show(m)}")
+        changes["methods"] = tuple(methods)
+    if "axes" in table:
+        quick_axes = table["axes"]
+        if not isinstance(quick_axes, dict):
+            fail("quick.axes", f"expected a table [quick.axes], got {_show(quick_axes)}")
+        axes = dict(spec.axes)
+        for key, values in quick_axes.items():
+            if key not in axes:
+                fail(f"quick.axes.{key}", "not an axis of [axes]")
+            if not isinstance(values, list) or not values:
+                fail(f"quick.axes.{key}", f"expected a non-empty list, got {_show(values)}")
+            kept = []
+            for k, v in enumerate(values):
+                try:
+                    v = PARAMS[key].check(v)
+                except ValueError as exc:
+                    fail(f"quick.axes.{key}[{k}]", str(exc))
+                if v not in axes[key] or v in kept:
+                    fail(f"quick.axes.{key}[{k}]", f"expected one of the axis's values, once "
+                         f"each, got {_show(values[k])}")
+                kept.append(v)
+            axes[key] = tuple(x for x in spec.axes[key] if x in kept)   # the axis's order
+        changes["axes"] = axes
+    return replace(spec, **changes)
+
+
+def dataset_digest(folder: Path) -> str:
+    """sha256 over a dataset folder's ``manifest.json`` and ``ground_truth.json`` (when
+    present): what identifies the dataset a study ran on."""
+    h = hashlib.sha256()
+    for name in ("manifest.json", "ground_truth.json"):
+        f = Path(folder) / name
+        h.update(name.encode() + b"\0" + (f.read_bytes() if f.is_file() else b""))
+    return "sha256:" + h.hexdigest()
