@@ -35,9 +35,15 @@ def warm() -> None:
 
     with contextlib.suppress(ImportError):  # the rendering experiments will say so
         import mujoco  # noqa: F401  (import only: no rendering context here)
-    from experiments.reproduce import EXPERIMENTS
-    for name, _ in EXPERIMENTS:
-        importlib.import_module(f"experiments.{name}")
+    # every experiment module (e1_..., e7_...), found by name: importing
+    # experiments.reproduce here would make each worker's start-up, which re-imports
+    # ``python -m experiments.reproduce`` as its __main__, warn that it was already loaded
+    import pkgutil
+
+    import experiments
+    for info in pkgutil.iter_modules(experiments.__path__):
+        if info.name[:1] == "e" and info.name[1:2].isdigit():
+            importlib.import_module(f"experiments.{info.name}")
 
     fig, ax = plt.subplots(figsize=(2, 2))
     ax.plot([1.0, 10.0, 100.0], [1.0, 2.0, 3.0], "o-", label="σ (°)")

@@ -168,8 +168,25 @@ def test_forkserver_warm_up_loads_the_libraries_and_every_experiment():
             "['experiments.' + n for n, _ in __import__('experiments.reproduce', "
             "fromlist=['x']).EXPERIMENTS]\n"
             "print([m for m in need if m not in sys.modules], experiments._warm.WARMED)\n")
+    # (reproduce itself is imported by this check, after the warm-up: the warm-up must not
+    # import it, or every worker of `python -m experiments.reproduce` warns at start-up)
     proc = subprocess.run([sys.executable, "-c", code], cwd=EXPERIMENTS.parent,
                           capture_output=True, text=True, timeout=120,
                           env={**os.environ, "MUJOCO_GL": "egl"})
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[] True"
+
+
+def test_warm_up_leaves_the_main_module_alone():
+    """The warm-up runs in the forkserver of ``python -m experiments.reproduce``; each worker
+    then re-imports that module as its ``__main__`` and runpy warns if it is already loaded
+    ("found in sys.modules after import of package"), a line per worker on stderr."""
+    import os
+    import subprocess
+
+    code = "import sys, experiments._warm\nprint('experiments.reproduce' in sys.modules)\n"
+    proc = subprocess.run([sys.executable, "-c", code], cwd=EXPERIMENTS.parent,
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "MUJOCO_GL": "egl"})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "False"
