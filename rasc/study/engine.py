@@ -56,6 +56,7 @@ from rasc.study.spec import (
     UNIT_PARAMS,
     Cell,
     Spec,
+    dataset_metres,
     pose_grid,
 )
 
@@ -204,7 +205,22 @@ def folder_task(task: dict) -> dict:
     cal = calibrate_dataset(ds)
     gt = folder / "ground_truth.json"
     truth = json.loads(gt.read_text()) if gt.is_file() else None
-    return dataset_document(cal, ds.board, truth, key=task["key"])
+    doc = dataset_document(cal, ds.board, truth, key=task["key"])
+    return _in_metres(doc, dataset_metres(folder))
+
+
+def _in_metres(doc: dict, metres: float) -> dict:
+    """A dataset document's lengths (the board's square size, every translation) scaled
+    by ``metres`` per unit: the cells measure errors and eq. 14 noise in metres."""
+    if metres == 1.0:
+        return doc
+    doc["board"]["square_size"] *= metres
+    for eye in doc["eyes"].values():
+        for key in ("T_cam_from_world", "T_cam_from_gaze_true"):
+            T = np.asarray(eye[key], float)
+            T[..., :3, 3] *= metres
+            eye[key] = T.tolist()
+    return doc
 
 
 # ---------------------------------------------------------------------- samples

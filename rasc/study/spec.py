@@ -533,6 +533,10 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         folder = path.parent / fixed["dataset"]
         if not (folder / "manifest.json").is_file():
             fail("fixed.dataset", f"{folder}: not a dataset folder (no manifest.json)")
+        try:
+            dataset_metres(folder)
+        except ValueError as exc:
+            fail("fixed.dataset", f"{folder}: {exc}")
         dataset_digests[fixed["dataset"]] = dataset_digest(folder)
 
     # common random numbers: axes left out of the sample seed
@@ -604,6 +608,26 @@ def _quick(table: Any, spec: Spec, fail: Callable[[str, str], None]) -> Spec:
             axes[key] = tuple(x for x in spec.axes[key] if x in kept)   # the axis's order
         changes["axes"] = axes
     return replace(spec, **changes)
+
+
+#: metres per unit of the length units a study converts (its errors and eq. 14's sigma_t
+#: are in millimetres of metric space, so a dataset's lengths are converted to metres)
+LENGTH_UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
+def dataset_metres(folder: Path) -> float:
+    """Metres per length unit of a dataset folder (its manifest's ``length_unit``; absent
+    means metres, the renderer's unit); ``ValueError`` for a unit a study cannot convert,
+    so that no error is reported in millimetres of something else."""
+    from rasc.io import read_json_document
+
+    doc = read_json_document(Path(folder) / "manifest.json")
+    unit = doc.get("length_unit", "m") if isinstance(doc, dict) else "m"
+    if unit not in LENGTH_UNITS_M:
+        raise ValueError(f"manifest.json: length_unit {unit!r}: a study reports errors in "
+                         f"mm and needs the board's square size in one of "
+                         f"{', '.join(LENGTH_UNITS_M)}")
+    return LENGTH_UNITS_M[unit]
 
 
 def dataset_digest(folder: Path) -> str:
