@@ -14,9 +14,21 @@ import signal
 import threading
 from collections.abc import Iterator
 
+#: the signals that arrived in this process through :func:`raise_interrupt`
+_RECEIVED: list[int] = []
 
-def _raise_interrupt(signum, frame):  # noqa: ARG001 (signal handler signature)
+
+def raise_interrupt(signum, frame):  # noqa: ARG001 (signal handler signature)
+    """The handler of SIGINT and SIGTERM: note the signal, raise KeyboardInterrupt."""
+    _RECEIVED.append(signum)
     raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def received() -> bool:
+    """Whether SIGINT or SIGTERM has arrived through :func:`raise_interrupt`: a library
+    interrupted while it loads may turn the KeyboardInterrupt into an ImportError (numpy
+    does), which is then the interrupt, not a broken installation."""
+    return bool(_RECEIVED)
 
 
 @contextlib.contextmanager
@@ -30,8 +42,8 @@ def signals_as_interrupt() -> Iterator[None]:
         yield
         return
     previous = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
-    signal.signal(signal.SIGTERM, _raise_interrupt)
-    signal.signal(signal.SIGINT, _raise_interrupt)
+    signal.signal(signal.SIGTERM, raise_interrupt)
+    signal.signal(signal.SIGINT, raise_interrupt)
     try:
         yield
     finally:
