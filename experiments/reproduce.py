@@ -35,7 +35,7 @@ import time
 
 from experiments._common import PARTIAL_PREFIX, REPO, Context, Section, md_table, stage
 from rasc.errors import RascError
-from rasc.interrupt import signals_as_interrupt
+from rasc.interrupt import exit_process, signals_as_interrupt
 from rasc.io import write_text_atomic
 
 #: one module per paper output, in report order (adding an experiment: one module with
@@ -297,4 +297,4 @@ def _run(argv: list[str] | None, state: dict) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    exit_process(main())

@@ -18,5 +18,5 @@ except KeyboardInterrupt:
     _command = next((a for a in sys.argv[1:] if not a.startswith("-")), "")
     print(f"rasc {_command}".rstrip() + ": interrupted: nothing written", file=sys.stderr)
     sys.stderr.flush()
-    os._exit(130)  # see rasc.cli.run
+    os._exit(130)  # see rasc.interrupt.exit_process
 run()

@@ -24,15 +24,13 @@ This module imports only the standard library and :mod:`rasc.errors` /
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
-import os
 import sys
 import warnings
 
 from rasc import __version__
 from rasc.errors import RascError
-from rasc.interrupt import Interrupted, received, signals_as_interrupt
+from rasc.interrupt import Interrupted, exit_process, received, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
 COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study")
@@ -115,22 +113,9 @@ def _numerical_warnings(prog: str, caught: list[warnings.WarningMessage]) -> Non
 
 def run() -> None:
     """The process entry point (the ``rasc`` console script, ``python -m rasc``): exit
-    with :func:`main`'s status.
-
-    After an interrupt it ends the process with ``os._exit(130)`` once the output is
-    flushed (the command has cleaned up by then): CPython marks a KeyboardInterrupt that
-    passed through code run by a library's import as unhandled even when :func:`main`
-    caught it, and would then end the process by SIGINT instead of with status 130
-    (python/cpython gh-128130; measured here: about a third of the SIGINTs that arrive
-    0.25-0.3 s after start).
-    """
-    status = main()
-    if status == 130:
-        for stream in (sys.stdout, sys.stderr):
-            with contextlib.suppress(OSError, ValueError):
-                stream.flush()
-        os._exit(130)
-    sys.exit(status)
+    with :func:`main`'s status through :func:`rasc.interrupt.exit_process` (status 130
+    stays 130)."""
+    exit_process(main())
 
 
 if __name__ == "__main__":
