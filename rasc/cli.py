@@ -69,6 +69,11 @@ def main(argv: list[str] | None = None) -> int:
         with signals_as_interrupt(), warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
             parser = build_parser()          # imports numpy, scipy, OpenCV: may be interrupted
+            if received():
+                # a library swallowed the interrupt while it loaded (e.g. an optional
+                # import catching the ImportError numpy makes of it; seen as a command
+                # that ran to its end, status 0): the interrupt still counts
+                raise KeyboardInterrupt("interrupted while the libraries loaded")
             args = parser.parse_args(argv)
             prog = f"rasc {args.command}"
             status = int(args.func(args) or 0)

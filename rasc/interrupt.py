@@ -27,7 +27,8 @@ def raise_interrupt(signum, frame):  # noqa: ARG001 (signal handler signature)
 
 
 def received() -> bool:
-    """Whether SIGINT or SIGTERM has arrived through :func:`raise_interrupt`: a library
+    """Whether SIGINT or SIGTERM has arrived through :func:`raise_interrupt` since the
+    last :func:`signals_as_interrupt` block began: a library
     interrupted while it loads may turn the KeyboardInterrupt into an ImportError (numpy
     does), which is then the interrupt, not a broken installation."""
     return bool(_RECEIVED)
@@ -44,6 +45,7 @@ def signals_as_interrupt() -> Iterator[None]:
         yield
         return
     previous = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    _RECEIVED.clear()       # received() answers for this block (main() may run many times)
     signal.signal(signal.SIGTERM, raise_interrupt)
     signal.signal(signal.SIGINT, raise_interrupt)
     try:
