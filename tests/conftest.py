@@ -64,13 +64,15 @@ def pan_tilt(poses_deg) -> np.ndarray:
 PAPER = pan_tilt(PAPER_POSES_DEG)
 
 
-def rig(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def rig(rng: np.random.Generator, board_position=None) -> tuple[np.ndarray, np.ndarray]:
     """A realistic eye: camera a few cm from the unit's centre and ~3° off nominal, board
-    ~1 m ahead. Returns ``(T_cam_from_gaze, T_ptu_from_world)``, each (4, 4)."""
+    ~1 m ahead (drawn, or at ``board_position``, (3,) in the ptu frame, m, which draws
+    nothing for it). Returns ``(T_cam_from_gaze, T_ptu_from_world)``, each (4, 4)."""
     X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
                        rng.uniform(-0.05, 0.05, 3))
     Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)])
+                       [rng.uniform(-0.3, 0.0), rng.uniform(0.9, 1.1), rng.uniform(-0.2, 0.2)]
+                       if board_position is None else board_position)
     return X, Y
 
 
@@ -152,15 +154,12 @@ def _run_ok(*argv, quiet_stdout: bool = True) -> None:
 
 
 @pytest.fixture(scope="session")
-def default_cli_run(tmp_path_factory) -> Path:
+def default_cli_run(default_dataset, tmp_path_factory) -> Path:
     """A folder holding ``ds`` (the default dataset by ``rasc render``) and ``cal.json``
     (its calibration by ``rasc calibrate``), both written once per run."""
     shared = _shared_root(tmp_path_factory)
-    root = shared / "default"
+    root = default_dataset.parent
     with _locked(shared / "default.lock"):
-        if not (root / "ds" / "manifest.json").is_file():
-            root.mkdir(exist_ok=True)
-            _run_ok("render", "--out", root / "ds", "--quiet", quiet_stdout=False)
         if not (root / "cal.json").is_file():
             _run_ok("calibrate", root / "ds", "--out", root / "cal.json", "--quiet")
     return root

@@ -9,26 +9,24 @@ import numpy as np
 import pytest
 
 from rasc.errors import DegenerateDataError
-from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
+from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import make_transform, matrix_from_rotvec
 from rasc.handeye.inverse import solve_rasc_inverse
 from rasc.handeye.methods import solve
 from rasc.handeye.noise import PAPER_LEVELS_RAD_MM, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+from conftest import PAPER
+from conftest import rig as conftest_rig
+
+#: the board's position in the ptu frame (m): these tests' truth since they were written
+BOARD = (-0.15, 1.0, 0.05)
 
 
 def rig(seed=3):
     """A camera looking forward a few cm off the unit's centre, the board 1 m ahead."""
-    rng = np.random.default_rng(seed)
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [-0.15, 1.0, 0.05])
-    p = np.radians(PAPER_POSES_DEG)
-    T_gp = T_gaze_from_ptu(p[:, 0], p[:, 1])
-    return X, Y, T_gp
+    X, Y = conftest_rig(np.random.default_rng(seed), BOARD)
+    return X, Y, PAPER
 
 
 @pytest.mark.parametrize("seed", range(5))

@@ -6,22 +6,20 @@ import numpy as np
 import pytest
 
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.geometry.transforms import make_transform, matrix_from_rotvec, rotation_error_deg
+from rasc.geometry.transforms import rotation_error_deg
 from rasc.handeye.advice import input_warnings, solution_warnings
 from rasc.handeye.methods import jackknife_uncertainty, solve
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-from conftest import R_CAM_FROM_GAZE_NOMINAL
+from conftest import rig as conftest_rig
+
+#: the board's position in the ptu frame (m): these tests' truth since they were written
+BOARD = (-0.15, 1.0, 0.05)
 
 
 def rig(seed=3):
-    rng = np.random.default_rng(seed)
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [-0.15, 1.0, 0.05])
-    return X, Y
+    return conftest_rig(np.random.default_rng(seed), BOARD)
 
 
 def grid(half_deg):

@@ -21,8 +21,7 @@ import pytest
 
 from rasc.cli import main
 from rasc.errors import DegenerateDataError, InputError
-from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
-from rasc.geometry.transforms import make_transform, matrix_from_rotvec
+from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.handeye import methods
 from rasc.handeye.methods import (
     METHODS,
@@ -34,6 +33,9 @@ from rasc.handeye.methods import (
 )
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import diagnose, solve_rasc
+
+from conftest import PAPER
+from conftest import rig as conftest_rig
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
@@ -89,20 +91,16 @@ class Solvers:
 NOT_CALLABLE = 3
 '''
 
-R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+#: the board's position in the ptu frame (m): these tests' truth since they were written
+BOARD = (-0.15, 1.0, 0.05)
 
 
 def rig(seed=3, sigma_r=0.002, sigma_t=0.001):
     """Nine ±8° positions, a seeded truth, the paper's noise (exponential)."""
     rng = np.random.default_rng(seed)
-    X = make_transform(R_CAM_FROM_GAZE_NOMINAL @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       rng.uniform(-0.05, 0.05, 3))
-    Y = make_transform(R_CAM_FROM_GAZE_NOMINAL.T @ matrix_from_rotvec(rng.normal(0, 0.05, 3)),
-                       [-0.15, 1.0, 0.05])
-    p = np.radians(PAPER_POSES_DEG)
-    T_gp = T_gaze_from_ptu(p[:, 0], p[:, 1])
-    T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, sigma_r, sigma_t, rng, variant="exponential")
-    return T_cw, T_gp, X
+    X, Y = conftest_rig(rng, BOARD)
+    T_cw = perturb_T_cam_from_world(X @ PAPER @ Y, sigma_r, sigma_t, rng, variant="exponential")
+    return T_cw, PAPER, X
 
 
 @pytest.fixture
