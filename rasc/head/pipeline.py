@@ -315,12 +315,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
                       timings=timer.timings, warnings=warnings,
                       length_unit=dataset.length_unit)
-    _check_and_refine(cal, dataset, options, timer, log, sizes)
-    cal.timings = dict(timer.timings)
-    if dataset.ground_truth is not None:
-        cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
-                                          where=str(dataset.ground_truth))
-    return cal
+    return _finish(cal, dataset, options, timer, log, sizes)
 
 
 SCALES_MODES = ("auto", "estimate", "hold")
@@ -351,6 +346,19 @@ def _scales_F(held, estimated) -> float:
 #: Measured on the default renders: 1.6-2.0 (the pose views' board is farther, its
 #: corners a little noisier); on projected corners with equal noise: 1.0-1.2.
 POSE_RMS_WARN_RATIO = 4.0
+
+
+def _finish(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
+            log: Callable[[str], None], sizes: dict) -> Calibration:
+    """The last steps of a calibration (closed form or refined): the model-fit check and
+    the refinement (:func:`_check_and_refine`), the stage timings, and the errors against
+    the dataset's ground truth when it has one."""
+    _check_and_refine(cal, dataset, options, timer, log, sizes)
+    cal.timings = dict(timer.timings)
+    if dataset.ground_truth is not None:
+        cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
+                                          where=str(dataset.ground_truth))
+    return cal
 
 
 def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
@@ -437,12 +445,7 @@ def refine_calibration(cal: Calibration, dataset,
     timer.timings = dict(cal.timings)
     timer.timings.pop("model-fit check", None)
     sizes = {eye: getattr(cal.head, eye).image_size for eye in EYES}
-    _check_and_refine(out, dataset, options, timer, log, sizes)
-    out.timings = dict(timer.timings)
-    if dataset.ground_truth is not None:
-        out.errors = errors_against_truth(out, dataset.load_ground_truth(),
-                                          where=str(dataset.ground_truth))
-    return out
+    return _finish(out, dataset, options, timer, log, sizes)
 
 
 def _eye_std(res, eye: str) -> dict[str, float | None]:
