@@ -31,7 +31,6 @@ from rasc.handeye.solver import (
     HandEyeResult,
     _det_closed_form,
     _polar_rotation,
-    _polar_rotation_many,
     diagnose,
     pair_rotvecs,
     quality_eq10,
@@ -237,17 +236,21 @@ def test_pair_logs_of_non_orthogonal_matrices_are_those_of_their_nearest_rotatio
         np.testing.assert_allclose(pair_rotvecs(R, i, j), want, atol=1e-12)
 
 
-def test_batched_polar_factor_equals_the_svd_one():
-    """The batched solve's Newton iteration for eq. 9 gives the SVD's V diag(1, 1, ±1) Uᵀ,
-    also where it must hand over to the SVD (det M < 0, M of rank 2). 1e-12: both are
-    accurate to cond(M)·1e-16 (cond up to 1e3 here)."""
+def test_polar_factor_is_the_nearest_rotation_also_for_det_below_zero_and_rank_two():
+    """Eq. 9's R_X = V diag(1, 1, sign det(V Uᵀ)) Uᵀ from M = U Σ Vᵀ, by plain
+    np.linalg.svd one matrix at a time, for a batch that mixes det M > 0, det M < 0 and
+    rank 2: the batched call gives every matrix its own answer, a rotation (det +1).
+    1e-12: both are accurate to cond(M)·1e-16 (cond up to 1e3 here)."""
     rng = np.random.default_rng(25)
     M = rng.normal(size=(200, 3, 3)) * np.geomspace(1, 1e-3, 3)   # cond up to ~1e3
     M[:20] *= -1.0                                                 # det M < 0
     M[20:25, 2] = M[20:25, 0] + M[20:25, 1]                        # rank 2
-    want, _ = _polar_rotation(M)
-    got = _polar_rotation_many(M)
-    np.testing.assert_allclose(got, want, atol=1e-12)
+    got, _ = _polar_rotation(M)
+    for k in range(len(M)):
+        U, _, Vt = np.linalg.svd(M[k])
+        D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+        np.testing.assert_allclose(got[k], Vt.T @ D @ U.T, atol=1e-12)
+        np.testing.assert_array_equal(_polar_rotation(M[k:k + 1])[0][0], got[k])
     np.testing.assert_allclose(np.linalg.det(got), 1.0, atol=1e-12)
 
 

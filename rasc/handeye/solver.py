@@ -267,16 +267,15 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
                      check_rigid: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
     """Validate both inputs as :func:`validate_poses` does, in one pass over both.
 
-    Returns ``(T_cw, T_gp, T_all, (err, G))``: T_cw (S, n, 4, 4) (S = 1 unless
-    ``batch``), T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation
-    (S + Sq, n, 4, 4), ``G`` = RᵀR of every rotation block of T_all (at least of T_cw's,
-    which come first) and ``err`` = max |RᵀR − I| over both inputs (both None when not
-    measured, i.e. without ``check_rigid``). The checks run once on the stacked arrays;
-    only when one fails (or the arrays cannot be stacked) does :func:`validate_poses` run
-    on each input in turn, so the error raised is the one it raises, for the first
-    offending input and index. A batch of more than ``_CHUNK_FLOATS`` numbers is not
-    copied into a concatenation: each input is checked on its own and ``T_all`` is None
-    (:func:`_solve` needs it only for a single block).
+    Returns ``(T_cw, T_gp, T_all, (G, err))``: T_cw (S, n, 4, 4) (S = 1 unless ``batch``),
+    T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation (S + Sq, n, 4, 4),
+    ``G`` = RᵀR of every rotation block of T_all and ``err`` (S + Sq, n) = max |RᵀR − I| of
+    each (both None when not measured: without ``check_rigid``, or for a batch too large to
+    concatenate). The checks run once on the stacked arrays; only when one fails (or the
+    arrays cannot be stacked) does :func:`validate_poses` run on each input in turn, so the
+    error raised is the one it raises, for the first offending input and index. A batch of
+    more than ``_CHUNK_FLOATS`` numbers is not copied into a concatenation: each input is
+    checked on its own and ``T_all`` is None (:func:`_solve` concatenates block by block).
     """
     fast = None
     try:
@@ -289,11 +288,9 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
             and (B.ndim == 3 or B.shape[0] == A.shape[0])):
         B4 = B if B.ndim == 4 else B[None]
         if batch and A.size > _CHUNK_FLOATS:
-            fast = _fast_checks(A, check_rigid)
-            fast_B = None if fast is None else _fast_checks(B4, check_rigid)
-            if fast_B is not None:
-                err = None if fast[0] is None else max(fast[0], fast_B[0])
-                return A, B4, None, (err, fast[1])
+            if _fast_checks(A, check_rigid) is not None and \
+                    _fast_checks(B4, check_rigid) is not None:
+                return A, B4, None, (None, None)        # each block measures its own G
             fast = None
         else:
             T_all = np.concatenate([A if batch else A[None], B4])
@@ -317,7 +314,7 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
 
 def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     """:func:`validate_poses`' checks as a yes/no on (m, n, 4, 4): None if any fails,
-    else ``(err, G)`` as :func:`_validate_inputs` returns them."""
+    else ``(G, err)`` as :func:`_validate_inputs` returns them."""
     # ufunc reductions rather than the ndarray methods, which add a Python wrapper
     if not math.isfinite(_sum(T, None)):          # a finite sum ⇔ no NaN and no infinity
         return None
@@ -331,10 +328,10 @@ def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
         return (None, None) if _min(det, None) > 0 else None
     # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
     G = _swap(R) @ R
-    err = float(_max(np.abs(G - _EYE3), None))
-    if max(err, float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
+    err = _max(np.abs(G - _EYE3).reshape(R.shape[:-2] + (9,)), axis=-1)    # per view
+    if max(float(_max(err, None)), float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
         return None
-    return err, G
+    return G, err
 
 
 def _det_closed_form(R: np.ndarray) -> np.ndarray:
@@ -410,7 +407,7 @@ _QMAT, _QOFF, _QPROD = _quaternion_tables()
 _QLEFT = np.ascontiguousarray(_QPROD.reshape(4, 4, 4).transpose(0, 2, 1)).reshape(4, 16)
 
 
-def _quaternions(R: np.ndarray, err: float | None = None) -> np.ndarray:
+def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
     """(..., 3, 3) → quaternions (..., 4), scalar last (scipy's convention), NOT unit.
 
     ``K = R @ _QMAT + _QOFF`` is ``4 q qᵀ`` for a rotation; Shepperd's quaternion (as in
@@ -418,49 +415,48 @@ def _quaternions(R: np.ndarray, err: float | None = None) -> np.ndarray:
     its row with the largest diagonal entry, ``4 q_k q``. It is returned unnormalised
     (norm 2 to 4): :func:`_pair_logs` depends on direction only.
 
-    A matrix that is not orthogonal to round-off (``err`` = max |RᵀR − I| ≥ 1e-14, from
-    the validation or measured here) stands for its nearest rotation, the polar factor,
-    whose quaternion is the dominant eigenvector of the same K (Bar-Itzhack 2000, "New
-    method for extracting the quaternion from a rotation matrix"): its other eigenvalues
-    are at most 0.62·err times the largest (measured over 12,000 random matrices with
-    err up to 1/3), so any power ``K^p`` with ``err^p < 1e-17 / 4`` has its rows at
-    round-off from that eigenvector (p ≤ 64, entries below 4^64: no overflow). For a few
-    matrices K is squared k times (p = 2^k); for many (``_MATVEC_MIN``) Shepperd's row is
-    multiplied by K p − 1 times (the smallest such p), when that is the cheaper. Matrices
-    with err ≥ 1/3 (only possible with ``check_rigid=False``) are first projected by
-    scipy's SVD.
+    A matrix that is not orthogonal to round-off (its ``err`` = max |RᵀR − I| ≥ 1e-14;
+    ``err`` (...) per matrix, from the validation, or measured here) stands for its
+    nearest rotation, the polar factor, whose quaternion is the dominant eigenvector of
+    the same K (Bar-Itzhack 2000, "New method for extracting the quaternion from a
+    rotation matrix"): its other eigenvalues are at most 0.62·err times the largest
+    (measured over 12,000 random matrices with err up to 1/3), so ``K^p e_k`` with
+    ``err^p < 1e-17 / 4`` is at round-off from that eigenvector (p ≤ 64, entries below
+    4^64: no overflow). Each matrix takes its own p − 1 products with a vector from
+    Shepperd's row e_k, whatever the other matrices are: every quaternion depends on its
+    own matrix alone (so the batched solve's results do not depend on the batch).
+    Matrices with err ≥ 1/3 (only possible with ``check_rigid=False``) are first
+    projected by scipy's SVD.
     """
     m = R.size // 9
     flat = R.reshape(m, 3, 3)
     if err is None:
-        err = float(_max(np.abs(_swap(flat) @ flat - _EYE3), None)) if m else 0.0
-    if not err < 1.0 / 3.0:
-        flat, err = Rotation.from_matrix(flat).as_matrix(), 0.0
-    K4 = flat.reshape(m, 9) @ _QMAT
+        err = (_max(np.abs(_swap(flat) @ flat - _EYE3).reshape(m, 9), axis=1) if m
+               else np.zeros(0))
+    err = np.reshape(err, m)
+    if m and not _max(err) < 1.0 / 3.0:
+        far = ~(err < 1.0 / 3.0)
+        flat = flat.copy()
+        flat[far] = Rotation.from_matrix(flat[far]).as_matrix()
+        err = np.where(far, 0.0, err)
+    # one (n × 9)(9 × 16) product per leading index (a single (m × 9) product would let
+    # BLAS choose its kernels by m, i.e. by the batch size)
+    lead = R.shape[0] if R.ndim > 3 else 1
+    K4 = (flat.reshape(lead, m // lead, 9) @ _QMAT).reshape(m, 16)
     K4 += _QOFF                                                  # (m, 16): 4 q qᵀ
-    if err >= 1e-14:
-        power = math.log(4e17) / -math.log(err)        # K^p with p ≥ power is converged
-        squarings = math.ceil(math.log2(power))
-        K = K4.reshape(m, 4, 4)
-        if m >= _MATVEC_MIN and math.ceil(power) - 1 <= 4 * squarings:
-            # many matrices: K^p e_k by p − 1 products with a vector (one einsum each,
-            # ~4× cheaper than a 4×4 product), from Shepperd's row e_k of K
-            v = K4.reshape(4 * m, 4)[K4[:, ::5].argmax(axis=1) + _row_offsets(m)]
-            for _ in range(math.ceil(power) - 1):
-                v = np.einsum("mij,mj->mi", K, v)
-            return v.reshape(R.shape[:-2] + (4,))
-        for _ in range(squarings):
-            K = K @ K
-        K4 = K.reshape(m, 16)
     k = K4[:, ::5].argmax(axis=1)                                # the diagonal 4 q_k²
     k += _row_offsets(m)
-    return K4.reshape(4 * m, 4)[k].reshape(R.shape[:-2] + (4,))  # 4 q_k q, |q_k| ≥ 1/2
+    v = K4.reshape(4 * m, 4)[k]                                  # 4 q_k q, |q_k| ≥ 1/2
+    if m and _max(err) >= 1e-14:
+        # K^p e_k with p = ⌈log(4e17) / −log err⌉ per matrix (none for rigid ones)
+        bad = np.flatnonzero(err >= 1e-14)
+        steps = np.ceil(math.log(4e17) / -np.log(err[bad])) - 1.0
+        K, u = K4.reshape(m, 4, 4)[bad], v[bad]
+        for step in range(int(_max(steps))):
+            u = np.where((steps > step)[:, None], np.einsum("mij,mj->mi", K, u), u)
+        v[bad] = u
+    return v.reshape(R.shape[:-2] + (4,))
 
-
-#: From this many matrices on, :func:`_quaternions` converges on non-orthogonal input by
-#: products with a vector rather than by squaring (einsum's per-call overhead is paid
-#: back; measured 86 µs against 349 µs per step for 3,231 matrices).
-_MATVEC_MIN = 256
 
 #: Per-thread scratch arrays for the largest temporaries that never leave their function
 #: (all pairs' quaternion products, eq. 10's residual blocks). A fresh array of a few
@@ -513,15 +509,7 @@ def _pair_logs(q: np.ndarray, i: np.ndarray, j: np.ndarray,
     v, w = P[..., :3, :], P[..., 3, :]
     s2 = _sum(v * v, axis=-2)
     s = np.sqrt(s2)
-    c = np.abs(w)
-    if s.size < 1024:
-        angle = np.arctan2(s, c)
-    else:   # the same half angle by arcsin, 3× faster than arctan2 on large arrays here
-        r = np.minimum(s, c)
-        r /= np.sqrt(s2 + c * c)
-        angle = np.arcsin(r)                   # the smaller of atan2(s, c), atan2(c, s)
-        big = s > c
-        angle[big] = np.pi / 2 - angle[big]
+    angle = np.arctan2(s, np.abs(w))
     angle *= 2.0
     # q and −q are one rotation: w ≥ 0 (angle ≤ π), i.e. the sign of w goes to the result.
     # s = 0 only with v = 0 (angle 0): any finite scale gives the exact 0.
@@ -628,22 +616,25 @@ def _weights(theta: np.ndarray, pair: _Pairs, n: int,
     return W.reshape(-1, n, n), w_ij + w_ji.astype(float)
 
 
-def _check_rotation_axes(eig: tuple, wk: np.ndarray,
-                         min_rotation_rad: float) -> tuple[np.ndarray, np.ndarray]:
+def _check_rotation_axes(eig: tuple, wk: np.ndarray, min_rotation_rad: float,
+                         S_total: int = 1, offset: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Raise unless ≥ 2 usable motions about non-parallel axes (``MIN_AXIS_SPREAD``).
 
     eig: eigenvalues (Su, 3) and vectors (Su, 3, 3) of ``G = Σ w β βᵀ``; wk (Su, K) pair
-    weights. Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
+    weights (Su = 1: shared by all samples; else samples ``offset`` ... of ``S_total``).
+    Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
     """
     Su = wk.shape[0]
+    if Su == 1:                                   # a unit shared by all samples
+        S_total = 1
     usable = np.count_nonzero(wk, axis=1) if Su > 1 else [np.count_nonzero(wk)]
     if min(usable) < 2:
         usable = np.asarray(usable)
         s = int(np.argmax(usable < 2))
         raise DegenerateDataError(
             f"only {int(usable[s])} motion(s) of the unit rotate by at least "
-            f"{min_rotation_rad:g} rad{_where(Su, s)}: the hand-eye transform needs at "
-            "least 2 motions about different axes; move the unit between views (e.g. "
+            f"{min_rotation_rad:g} rad{_where(S_total, offset + s)}: the hand-eye transform "
+            "needs at least 2 motions about different axes; move the unit between views (e.g. "
             "positions that combine pan and tilt)")
     lam, vec = eig
     if Su == 1:                                   # one sample: plain floats are cheaper
@@ -657,7 +648,8 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
         s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
         raise DegenerateDataError(
             f"rotation about, and translation along, the unit's rotation axis "
-            f"{_fmt_axis(vec[s, :, 2])} (unit frame) cannot be determined{_where(Su, s)}: "
+            f"{_fmt_axis(vec[s, :, 2])} (unit frame) cannot be determined"
+            f"{_where(S_total, offset + s)}: "
             f"all motions turn about that one axis (axis spread λ2/λ1 = {spread[s]:.2g} < "
             f"{MIN_AXIS_SPREAD:g}: pan-only or tilt-only data, or the other joint moved "
             "too little); add positions with tilt (and pan), so the motions turn about at "
@@ -665,25 +657,7 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray,
     return spread, vec[:, :, 2]
 
 
-def _cond_CtC_surely_ok(CtC: np.ndarray) -> bool:
-    """True if every cond(CᵀC) (CtC (S, 3, 3), symmetric positive semi-definite) is
-    certainly within ``MAX_COND_CTC``, without an eigen-decomposition.
-
-    With eigenvalues λ0 ≤ λ1 ≤ λ2: λ2 ≤ tr = Σλ and λ1λ2 ≤ c2 = λ0λ1 + λ0λ2 + λ1λ2 (the
-    sum of the principal 2×2 minors), so λ0 = det/(λ1λ2) ≥ det/c2 and cond = λ2/λ0 ≤
-    tr·c2/det. The bound is at most 9× the condition number, so well-posed samples
-    (cond ≈ 2 for the nine poses) pass by a wide margin; the 1 % slack covers round-off
-    in tr, c2 and det. False means "not certain": the caller computes the eigenvalues.
-    """
-    a00, a11, a22 = CtC[:, 0, 0], CtC[:, 1, 1], CtC[:, 2, 2]
-    a01, a02, a12 = CtC[:, 0, 1], CtC[:, 0, 2], CtC[:, 1, 2]
-    tr = a00 + a11 + a22
-    c2 = a00 * a11 + a00 * a22 + a11 * a22 - a01 * a01 - a02 * a02 - a12 * a12
-    det = _det_closed_form(CtC)
-    return bool(((tr * c2) <= (0.99 * MAX_COND_CTC) * det).all())
-
-
-def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
+def _check_cond_CtC(eig: tuple, S_total: int, offset: int = 0) -> np.ndarray:
     """cond(CᵀC) (Sc,) from its eigenvalues (inf when singular); raises above
     ``MAX_COND_CTC`` naming the weak direction (the smallest eigenvalue's vector)."""
     lam, vec = eig
@@ -697,7 +671,7 @@ def _check_cond_CtC(eig: tuple, S: int, offset: int = 0) -> np.ndarray:
         s = int(np.argmax(~(cond <= MAX_COND_CTC)))
         raise DegenerateDataError(
             f"translation along {_fmt_axis(vec[s, :, 0])} (camera frame) is not determined"
-            f"{_where(S, offset + s)}: cond(CᵀC) = {cond[s]:.3g} > {MAX_COND_CTC:g} (eq. "
+            f"{_where(S_total, offset + s)}: cond(CᵀC) = {cond[s]:.3g} > {MAX_COND_CTC:g} (eq. "
             "7); the motions' rotation axes are nearly parallel; add positions that turn "
             "about a second axis (combine pan with tilt)")
     return cond
@@ -760,25 +734,24 @@ def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
 
 class _Camera(NamedTuple):
     """One block of samples' camera side: R (S, n, 3, 3), Rs = :func:`_stacked` (R),
-    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3), G = RᵀR (S, n, 3, 3)
-    (None when ``exact``)."""
+    tA (S, 3, n, n) from :func:`_pair_translations`, CtC (S, 3, 3)."""
 
     R: np.ndarray
     Rs: np.ndarray
     tA: np.ndarray
     CtC: np.ndarray
-    G: np.ndarray | None
 
 
-def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = False,
+def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarray,
             Rs: np.ndarray | None = None, tA: np.ndarray | None = None) -> _Camera:
     """The camera side of eq. 7 for T (S, n, 4, 4), with G = RᵀR per view if known.
 
     ``CᵀC = Σ w_ab (I − R_A)ᵀ (I − R_A) = Σw I − Σ w R_A − (Σ w R_A)ᵀ + Σ w R_AᵀR_A`` with
     ``R_A = R_a R_bᵀ``, ``Σ w R_A = Σ_a R_a (Σ_b w_ab R_b)ᵀ`` and ``Σ w R_AᵀR_A =
     Σ_b R_b (Σ_a w_ab G_a) R_bᵀ`` (R_AᵀR_A is not taken to be I: literal eq. 13 noise is
-    not orthogonal). W (Su, n, n) are the ordered pair weights ``w_ab``. ``exact``: every
-    R is orthogonal to round-off (max |RᵀR − I| < 1e-14), so ``Σ w R_AᵀR_A = Σw I``.
+    not orthogonal). W (Su, n, n) are the ordered pair weights ``w_ab``. ``exact`` (S,)
+    bool: every R of the sample is orthogonal to round-off (max |RᵀR − I| < 1e-14), so
+    ``Σ w R_AᵀR_A = Σw I``.
     Rs = :func:`_stacked` (R) and tA = :func:`_pair_translations` if already known.
     """
     R = T[..., :3, :3]
@@ -788,26 +761,27 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: bool = Fa
     V = _left_matmul(W, Rs.reshape(S * 3, n, 3)).reshape(S, 3, n, 3)   # Σ_b w_ab R_b
     sum_RA = Rs3 @ _swap(V.reshape(S, 3, 3 * n))
     w_sum = _sum(W.reshape(-1, n * n), axis=1)[:, None, None]
-    if exact:
-        CtC, G = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA), None
+    if exact.all():
+        CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
     else:
         G = _swap(R) @ R if G is None else G
         H = _left_matmul(_swap(W), G.reshape(S, n, 9)).reshape(S, n, 3, 3)   # Σ_a w_ab G_a
         sum_RAtRA = _stacked(R @ H).reshape(S, 3, 3 * n) @ _swap(Rs3)
         CtC = w_sum * _EYE3 - sum_RA - _swap(sum_RA) + sum_RAtRA
+        if exact.any():                 # each sample by its own rule, whatever the batch
+            CtC[exact] = ((2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA))[exact]
     tA = _pair_translations(R, Rs, T[..., :3, 3]) if tA is None else tA
-    return _Camera(R, Rs, tA, CtC, G)
+    return _Camera(R, Rs, tA, CtC)
 
 
 def _left_matmul(W: np.ndarray, X: np.ndarray) -> np.ndarray:
     """``W @ X`` for W (Su, n, n) and X (m, n, k) with m a multiple of Su: W's sample s
-    times X's blocks s·m/Su ... (s+1)·m/Su − 1. A shared W (Su = 1) on many blocks is one
-    (n × n) by (n × m·k) product, not m small ones."""
+    times X's blocks s·m/Su ... (s+1)·m/Su − 1, one (n × n)(n × k) product per block.
+    (Not one (n × n)(n × m·k) product for a shared W: BLAS's summation order there
+    depends on m, i.e. on the batch size; measured.)"""
     m, n, k = X.shape
-    if W.shape[0] > 1 or m < 64:
-        Su = W.shape[0]
-        return (W[:, None] @ X.reshape(Su, m // Su, n, k)).reshape(m, n, k)
-    return (W[0] @ X.transpose(1, 0, 2).reshape(n, m * k)).reshape(n, m, k).transpose(1, 0, 2)
+    Su = W.shape[0]
+    return (W[:, None] @ X.reshape(Su, m // Su, n, k)).reshape(m, n, k)
 
 
 def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndarray:
@@ -843,15 +817,17 @@ def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
     fro = np.add(E1[:, :, 0], E1[:, :, 1], out=_scratch(3, (S, n, n)))
     fro += E1[:, :, 2]
     np.sqrt(fro, out=fro)
-    return (fro.reshape(S, n * n) @ _off_diagonal(n)) / (n * (n - 1))
+    fro = fro.reshape(S, n * n)
+    fro[:, _diagonal(n)] = 0.0
+    # a reduction per sample (not a matrix-vector product, whose summation order BLAS
+    # may choose by the number of samples): the same bits in any batch
+    return _sum(fro, axis=1) / (n * (n - 1))
 
 
 @functools.lru_cache(maxsize=64)
-def _off_diagonal(n: int) -> np.ndarray:
-    """(n²,) 1.0 off the diagonal of an n×n matrix (flattened), 0.0 on it."""
-    mask = 1.0 - np.eye(n).reshape(n * n)
-    mask.flags.writeable = False
-    return mask
+def _diagonal(n: int) -> np.ndarray:
+    """(n,) flat indices of the diagonal of an n×n matrix."""
+    return _read_only(np.arange(n) * (n + 1))
 
 
 _SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
@@ -892,45 +868,6 @@ def _polar_rotation(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return RX, sv
 
 
-_ROLL1, _ROLL2 = np.array([1, 2, 0]), np.array([2, 0, 1])
-
-
-def _polar_rotation_many(M: np.ndarray) -> np.ndarray:
-    """:func:`_polar_rotation`'s R_X for many samples, without one LAPACK call per sample.
-
-    Higham's scaled Newton iteration ``X ← (ζX + X⁻ᵀ/ζ)/2`` from ``X = Mᵀ``,
-    ``ζ = (‖X⁻¹‖_F/‖X‖_F)^½``, converges quadratically to the orthogonal polar factor
-    V Uᵀ of Mᵀ (to round-off in 6–9 steps for cond(M) up to 1e3; the nine ±8° poses give
-    155). X⁻ᵀ is the cofactor matrix over det X, elementwise. Samples whose M is near
-    singular (σ3/σ1 < 1e-6 estimated by |det M|/‖M‖³) or has det M ≤ 0, where the polar
-    factor is not the rotation eq. 9 wants, and any not converged in 30 steps go through
-    the SVD of :func:`_polar_rotation`.
-    """
-    X = _swap(M).copy()
-    d0 = _det(M)
-    norm = np.sqrt((M * M).sum(axis=(1, 2)))
-    ok = d0 > 1e-6 * norm ** 3
-    X[~ok] = _EYE3
-    S = len(X)
-    for _ in range(30):
-        X1, X2 = X[:, _ROLL1], X[:, _ROLL2]                       # rows rolled by 1, 2
-        C = X1[:, :, _ROLL1] * X2[:, :, _ROLL2] - X1[:, :, _ROLL2] * X2[:, :, _ROLL1]  # cofactors
-        det = _sum(X[:, 0] * C[:, 0], axis=1)
-        inv_t = C / det[:, None, None]                            # X⁻ᵀ
-        zeta = np.sqrt(np.sqrt(_sum((inv_t * inv_t).reshape(S, 9), axis=1)
-                               / _sum((X * X).reshape(S, 9), axis=1)))
-        new = 0.5 * (zeta[:, None, None] * X + inv_t / zeta[:, None, None])
-        step = np.abs(new - X).max()
-        X = new
-        if step < 1e-8:     # ‖X_new − U‖ ≤ ½‖X⁻¹‖ step² ≈ 5e-17: converged (Higham 1986)
-            break
-    else:
-        ok &= np.abs(_swap(X) @ X - _EYE3).max(axis=(1, 2)) < 1e-14
-    if not ok.all():
-        X[~ok] = _polar_rotation(M[~ok])[0]
-    return X
-
-
 #: A relative rotation within this of π (radians) is a half turn: the sign of its log is
 #: not determined by the rotation (log R and −log R are both valid).
 _HALF_TURN_TOL = 1e-6
@@ -961,94 +898,86 @@ def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
 _CHUNK_FLOATS = 1 << 18
 
 
-def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray, pair: _Pairs,
+def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _Pairs,
            min_rotation_rad: float, checked: tuple = (None, None)) -> dict:
     """Core, batched: T_cw (S, n, 4, 4), T_gp (Sq, n, 4, 4), Sq ∈ {1, S}, T_all their
-    concatenation, pairs from :func:`_pairs`, ``checked`` = (err, G) from the validation.
+    concatenation (or None), pairs from :func:`_pairs`, ``checked`` = (G, err) of T_all
+    from the validation (or Nones).
 
-    Logs are taken once per unordered pair (i > j): ``α_ji = −α_ij`` and
-    ``β_ji = −β_ij``, so ``β_ji α_jiᵀ = β_ij α_ijᵀ`` and pair (j, i) adds the same term
-    to M; its weight is added to that of (i, j). The unit's side (its logs, weights and
-    the axis checks) is complete for every sample before any error about the camera side
-    can be raised, so the first error is the one a sample-by-sample solve would raise
-    first. Up to ``_CHUNK_FLOATS`` (one block, always the case for single solves) both
-    sides share each call: one quaternion pass, one eigen-decomposition.
+    Blocks of up to ``_CHUNK_FLOATS`` numbers go through :func:`_solve_block` in turn
+    (a single solve is one block of one sample). Every step of a block treats each
+    sample on its own — its own decisions (orthogonal to round-off or not, how many
+    power steps, half turns), per-sample LAPACK calls, products and reductions whose
+    summation order does not depend on how many samples there are — so a sample's
+    result has the same bits whatever batch it is solved in, alone or with others
+    (tests/test_solver_batch.py). A degenerate sample raises (naming it); the first
+    block that holds one raises first.
     """
-    err, G_all = checked
-    exact = err is not None and err < 1e-14
     S, n = T_cw.shape[:2]
     Sq = T_gp.shape[0]
-    i, j, take = pair.i, pair.j, pair.take
     chunk = max(1, _CHUNK_FLOATS // (9 * n * n))
-    one_block = chunk >= S
-    if one_block and T_all is None:
-        T_all = np.concatenate([T_cw, T_gp])
-    if one_block:
-        logs, angle = _pair_logs(_quaternions(T_all[..., :3, :3], err), i, j, take)
-        alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
-    else:
-        beta, theta = _pair_logs(_quaternions(T_gp[..., :3, :3], err), i, j, take)
-    W, wk = _weights(theta, pair, n, min_rotation_rad)
-    bw = beta * wk[:, None, :]                                    # (Sq, 3, K)
-    G_unit = bw @ _swap(beta)                                     # Σ w β βᵀ
-    if one_block:               # both sides' R_a R_bᵀ t_b in one product, too
-        R_all = T_all[..., :3, :3]
-        Rs_all = _stacked(R_all)
-        t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3],      # lives to the end
-                                   _scratch(4, (S + Sq, 3 * n, n)))
-        Qs, tB = Rs_all[S:], t_all[S:]
-        cam = _camera(T_cw, None if G_all is None else G_all[:S], W, exact, Rs_all[:S],
-                      t_all[:S])
-        lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
-        eig_unit, eig_ctc = (lam[:Sq], vec[:Sq]), (lam[Sq:], vec[Sq:])
-    else:
-        eig_unit = _eigh(G_unit)
-    spread, axis = _check_rotation_axes(eig_unit, wk, min_rotation_rad)
-
-    def unit_terms(T):
-        Q = T[..., :3, :3]
-        Qs = _stacked(Q)
-        return Qs, _pair_translations(Q, Qs, T[..., :3, 3])
-
-    if Sq == 1 and not one_block:
-        Qs, tB = unit_terms(T_gp)
+    if chunk >= S:
+        if T_all is None:
+            T_all = np.concatenate([T_cw, T_gp])
+        return _solve_block(T_all, *checked, S, pair, min_rotation_rad, S, 0)
     parts = []
     for c0 in range(0, S, chunk):
         c = slice(c0, c0 + chunk)
-        cq = c if Sq > 1 else slice(None)
-        if Sq > 1 and not one_block:
-            Qs, tB = unit_terms(T_gp[c])
-        if one_block:
-            a, a_theta = alpha, theta_cam
-            cond = _check_cond_CtC(eig_ctc, S, c0)
-        else:
-            cam = _camera(T_cw[c], None if G_all is None else G_all[c], W[cq], exact)
-            if not _cond_CtC_surely_ok(cam.CtC):     # some sample may be ill-conditioned
-                lam = np.linalg.eigvalsh(cam.CtC)
-                if not (lam[:, 2] <= MAX_COND_CTC * lam[:, 0]).all():   # name the weak axis
-                    _check_cond_CtC(_eigh(cam.CtC), S, c0)
-            cond = None                 # the batched result does not report it
-            if err is None:         # RᵀR is at hand: max |RᵀR − I| as _quaternions takes it
-                err_c = float(_max(np.abs(cam.G - _EYE3), None))
-            a, a_theta = _pair_logs(_quaternions(cam.R, err if err is not None else err_c),
-                                    i, j, take)
-        a = _align_half_turns(a, a_theta, beta[cq], theta[cq], bw[cq])
-        M = bw[cq] @ _swap(a)                                     # eq. 9: M = Σ w β αᵀ
-        if one_block:
-            RX, sv = _polar_rotation(M)
-            # t_X = (CᵀC)⁻¹ Cᵀd through the eigen-decomposition already at hand
-            lam, vec = eig_ctc
-            y = (_swap(vec) @ _Ctd(W[cq], cam, tB, RX)[..., None])[..., 0] / lam
-            tX = (vec @ y[..., None])[..., 0]
-        else:                            # the singular values only serve the diagnostics
-            RX, sv = _polar_rotation_many(M), None
-            tX = np.linalg.solve(cam.CtC, _Ctd(W[cq], cam, tB, RX)[..., None])[..., 0]
-        parts.append((RX, tX, _quality(cam.Rs, Qs, RX), sv, cond))
-    RX, tX, quality, sv, cond = (p[0] if len(parts) == 1 else
-                                 None if p[0] is None else np.concatenate(p)
-                                 for p in zip(*parts, strict=True))
-    return {"RX": RX, "tX": tX, "quality": quality, "W": W, "wk": wk, "theta": theta,
-            "sv": sv, "cond_CtC": cond, "axis_spread": spread, "dominant_axis": axis}
+        T_block = np.concatenate([T_cw[c], T_gp[c] if Sq > 1 else T_gp])
+        parts.append(_solve_block(T_block, None, None, len(T_cw[c]), pair, min_rotation_rad,
+                                  S, c0))
+    return {k: (np.concatenate([p[k] for p in parts]) if k in _PER_SAMPLE else parts[0][k])
+            for k in parts[0]}
+
+
+#: The keys of :func:`_solve_block`'s result that hold one entry per sample.
+_PER_SAMPLE = ("RX", "tX", "quality", "sv", "cond_CtC")
+
+
+def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | None,
+                 S: int, pair: _Pairs, min_rotation_rad: float, S_total: int,
+                 offset: int) -> dict:
+    """One block: T_all (S + Sq, n, 4, 4) = S camera pose sets then Sq ∈ {1, S} unit
+    pose sets; G_all = RᵀR (S + Sq, n, 3, 3) and err (S + Sq, n) = max |RᵀR − I| per view
+    if known. Samples are named ``offset + s`` of ``S_total`` in errors.
+
+    Logs are taken once per unordered pair (i > j): ``α_ji = −α_ij`` and
+    ``β_ji = −β_ij``, so ``β_ji α_jiᵀ = β_ij α_ijᵀ`` and pair (j, i) adds the same term
+    to M; its weight is added to that of (i, j). Both sides share each call: one
+    quaternion pass, one pass of pair translations, one eigen-decomposition (of
+    ``Σ w β βᵀ`` for the axis check and of CᵀC for its condition and t_X). The unit's
+    axis check comes before the camera's condition check.
+    """
+    n = T_all.shape[1]
+    Sq = T_all.shape[0] - S
+    R_all = T_all[..., :3, :3]
+    if G_all is None:
+        G_all = _swap(R_all) @ R_all
+        err = _max(np.abs(G_all - _EYE3).reshape(-1, n, 9), axis=2)
+    logs, angle = _pair_logs(_quaternions(R_all, err), pair.i, pair.j, pair.take)
+    alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
+    W, wk = _weights(theta, pair, n, min_rotation_rad)
+    bw = beta * wk[:, None, :]                                    # (Sq, 3, K)
+    G_unit = bw @ _swap(beta)                                     # Σ w β βᵀ
+    Rs_all = _stacked(R_all)
+    t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3],          # lives to the end
+                               _scratch(4, (S + Sq, 3 * n, n)))
+    Qs, tB = Rs_all[S:], t_all[S:]
+    exact = _max(err[:S], axis=1) < 1e-14                         # (S,) orthogonal samples
+    cam = _camera(T_all[:S], G_all[:S], W, exact, Rs_all[:S], t_all[:S])
+    lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
+    spread, axis = _check_rotation_axes((lam[:Sq], vec[:Sq]), wk, min_rotation_rad,
+                                        S_total, offset)
+    lam, vec = lam[Sq:], vec[Sq:]
+    cond = _check_cond_CtC((lam, vec), S_total, offset)
+    a = _align_half_turns(alpha, theta_cam, beta, theta, bw)
+    RX, sv = _polar_rotation(bw @ _swap(a))                       # eq. 9: M = Σ w β αᵀ
+    # t_X = (CᵀC)⁻¹ Cᵀd through the eigen-decomposition already at hand
+    y = (_swap(vec) @ _Ctd(W, cam, tB, RX)[..., None])[..., 0] / lam
+    tX = (vec @ y[..., None])[..., 0]
+    return {"RX": RX, "tX": tX, "quality": _quality(cam.Rs, Qs, RX), "W": W, "wk": wk,
+            "theta": theta, "sv": sv, "cond_CtC": cond, "axis_spread": spread,
+            "dominant_axis": axis}
 
 
 def _diagnostics(out: dict, n: int, pair: _Pairs) -> HandEyeDiagnostics:
