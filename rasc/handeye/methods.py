@@ -57,6 +57,7 @@ from rasc.handeye.solver import (
     diagnose,
     quality_eq10,
     solve_rasc,
+    solve_rasc_each,
 )
 
 #: The entry-point group through which installed packages register method names.
@@ -260,6 +261,67 @@ def solve(method: str | Method | Callable[..., Any], T_cam_from_world: np.ndarra
           T_gaze_from_ptu: np.ndarray, **options) -> HandEyeResult:
     """Run the hand-eye method ``method`` (anything :func:`get_method` resolves)."""
     return get_method(method)(T_cam_from_world, T_gaze_from_ptu, **options)
+
+
+#: The options the batched RASC solve takes (:func:`solve_many`).
+_BATCH_OPTIONS = frozenset({"pairs", "min_rotation_rad", "check_rigid"})
+
+
+def solve_many(method: str | Method | Callable[..., Any], T_cam_from_world: np.ndarray,
+               T_gaze_from_ptu: np.ndarray, **options) -> list[HandEyeResult | Exception]:
+    """Solve S pose sets with one method: set s's result or the exception it raised.
+
+    Parameters
+    ----------
+    method : anything :func:`get_method` resolves.
+    T_cam_from_world : array-like, shape (S, n, 4, 4)
+    T_gaze_from_ptu : array-like, shape (n, 4, 4) shared by all sets, or (S, n, 4, 4)
+    **options : as for :func:`solve`.
+
+    Returns
+    -------
+    list of HandEyeResult or Exception, length S
+        Entry s is exactly what ``solve(method, T_cam_from_world[s], T_gaze_from_ptu[s],
+        **options)`` returns (the same bits), or the exception it raises (the same class
+        and message). "rasc" goes through the batched solver
+        (:func:`~rasc.handeye.solver.solve_rasc_each`, whose results do not depend on the
+        batch); a set that makes a batch fail is found by halving the batch, and solved
+        alone. Every other method is called set by set. An exception is returned, not
+        raised, whatever its class.
+    """
+    m = get_method(method)
+    T_cw = np.asarray(T_cam_from_world, dtype=float)
+    T_gp = np.asarray(T_gaze_from_ptu, dtype=float)
+    if T_cw.ndim < 1:
+        raise InputError(f"T_cam_from_world: expected shape (S, n, 4, 4), got {T_cw.shape}")
+    shared = T_gp.ndim != T_cw.ndim
+    if not shared and len(T_gp) != len(T_cw):
+        raise InputError(f"T_gaze_from_ptu has {len(T_gp)} sets, T_cam_from_world "
+                         f"{len(T_cw)}")
+
+    def unit(s: slice | int) -> np.ndarray:
+        return T_gp if shared else T_gp[s]
+
+    def one(s: int) -> HandEyeResult | Exception:
+        try:
+            return m(T_cw[s], unit(s), **options)
+        except Exception as exc:  # noqa: BLE001 -- handed back to the caller, per set
+            return exc
+
+    if not (m.builtin and m.function is solve_rasc and set(options) <= _BATCH_OPTIONS
+            and T_cw.ndim == 4 and len(T_cw)):
+        return [one(s) for s in range(len(T_cw))]
+
+    def batch(lo: int, hi: int) -> list[HandEyeResult | Exception]:
+        if hi - lo == 1:
+            return [one(lo)]
+        try:
+            return solve_rasc_each(T_cw[lo:hi], unit(slice(lo, hi)), **options)
+        except Exception:  # noqa: BLE001 -- some set fails: halve, down to single solves
+            mid = (lo + hi) // 2
+            return batch(lo, mid) + batch(mid, hi)
+
+    return batch(0, len(T_cw))
 
 
 def jackknife_uncertainty(method: str | Method | Callable[..., Any],

@@ -926,12 +926,15 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _
         T_block = np.concatenate([T_cw[c], T_gp[c] if Sq > 1 else T_gp])
         parts.append(_solve_block(T_block, None, None, len(T_cw[c]), pair, min_rotation_rad,
                                   S, c0))
-    return {k: (np.concatenate([p[k] for p in parts]) if k in _PER_SAMPLE else parts[0][k])
+    per_sample = _PER_SAMPLE + (_PER_UNIT if Sq > 1 else ())
+    return {k: (np.concatenate([p[k] for p in parts]) if k in per_sample else parts[0][k])
             for k in parts[0]}
 
 
-#: The keys of :func:`_solve_block`'s result that hold one entry per sample.
+#: The keys of :func:`_solve_block`'s result that hold one entry per sample, and those
+#: that hold one per unit pose set (one in all, or one per sample).
 _PER_SAMPLE = ("RX", "tX", "quality", "sv", "cond_CtC")
+_PER_UNIT = ("W", "wk", "theta", "axis_spread", "dominant_axis")
 
 
 def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | None,
@@ -980,18 +983,30 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
             "dominant_axis": axis}
 
 
-def _diagnostics(out: dict, n: int, pair: _Pairs) -> HandEyeDiagnostics:
-    s1, _, s3 = out["sv"][0].tolist()
-    theta = out["theta"][0]
+def _diagnostics(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeDiagnostics:
+    """Sample ``s``'s diagnostics from :func:`_solve`'s result."""
+    u = s if len(out["theta"]) > 1 else 0                        # the sample's unit
+    s1, _, s3 = out["sv"][s].tolist()
+    theta = out["theta"][u]
     theta = theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]   # the method's
     deg = 180.0 / math.pi
     return HandEyeDiagnostics(
         n_positions=n, n_pairs=pair.n_pairs,
-        n_pairs_used=pair.n_pairs if out["wk"] is pair.wk_all else int(_sum(out["wk"][0])),
-        cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][0]),
+        n_pairs_used=pair.n_pairs if out["wk"] is pair.wk_all else int(_sum(out["wk"][u])),
+        cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][s]),
         min_rotation_deg=float(_min(theta)) * deg, max_rotation_deg=float(_max(theta)) * deg,
-        axis_spread=float(out["axis_spread"][0]),
-        dominant_axis=_unit_axis(out["dominant_axis"][0]))
+        axis_spread=float(out["axis_spread"][u]),
+        dominant_axis=_unit_axis(out["dominant_axis"][u]))
+
+
+def _result(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeResult:
+    """Sample ``s`` of :func:`_solve`'s result as a :class:`HandEyeResult`."""
+    T = np.zeros((4, 4))
+    T[:3, :3] = out["RX"][s]
+    T[:3, 3] = out["tX"][s]
+    T[3, 3] = 1.0
+    return HandEyeResult(T_cam_from_gaze=T, quality=float(out["quality"][s]), method="rasc",
+                         diagnostics=_diagnostics(out, n, pair, s))
 
 
 # ------------------------------------------------------------------------ public
@@ -1027,13 +1042,7 @@ def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
     _check_positions(n, T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
     pair = _pairs(n, pairs, None)
-    out = _solve(T_cw, T_gp, T_all, pair, min_rotation_rad, checked)
-    T = np.zeros((4, 4))
-    T[:3, :3] = out["RX"][0]
-    T[:3, 3] = out["tX"][0]
-    T[3, 3] = 1.0
-    return HandEyeResult(T_cam_from_gaze=T, quality=float(out["quality"][0]), method="rasc",
-                         diagnostics=_diagnostics(out, n, pair))
+    return _result(_solve(T_cw, T_gp, T_all, pair, min_rotation_rad, checked), n, pair)
 
 
 def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
@@ -1050,9 +1059,12 @@ def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, 
     Returns
     -------
     HandEyeBatchResult
-        ``T_cam_from_gaze`` (S, 4, 4) and ``quality`` (S,), each equal to what
-        :func:`solve_rasc` returns for that sample. Any degenerate sample raises
-        :class:`DegenerateDataError` naming it.
+        ``T_cam_from_gaze`` (S, 4, 4) and ``quality`` (S,), each bit for bit what
+        :func:`solve_rasc` returns for that sample, whatever the other samples (a
+        sample's numbers do not depend on the batch's size or composition). Any
+        degenerate sample makes the whole call raise :class:`DegenerateDataError` naming
+        it ("(sample k)"); :func:`rasc.handeye.methods.solve_many` instead gives each
+        sample its own result or error.
     """
     T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
                                                   batch=True, check_rigid=check_rigid)
@@ -1063,6 +1075,25 @@ def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, 
     out = _solve(T_cw, T_gp, T_all, _pairs(T_cw.shape[1], pairs, None), min_rotation_rad, checked)
     return HandEyeBatchResult(T_cam_from_gaze=make_transform(out["RX"], out["tX"]),
                               quality=out["quality"])
+
+
+def solve_rasc_each(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
+                    pairs: str = "all", min_rotation_rad: float = MIN_PAIR_ROTATION_RAD,
+                    check_rigid: bool = True) -> list[HandEyeResult]:
+    """:func:`solve_rasc_batch` with each sample's full :class:`HandEyeResult` (with its
+    diagnostics): the same objects, to the bit, as :func:`solve_rasc` on each sample.
+    Raises like :func:`solve_rasc_batch` (any degenerate sample, named);
+    :func:`rasc.handeye.methods.solve_many` gives each sample its own result or error."""
+    T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
+                                                  batch=True, check_rigid=check_rigid)
+    S, n = T_cw.shape[:2]
+    if S == 0:
+        raise InputError(f"T_cam_from_world: no samples (shape {T_cw.shape})")
+    _check_positions(n, T_gp.shape[1])
+    _check_min_rotation(min_rotation_rad)
+    pair = _pairs(n, pairs, None)
+    out = _solve(T_cw, T_gp, T_all, pair, min_rotation_rad, checked)
+    return [_result(out, n, pair, s) for s in range(S)]
 
 
 def _check_min_rotation(min_rotation_rad: float) -> None:

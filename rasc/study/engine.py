@@ -267,10 +267,30 @@ def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
 
 def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
                    literal: bool) -> list[tuple]:
-    """:func:`_score` for each of S pose sets (S, n, 4, 4), one solve per set (not RASC's
-    batch solver: its last bits depend on the batch's size, and a sample's numbers must
-    not depend on how many samples its cell has)."""
-    return [_score(method, T, T_gp, T_true, literal) for T in T_cw]
+    """:func:`_score` for each of S pose sets (S, n, 4, 4), all solved in one call of
+    :func:`rasc.handeye.methods.solve_many` (RASC's batched solver, whose result for a
+    set is, bit for bit, that set's own solve whatever the other sets: a sample's numbers
+    do not depend on how many samples its cell has)."""
+    from rasc.handeye.methods import solve_many
+
+    nan = float("nan")
+    try:
+        results = solve_many(method, T_cw, T_gp, **({"check_rigid": False} if literal else {}))
+    except FAILURES as exc:                      # the method itself (e.g. its name) fails
+        results = [exc] * len(T_cw)
+    scored = []
+    for res in results:
+        if isinstance(res, Exception):
+            if not isinstance(res, FAILURES):
+                raise res
+            scored.append((f"failed: {type(res).__name__}", nan, nan, nan, nan, None))
+            continue
+        T = np.asarray(res.T_cam_from_gaze, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            scored.append(("non-finite", nan, nan, nan, nan, None))
+            continue
+        scored.append(_scored(T, res.quality, T_true))
+    return scored
 
 
 #: the estimate's columns of samples.csv with ``estimates=True`` (mm; R row-major)
