@@ -327,7 +327,7 @@ def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     if not check_rigid:
         return (None, None) if _min(det, None) > 0 else None
     # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
-    G = _swap(R) @ R
+    G = _gram(R)
     err = _max(np.abs(G - _EYE3).reshape(R.shape[:-2] + (9,)), axis=-1)    # per view
     if max(float(_max(err, None)), float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
         return None
@@ -431,7 +431,7 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
     m = R.size // 9
     flat = R.reshape(m, 3, 3)
     if err is None:
-        err = (_max(np.abs(_swap(flat) @ flat - _EYE3).reshape(m, 9), axis=1) if m
+        err = (_max(np.abs(_gram(flat) - _EYE3).reshape(m, 9), axis=1) if m
                else np.zeros(0))
     err = np.reshape(err, m)
     if m and not _max(err) < 1.0 / 3.0:
@@ -465,6 +465,9 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
 #: Arrays above ``_SCRATCH_MAX_FLOATS`` are allocated as usual (no memory is held).
 _SCRATCH = threading.local()
 _SCRATCH_MAX_FLOATS = 1 << 18
+#: ... and below this size too: small arrays come from the allocator's pools, without
+#: page faults, and faster than the look-up of a thread's buffer.
+_SCRATCH_MIN_FLOATS = 1 << 12
 
 
 def _scratch(slot: int, shape: tuple[int, ...]) -> np.ndarray:
@@ -473,7 +476,7 @@ def _scratch(slot: int, shape: tuple[int, ...]) -> np.ndarray:
     Slot 4 holds the one-block solve's pair translations (:func:`_solve`); slots 0–3
     temporaries that die in the function that takes them."""
     size = math.prod(shape)
-    if size > _SCRATCH_MAX_FLOATS:
+    if size > _SCRATCH_MAX_FLOATS or size < _SCRATCH_MIN_FLOATS:
         return np.empty(shape)
     bufs = getattr(_SCRATCH, "bufs", None)
     if bufs is None:
@@ -709,6 +712,13 @@ def _swap(a: np.ndarray) -> np.ndarray:
     return a.swapaxes(-1, -2)
 
 
+def _gram(R: np.ndarray) -> np.ndarray:
+    """RᵀR of (..., 3, 3) matrices, elementwise (one product, one sum over 3 terms in
+    order): per matrix the same bits however many there are, and for many small
+    matrices several times faster than one BLAS call per matrix."""
+    return _sum(R[..., :, :, None] * R[..., :, None, :], axis=-3)
+
+
 def _stacked(R: np.ndarray) -> np.ndarray:
     """R (S, n, 3, 3) → (S, 3n, 3), rows ordered (component i, view a): ``R_a[i, :]``.
 
@@ -727,7 +737,7 @@ def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
     pairs is one (3n × 3) by (3 × n) product. ``out``: (S, 3n, n) to hold the result.
     """
     S, n = t.shape[:2]
-    r = (_swap(R) @ t[..., None])[..., 0]                          # R_bᵀ t_b  (S, n, 3)
+    r = _sum(R * t[..., :, None], axis=-2)                        # R_bᵀ t_b  (S, n, 3)
     tA = np.matmul(Rs, _swap(r), out=out).reshape(S, 3, n, n)
     return np.subtract(_swap(t)[..., None], tA, out=tA)
 
@@ -764,7 +774,7 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarra
     if exact.all():
         CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
     else:
-        G = _swap(R) @ R if G is None else G
+        G = _gram(R) if G is None else G
         H = _left_matmul(_swap(W), G.reshape(S, n, 9)).reshape(S, n, 3, 3)   # Σ_a w_ab G_a
         sum_RAtRA = _stacked(R @ H).reshape(S, 3, 3 * n) @ _swap(Rs3)
         CtC = w_sum * _EYE3 - sum_RA - _swap(sum_RA) + sum_RAtRA
@@ -787,18 +797,19 @@ def _left_matmul(W: np.ndarray, X: np.ndarray) -> np.ndarray:
 def _Ctd(W: np.ndarray, cam: _Camera, tB: np.ndarray, RX: np.ndarray) -> np.ndarray:
     """Eq. 7's ``Cᵀd = Σ w_ab (I − R_A)ᵀ d_ab`` (S, 3), ``d_ab = t_A − R_X t_B``.
 
-    ``= Σ w_ab d_ab − Σ_b R_b Σ_a w_ab R_aᵀ d_ab``; tB (S or Su, 3, n, n) as tA.
+    ``= Σ w_ab d_ab − Σ_b R_b f_b`` with ``f_b = Σ_a R_aᵀ w_ab d_ab``: with d stacked as
+    [(i, a), b], ``f`` for all b is one (3 × 3n)(3n × n) product with Rs; tB (S or Su,
+    3, n, n) as tA.
     """
-    R, Rs = cam.R, cam.Rs
-    S, n = R.shape[:2]
+    Rs = cam.Rs
+    S, n3 = Rs.shape[:2]
+    n = n3 // 3
     # the n²-sized temporaries go to scratch buffers (see _scratch)
     d = np.matmul(RX, tB.reshape(-1, 3, n * n), out=_scratch(0, (S, 3, n * n)))
-    d = np.subtract(cam.tA, d.reshape(S, 3, n, n), out=d.reshape(S, 3, n, n))  # [i, a, b]
-    sum_d = (d.reshape(S, 3, n * n) @ W.reshape(-1, n * n, 1))[..., 0]
-    e = np.matmul(_swap(R), d.transpose(0, 2, 1, 3), out=_scratch(1, (S, n, 3, n)))
-    e *= W[:, :, None, :]                                         # w_ab R_aᵀ d_ab at [a, k, b]
-    f = _sum(e, axis=1)                                           # Σ_a w_ab R_aᵀ d_ab [k, b]
-    return sum_d - (Rs.reshape(S, 3, 3 * n) @ _swap(f).reshape(S, 3 * n, 1))[..., 0]
+    d = np.subtract(cam.tA.reshape(S, 3, n * n), d, out=d)       # d_ab at [i, (a, b)]
+    d *= W.reshape(-1, 1, n * n)                                  # w_ab d_ab
+    f_t = _swap(d.reshape(S, n3, n)) @ Rs                         # [b, k] = f_b[k]
+    return _sum(d, axis=2) - (Rs.reshape(S, 3, n3) @ f_t.reshape(S, n3, 1))[..., 0]
 
 
 def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
@@ -809,25 +820,13 @@ def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
     Z = np.concatenate([Ys, Rs], axis=-1)                         # (S, 3n, 6)
     E = np.matmul(Z, _swap(Z * _SIGNS), out=_scratch(1, (S, 3 * n, 3 * n)))   # Y Yᵀ − R Rᵀ
     E *= E
-    # the sums over the 3×3 entries of each block as explicit additions, in the order a
-    # reduction takes them ((e0 + e1) + e2): the same numbers, faster on these short axes
-    E = E.reshape(S, 3, n, 3, n)
-    E1 = np.add(E[:, 0], E[:, 1], out=_scratch(2, (S, n, 3, n)))
-    E1 += E[:, 2]
-    fro = np.add(E1[:, :, 0], E1[:, :, 1], out=_scratch(3, (S, n, n)))
-    fro += E1[:, :, 2]
+    fro = _sum(E.reshape(S, 3, n, 3, n), axis=(1, 3))            # ‖block (a, b)‖²
     np.sqrt(fro, out=fro)
     fro = fro.reshape(S, n * n)
-    fro[:, _diagonal(n)] = 0.0
+    fro[:, :: n + 1] = 0.0                                        # i ≠ j only
     # a reduction per sample (not a matrix-vector product, whose summation order BLAS
     # may choose by the number of samples): the same bits in any batch
     return _sum(fro, axis=1) / (n * (n - 1))
-
-
-@functools.lru_cache(maxsize=64)
-def _diagonal(n: int) -> np.ndarray:
-    """(n,) flat indices of the diagonal of an n×n matrix."""
-    return _read_only(np.arange(n) * (n + 1))
 
 
 _SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
@@ -955,7 +954,7 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
     Sq = T_all.shape[0] - S
     R_all = T_all[..., :3, :3]
     if G_all is None:
-        G_all = _swap(R_all) @ R_all
+        G_all = _gram(R_all)
         err = _max(np.abs(G_all - _EYE3).reshape(-1, n, 9), axis=2)
     logs, angle = _pair_logs(_quaternions(R_all, err), pair.i, pair.j, pair.take)
     alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
@@ -1097,7 +1096,7 @@ def solve_rasc_each(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *
 
 
 def _check_min_rotation(min_rotation_rad: float) -> None:
-    if not (np.isfinite(min_rotation_rad) and min_rotation_rad >= 0):
+    if not (math.isfinite(min_rotation_rad) and min_rotation_rad >= 0):
         raise InputError(f"min_rotation_rad: expected a finite value >= 0, "
                          f"got {min_rotation_rad!r}")
 
