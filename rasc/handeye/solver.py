@@ -290,7 +290,7 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
         if batch and A.size > _CHUNK_FLOATS:
             if _fast_checks(A, check_rigid) is not None and \
                     _fast_checks(B4, check_rigid) is not None:
-                return A, B4, None, (None, None)        # each block measures its own G
+                return A, B4, None, (None, None, None)   # each block measures its own G
             fast = None
         else:
             T_all = np.concatenate([A if batch else A[None], B4])
@@ -309,7 +309,7 @@ def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool
         raise InputError(f"T_gaze_from_ptu has {B.shape[0]} samples, T_cam_from_world "
                          f"{A.shape[0]}")
     _check_positions(A.shape[1], B.shape[1])
-    return A, B, np.concatenate([A, B]), (None, None)
+    return A, B, np.concatenate([A, B]), (None, None, None)
 
 
 def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
@@ -325,13 +325,14 @@ def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
     R = T[..., :3, :3]
     det = _det(R) if R.size < 9 * 1024 else _det_closed_form(R)
     if not check_rigid:
-        return (None, None) if _min(det, None) > 0 else None
+        return (None, None, None) if _min(det, None) > 0 else None
     # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
     G = _gram(R)
     err = _max(np.abs(G - _EYE3).reshape(R.shape[:-2] + (9,)), axis=-1)    # per view
-    if max(float(_max(err, None)), float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
+    emax = float(_max(err, None))
+    if max(emax, float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
         return None
-    return G, err
+    return G, err, emax
 
 
 def _det_closed_form(R: np.ndarray) -> np.ndarray:
@@ -407,7 +408,8 @@ _QMAT, _QOFF, _QPROD = _quaternion_tables()
 _QLEFT = np.ascontiguousarray(_QPROD.reshape(4, 4, 4).transpose(0, 2, 1)).reshape(4, 16)
 
 
-def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
+def _quaternions(R: np.ndarray, err: np.ndarray | None = None,
+                 emax: float | None = None) -> np.ndarray:
     """(..., 3, 3) → quaternions (..., 4), scalar last (scipy's convention), NOT unit.
 
     ``K = R @ _QMAT + _QOFF`` is ``4 q qᵀ`` for a rotation; Shepperd's quaternion (as in
@@ -425,6 +427,7 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
     4^64: no overflow). Each matrix takes its own p − 1 products with a vector from
     Shepperd's row e_k, whatever the other matrices are: every quaternion depends on its
     own matrix alone (so the batched solve's results do not depend on the batch).
+    ``emax``: the largest err if known.
     Matrices with err ≥ 1/3 (only possible with ``check_rigid=False``) are first
     projected by scipy's SVD.
     """
@@ -434,11 +437,14 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
         err = (_max(np.abs(_gram(flat) - _EYE3).reshape(m, 9), axis=1) if m
                else np.zeros(0))
     err = np.reshape(err, m)
-    if m and not _max(err) < 1.0 / 3.0:
+    if emax is None:
+        emax = float(_max(err)) if m else 0.0
+    if not emax < 1.0 / 3.0:
         far = ~(err < 1.0 / 3.0)
         flat = flat.copy()
         flat[far] = Rotation.from_matrix(flat[far]).as_matrix()
         err = np.where(far, 0.0, err)
+        emax = float(_max(err))
     # one (n × 9)(9 × 16) product per leading index (a single (m × 9) product would let
     # BLAS choose its kernels by m, i.e. by the batch size)
     lead = R.shape[0] if R.ndim > 3 else 1
@@ -447,7 +453,7 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None) -> np.ndarray:
     k = K4[:, ::5].argmax(axis=1)                                # the diagonal 4 q_k²
     k += _row_offsets(m)
     v = K4.reshape(4 * m, 4)[k]                                  # 4 q_k q, |q_k| ≥ 1/2
-    if m and _max(err) >= 1e-14:
+    if emax >= 1e-14:
         # K^p e_k with p = ⌈log(4e17) / −log err⌉ per matrix (none for rigid ones)
         bad = np.flatnonzero(err >= 1e-14)
         steps = np.ceil(math.log(4e17) / -np.log(err[bad])) - 1.0
@@ -620,17 +626,20 @@ def _weights(theta: np.ndarray, pair: _Pairs, n: int,
 
 
 def _check_rotation_axes(eig: tuple, wk: np.ndarray, min_rotation_rad: float,
-                         S_total: int = 1, offset: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                         S_total: int = 1, offset: int = 0,
+                         all_pairs: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Raise unless ≥ 2 usable motions about non-parallel axes (``MIN_AXIS_SPREAD``).
 
     eig: eigenvalues (Su, 3) and vectors (Su, 3, 3) of ``G = Σ w β βᵀ``; wk (Su, K) pair
     weights (Su = 1: shared by all samples; else samples ``offset`` ... of ``S_total``).
+    ``all_pairs``: wk is the method's whole pair set (at least 2 pairs for n ≥ 3).
     Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
     """
     Su = wk.shape[0]
     if Su == 1:                                   # a unit shared by all samples
         S_total = 1
-    usable = np.count_nonzero(wk, axis=1) if Su > 1 else [np.count_nonzero(wk)]
+    usable = ([2] if all_pairs else np.count_nonzero(wk, axis=1) if Su > 1
+              else [np.count_nonzero(wk)])
     if min(usable) < 2:
         usable = np.asarray(usable)
         s = int(np.argmax(usable < 2))
@@ -752,7 +761,7 @@ class _Camera(NamedTuple):
     CtC: np.ndarray
 
 
-def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarray,
+def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarray | bool,
             Rs: np.ndarray | None = None, tA: np.ndarray | None = None) -> _Camera:
     """The camera side of eq. 7 for T (S, n, 4, 4), with G = RᵀR per view if known.
 
@@ -760,8 +769,8 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarra
     ``R_A = R_a R_bᵀ``, ``Σ w R_A = Σ_a R_a (Σ_b w_ab R_b)ᵀ`` and ``Σ w R_AᵀR_A =
     Σ_b R_b (Σ_a w_ab G_a) R_bᵀ`` (R_AᵀR_A is not taken to be I: literal eq. 13 noise is
     not orthogonal). W (Su, n, n) are the ordered pair weights ``w_ab``. ``exact`` (S,)
-    bool: every R of the sample is orthogonal to round-off (max |RᵀR − I| < 1e-14), so
-    ``Σ w R_AᵀR_A = Σw I``.
+    bool (or True for all): every R of the sample is orthogonal to round-off
+    (max |RᵀR − I| < 1e-14), so ``Σ w R_AᵀR_A = Σw I``.
     Rs = :func:`_stacked` (R) and tA = :func:`_pair_translations` if already known.
     """
     R = T[..., :3, :3]
@@ -771,7 +780,7 @@ def _camera(T: np.ndarray, G: np.ndarray | None, W: np.ndarray, exact: np.ndarra
     V = _left_matmul(W, Rs.reshape(S * 3, n, 3)).reshape(S, 3, n, 3)   # Σ_b w_ab R_b
     sum_RA = Rs3 @ _swap(V.reshape(S, 3, 3 * n))
     w_sum = _sum(W.reshape(-1, n * n), axis=1)[:, None, None]
-    if exact.all():
+    if exact is True or exact.all():
         CtC = (2.0 * w_sum) * _EYE3 - sum_RA - _swap(sum_RA)
     else:
         G = _gram(R) if G is None else G
@@ -873,16 +882,17 @@ _HALF_TURN_TOL = 1e-6
 
 
 def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
-                      theta_B: np.ndarray, bw: np.ndarray) -> np.ndarray:
+                      theta_B: np.ndarray, bw: np.ndarray, theta_max: float) -> np.ndarray:
     """Choose the signs of half-turn logs so that ``α = R_X β`` holds for them too.
 
     alpha (S, 3, K), beta and bw = w β (Su, 3, K), angles (S or Su, K). A pair whose
     motion is a half turn (within ``_HALF_TURN_TOL`` of π) has α and β each defined up to
     sign only; with mismatched signs its term of eq. 9 enters M as ``−β βᵀ R_Xᵀ``. Its α
     is flipped where it points away from ``R_X0 β``, with R_X0 from the other pairs (all
-    pairs if fewer than two others are usable). Without half turns α is returned as is.
+    pairs if fewer than two others are usable). Without half turns (``theta_max``, the
+    largest of all angles, below π − ``_HALF_TURN_TOL``) α is returned as is.
     """
-    if max(_max(theta_A, None), _max(theta_B, None)) <= np.pi - _HALF_TURN_TOL:
+    if theta_max <= np.pi - _HALF_TURN_TOL:
         return alpha
     near = (theta_A > np.pi - _HALF_TURN_TOL) | (theta_B > np.pi - _HALF_TURN_TOL)
     others = bw * ~near[:, None, :]
@@ -898,7 +908,7 @@ _CHUNK_FLOATS = 1 << 18
 
 
 def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _Pairs,
-           min_rotation_rad: float, checked: tuple = (None, None)) -> dict:
+           min_rotation_rad: float, checked: tuple = (None, None, None)) -> dict:
     """Core, batched: T_cw (S, n, 4, 4), T_gp (Sq, n, 4, 4), Sq ∈ {1, S}, T_all their
     concatenation (or None), pairs from :func:`_pairs`, ``checked`` = (G, err) of T_all
     from the validation (or Nones).
@@ -923,8 +933,8 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _
     for c0 in range(0, S, chunk):
         c = slice(c0, c0 + chunk)
         T_block = np.concatenate([T_cw[c], T_gp[c] if Sq > 1 else T_gp])
-        parts.append(_solve_block(T_block, None, None, len(T_cw[c]), pair, min_rotation_rad,
-                                  S, c0))
+        parts.append(_solve_block(T_block, None, None, None, len(T_cw[c]), pair,
+                                  min_rotation_rad, S, c0))
     per_sample = _PER_SAMPLE + (_PER_UNIT if Sq > 1 else ())
     return {k: (np.concatenate([p[k] for p in parts]) if k in per_sample else parts[0][k])
             for k in parts[0]}
@@ -937,11 +947,11 @@ _PER_UNIT = ("W", "wk", "theta", "axis_spread", "dominant_axis")
 
 
 def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | None,
-                 S: int, pair: _Pairs, min_rotation_rad: float, S_total: int,
-                 offset: int) -> dict:
+                 emax: float | None, S: int, pair: _Pairs, min_rotation_rad: float,
+                 S_total: int, offset: int) -> dict:
     """One block: T_all (S + Sq, n, 4, 4) = S camera pose sets then Sq ∈ {1, S} unit
-    pose sets; G_all = RᵀR (S + Sq, n, 3, 3) and err (S + Sq, n) = max |RᵀR − I| per view
-    if known. Samples are named ``offset + s`` of ``S_total`` in errors.
+    pose sets; G_all = RᵀR (S + Sq, n, 3, 3), err (S + Sq, n) = max |RᵀR − I| per view
+    and emax its largest, if known. Samples are named ``offset + s`` of ``S_total`` in errors.
 
     Logs are taken once per unordered pair (i > j): ``α_ji = −α_ij`` and
     ``β_ji = −β_ij``, so ``β_ji α_jiᵀ = β_ij α_ijᵀ`` and pair (j, i) adds the same term
@@ -956,7 +966,8 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
     if G_all is None:
         G_all = _gram(R_all)
         err = _max(np.abs(G_all - _EYE3).reshape(-1, n, 9), axis=2)
-    logs, angle = _pair_logs(_quaternions(R_all, err), pair.i, pair.j, pair.take)
+        emax = float(_max(err, None))
+    logs, angle = _pair_logs(_quaternions(R_all, err, emax), pair.i, pair.j, pair.take)
     alpha, beta, theta, theta_cam = logs[:S], logs[S:], angle[S:], angle[:S]
     W, wk = _weights(theta, pair, n, min_rotation_rad)
     bw = beta * wk[:, None, :]                                    # (Sq, 3, K)
@@ -965,14 +976,15 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
     t_all = _pair_translations(R_all, Rs_all, T_all[..., :3, 3],          # lives to the end
                                _scratch(4, (S + Sq, 3 * n, n)))
     Qs, tB = Rs_all[S:], t_all[S:]
-    exact = _max(err[:S], axis=1) < 1e-14                         # (S,) orthogonal samples
+    # (S,) the samples orthogonal to round-off (all of them: True)
+    exact = True if emax < 1e-14 else _max(err[:S], axis=1) < 1e-14
     cam = _camera(T_all[:S], G_all[:S], W, exact, Rs_all[:S], t_all[:S])
     lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
     spread, axis = _check_rotation_axes((lam[:Sq], vec[:Sq]), wk, min_rotation_rad,
-                                        S_total, offset)
+                                        S_total, offset, wk is pair.wk_all)
     lam, vec = lam[Sq:], vec[Sq:]
     cond = _check_cond_CtC((lam, vec), S_total, offset)
-    a = _align_half_turns(alpha, theta_cam, beta, theta, bw)
+    a = _align_half_turns(alpha, theta_cam, beta, theta, bw, _max(angle, None))
     RX, sv = _polar_rotation(bw @ _swap(a))                       # eq. 9: M = Σ w β αᵀ
     # t_X = (CᵀC)⁻¹ Cᵀd through the eigen-decomposition already at hand
     y = (_swap(vec) @ _Ctd(W, cam, tB, RX)[..., None])[..., 0] / lam
@@ -987,13 +999,13 @@ def _diagnostics(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeDiagnost
     u = s if len(out["theta"]) > 1 else 0                        # the sample's unit
     s1, _, s3 = out["sv"][s].tolist()
     theta = out["theta"][u]
-    theta = theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]   # the method's
+    theta = (theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]).tolist()
     deg = 180.0 / math.pi
     return HandEyeDiagnostics(
         n_positions=n, n_pairs=pair.n_pairs,
         n_pairs_used=pair.n_pairs if out["wk"] is pair.wk_all else int(_sum(out["wk"][u])),
         cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][s]),
-        min_rotation_deg=float(_min(theta)) * deg, max_rotation_deg=float(_max(theta)) * deg,
+        min_rotation_deg=min(theta) * deg, max_rotation_deg=max(theta) * deg,
         axis_spread=float(out["axis_spread"][u]),
         dominant_axis=_unit_axis(out["dominant_axis"][u]))
 
