@@ -68,11 +68,12 @@ from scipy.spatial.transform import Rotation
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import RIGID_ATOL, make_transform, validate_rigid_transform
 
-try:        # the LAPACK gufuncs behind np.linalg.eigh / svd / det (numpy ≥ 1.8, 2.x)
+try:        # the LAPACK gufuncs behind np.linalg.eigh / svd / det / solve (numpy ≥ 1.8, 2.x)
     from numpy.linalg import _umath_linalg as _gufuncs
     _GU_EIGH, _GU_SVD, _GU_DET = _gufuncs.eigh_lo, _gufuncs.svd_f, _gufuncs.det
+    _GU_SOLVE1 = _gufuncs.solve1
 except (ImportError, AttributeError):                             # pragma: no cover
-    _GU_EIGH = _GU_SVD = _GU_DET = None
+    _GU_EIGH = _GU_SVD = _GU_DET = _GU_SOLVE1 = None
 
 #: A relative unit rotation smaller than this (radians) is "unusable": its axis is not
 #: defined to better than the measurement noise (≈1e-3 rad for a good camera
@@ -591,7 +592,8 @@ def _unit_axis(v: np.ndarray) -> tuple[float, float, float]:
     is arbitrary)."""
     x, y, z = np.asarray(v, dtype=float).tolist()
     norm = math.sqrt(x * x + y * y + z * z)
-    big = max((x, y, z), key=abs)
+    ax, ay, az = abs(x), abs(y), abs(z)           # the first of the largest, as max(key=abs)
+    big = (x if ax >= az else z) if ax >= ay else (y if ay >= az else z)
     sign = -1.0 if big < 0 else 1.0
     return (sign * x / norm + 0.0, sign * y / norm + 0.0, sign * z / norm + 0.0)  # no -0.0
 
@@ -669,6 +671,24 @@ def _check_rotation_axes(eig: tuple, wk: np.ndarray, min_rotation_rad: float,
     return spread, vec[:, :, 2]
 
 
+def _cond_CtC_surely_ok(CtC: np.ndarray) -> bool:
+    """True if every cond(CᵀC) (CtC (S, 3, 3), symmetric positive semi-definite) is
+    certainly within ``MAX_COND_CTC``, without an eigen-decomposition.
+
+    With eigenvalues λ0 ≤ λ1 ≤ λ2: λ2 ≤ tr = Σλ and λ1λ2 ≤ c2 = λ0λ1 + λ0λ2 + λ1λ2 (the
+    sum of the principal 2×2 minors), so λ0 = det/(λ1λ2) ≥ det/c2 and cond = λ2/λ0 ≤
+    tr·c2/det. The bound is at most 9× the condition number, so well-posed samples
+    (cond ≈ 2 for the nine poses) pass by a wide margin; the 1 % slack covers round-off
+    in tr, c2 and det. False means "not certain": the caller computes the eigenvalues.
+    """
+    a00, a11, a22 = CtC[:, 0, 0], CtC[:, 1, 1], CtC[:, 2, 2]
+    a01, a02, a12 = CtC[:, 0, 1], CtC[:, 0, 2], CtC[:, 1, 2]
+    tr = a00 + a11 + a22
+    c2 = a00 * a11 + a00 * a22 + a11 * a22 - a01 * a01 - a02 * a02 - a12 * a12
+    det = _det_closed_form(CtC)
+    return bool(((tr * c2) <= (0.99 * MAX_COND_CTC) * det).all())
+
+
 def _check_cond_CtC(eig: tuple, S_total: int, offset: int = 0) -> np.ndarray:
     """cond(CᵀC) (Sc,) from its eigenvalues (inf when singular); raises above
     ``MAX_COND_CTC`` naming the weak direction (the smallest eigenvalue's vector)."""
@@ -696,9 +716,27 @@ def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     np.linalg.eigh runs instead and raises its LinAlgError."""
     if _GU_EIGH is not None:
         lam, vec = _GU_EIGH(a)
-        if math.isfinite(np.add.reduce(lam, axis=None)):
+        if _finite(lam):
             return lam, vec
     return tuple(np.linalg.eigh(a))
+
+
+def _finite(x: np.ndarray) -> bool:
+    """No NaN or infinity in x (a few numbers: summed in Python, cheaper than a
+    reduction)."""
+    if x.size <= 16:
+        return math.isfinite(sum(x.ravel().tolist()))
+    return math.isfinite(np.add.reduce(x, axis=None))
+
+
+def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(A, b)`` for (..., 3, 3) and (..., 3) by its gufunc (LU, one
+    LAPACK call per matrix); a NaN result falls back to np.linalg.solve, which raises."""
+    if _GU_SOLVE1 is not None:
+        x = _GU_SOLVE1(A, b)
+        if _finite(x):
+            return x
+    return np.linalg.solve(A, b[..., None])[..., 0]
 
 
 def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -706,7 +744,7 @@ def _svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     :func:`_eigh` (a NaN result falls back to np.linalg.svd, which raises)."""
     if _GU_SVD is not None:
         U, sv, Vt = _GU_SVD(a)
-        if math.isfinite(np.add.reduce(sv, axis=None)):
+        if _finite(sv):
             return U, sv, Vt
     return tuple(np.linalg.svd(a))
 
@@ -722,10 +760,13 @@ def _swap(a: np.ndarray) -> np.ndarray:
 
 
 def _gram(R: np.ndarray) -> np.ndarray:
-    """RᵀR of (..., 3, 3) matrices, elementwise (one product, one sum over 3 terms in
-    order): per matrix the same bits however many there are, and for many small
-    matrices several times faster than one BLAS call per matrix."""
-    return _sum(R[..., :, :, None] * R[..., :, None, :], axis=-3)
+    """RᵀR of (..., 3, 3) matrices, elementwise (one product, then the three terms added
+    in order): per matrix the same bits however many there are, and for many small
+    matrices faster than one BLAS call per matrix."""
+    P = R[..., :, :, None] * R[..., :, None, :]                   # R_ij R_ik at [i, j, k]
+    G = np.add(P[..., 0, :, :], P[..., 1, :, :])
+    G += P[..., 2, :, :]
+    return G
 
 
 def _stacked(R: np.ndarray) -> np.ndarray:
@@ -746,7 +787,7 @@ def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
     pairs is one (3n × 3) by (3 × n) product. ``out``: (S, 3n, n) to hold the result.
     """
     S, n = t.shape[:2]
-    r = _sum(R * t[..., :, None], axis=-2)                        # R_bᵀ t_b  (S, n, 3)
+    r = (_swap(R) @ t[..., None])[..., 0]                          # R_bᵀ t_b  (S, n, 3)
     tA = np.matmul(Rs, _swap(r), out=out).reshape(S, 3, n, n)
     return np.subtract(_swap(t)[..., None], tA, out=tA)
 
@@ -829,7 +870,13 @@ def _quality(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> np.ndarray:
     Z = np.concatenate([Ys, Rs], axis=-1)                         # (S, 3n, 6)
     E = np.matmul(Z, _swap(Z * _SIGNS), out=_scratch(1, (S, 3 * n, 3 * n)))   # Y Yᵀ − R Rᵀ
     E *= E
-    fro = _sum(E.reshape(S, 3, n, 3, n), axis=(1, 3))            # ‖block (a, b)‖²
+    # ‖block (a, b)‖² by explicit additions ((e0 + e1) + e2), faster than a reduction
+    # over these short axes
+    E = E.reshape(S, 3, n, 3, n)
+    E1 = np.add(E[:, 0], E[:, 1], out=_scratch(2, (S, n, 3, n)))
+    E1 += E[:, 2]
+    fro = np.add(E1[:, :, 0], E1[:, :, 1])
+    fro += E1[:, :, 2]
     np.sqrt(fro, out=fro)
     fro = fro.reshape(S, n * n)
     fro[:, :: n + 1] = 0.0                                        # i ≠ j only
@@ -908,7 +955,8 @@ _CHUNK_FLOATS = 1 << 18
 
 
 def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _Pairs,
-           min_rotation_rad: float, checked: tuple = (None, None, None)) -> dict:
+           min_rotation_rad: float, checked: tuple = (None, None, None),
+           diagnostics: bool = True) -> dict:
     """Core, batched: T_cw (S, n, 4, 4), T_gp (Sq, n, 4, 4), Sq ∈ {1, S}, T_all their
     concatenation (or None), pairs from :func:`_pairs`, ``checked`` = (G, err) of T_all
     from the validation (or Nones).
@@ -928,15 +976,16 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _
     if chunk >= S:
         if T_all is None:
             T_all = np.concatenate([T_cw, T_gp])
-        return _solve_block(T_all, *checked, S, pair, min_rotation_rad, S, 0)
+        return _solve_block(T_all, *checked, S, pair, min_rotation_rad, S, 0, diagnostics)
     parts = []
     for c0 in range(0, S, chunk):
         c = slice(c0, c0 + chunk)
         T_block = np.concatenate([T_cw[c], T_gp[c] if Sq > 1 else T_gp])
         parts.append(_solve_block(T_block, None, None, None, len(T_cw[c]), pair,
-                                  min_rotation_rad, S, c0))
+                                  min_rotation_rad, S, c0, diagnostics))
     per_sample = _PER_SAMPLE + (_PER_UNIT if Sq > 1 else ())
-    return {k: (np.concatenate([p[k] for p in parts]) if k in per_sample else parts[0][k])
+    return {k: (np.concatenate([p[k] for p in parts])
+                if k in per_sample and parts[0][k] is not None else parts[0][k])
             for k in parts[0]}
 
 
@@ -948,17 +997,20 @@ _PER_UNIT = ("W", "wk", "theta", "axis_spread", "dominant_axis")
 
 def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | None,
                  emax: float | None, S: int, pair: _Pairs, min_rotation_rad: float,
-                 S_total: int, offset: int) -> dict:
+                 S_total: int, offset: int, diagnostics: bool = True) -> dict:
     """One block: T_all (S + Sq, n, 4, 4) = S camera pose sets then Sq ∈ {1, S} unit
     pose sets; G_all = RᵀR (S + Sq, n, 3, 3), err (S + Sq, n) = max |RᵀR − I| per view
-    and emax its largest, if known. Samples are named ``offset + s`` of ``S_total`` in errors.
+    and emax its largest, if known. Samples are named ``offset + s`` of ``S_total`` in
+    errors. Without ``diagnostics`` (the batched result, which has none) cond(CᵀC) is
+    bounded without eigenvalues where it can be (:func:`_cond_CtC_surely_ok`); the
+    solution is the same either way (t_X by one LU solve per sample).
 
     Logs are taken once per unordered pair (i > j): ``α_ji = −α_ij`` and
     ``β_ji = −β_ij``, so ``β_ji α_jiᵀ = β_ij α_ijᵀ`` and pair (j, i) adds the same term
     to M; its weight is added to that of (i, j). Both sides share each call: one
     quaternion pass, one pass of pair translations, one eigen-decomposition (of
-    ``Σ w β βᵀ`` for the axis check and of CᵀC for its condition and t_X). The unit's
-    axis check comes before the camera's condition check.
+    ``Σ w β βᵀ`` for the axis check and of CᵀC for its condition). The unit's axis check
+    comes before the camera's condition check.
     """
     n = T_all.shape[1]
     Sq = T_all.shape[0] - S
@@ -979,16 +1031,24 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
     # (S,) the samples orthogonal to round-off (all of them: True)
     exact = True if emax < 1e-14 else _max(err[:S], axis=1) < 1e-14
     cam = _camera(T_all[:S], G_all[:S], W, exact, Rs_all[:S], t_all[:S])
-    lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
-    spread, axis = _check_rotation_axes((lam[:Sq], vec[:Sq]), wk, min_rotation_rad,
-                                        S_total, offset, wk is pair.wk_all)
-    lam, vec = lam[Sq:], vec[Sq:]
-    cond = _check_cond_CtC((lam, vec), S_total, offset)
+    if diagnostics:
+        lam, vec = _eigh(np.concatenate([G_unit, cam.CtC]))
+        eig_unit = lam[:Sq], vec[:Sq]
+    else:
+        eig_unit = _eigh(G_unit)
+    spread, axis = _check_rotation_axes(eig_unit, wk, min_rotation_rad, S_total, offset,
+                                        wk is pair.wk_all)
+    if diagnostics:
+        cond = _check_cond_CtC((lam[Sq:], vec[Sq:]), S_total, offset)
+    else:
+        cond = None
+        if not _cond_CtC_surely_ok(cam.CtC):     # some sample may be ill-conditioned
+            lam = np.linalg.eigvalsh(cam.CtC)
+            if not (lam[:, 2] <= MAX_COND_CTC * lam[:, 0]).all():   # name the weak axis
+                _check_cond_CtC(_eigh(cam.CtC), S_total, offset)
     a = _align_half_turns(alpha, theta_cam, beta, theta, bw, _max(angle, None))
     RX, sv = _polar_rotation(bw @ _swap(a))                       # eq. 9: M = Σ w β αᵀ
-    # t_X = (CᵀC)⁻¹ Cᵀd through the eigen-decomposition already at hand
-    y = (_swap(vec) @ _Ctd(W, cam, tB, RX)[..., None])[..., 0] / lam
-    tX = (vec @ y[..., None])[..., 0]
+    tX = _solve_spd(cam.CtC, _Ctd(W, cam, tB, RX))                # t_X = (CᵀC)⁻¹ Cᵀd
     return {"RX": RX, "tX": tX, "quality": _quality(cam.Rs, Qs, RX), "W": W, "wk": wk,
             "theta": theta, "sv": sv, "cond_CtC": cond, "axis_spread": spread,
             "dominant_axis": axis}
@@ -1083,7 +1143,8 @@ def solve_rasc_batch(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, 
         raise InputError(f"T_cam_from_world: no samples (shape {T_cw.shape})")
     _check_positions(T_cw.shape[1], T_gp.shape[1])
     _check_min_rotation(min_rotation_rad)
-    out = _solve(T_cw, T_gp, T_all, _pairs(T_cw.shape[1], pairs, None), min_rotation_rad, checked)
+    out = _solve(T_cw, T_gp, T_all, _pairs(T_cw.shape[1], pairs, None), min_rotation_rad, checked,
+                 diagnostics=False)
     return HandEyeBatchResult(T_cam_from_gaze=make_transform(out["RX"], out["tX"]),
                               quality=out["quality"])
 
