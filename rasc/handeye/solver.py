@@ -457,10 +457,14 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None,
     if emax >= 1e-14:
         # K^p e_k with p = ⌈log(4e17) / −log err⌉ per matrix (none for rigid ones)
         bad = np.flatnonzero(err >= 1e-14)
-        steps = np.ceil(math.log(4e17) / -np.log(err[bad])) - 1.0
+        steps = (np.ceil(math.log(4e17) / -np.log(err[bad])) - 1.0).astype(np.intp)
+        order = np.argsort(-steps, kind="stable")             # most steps first: then
+        bad, steps = bad[order], steps[order]                 # each step is on a prefix
         K, u = K4.reshape(m, 4, 4)[bad], v[bad]
-        for step in range(int(_max(steps))):
-            u = np.where((steps > step)[:, None], np.einsum("mij,mj->mi", K, u), u)
+        ascending = steps[::-1]
+        for step in range(int(steps[0])):
+            c = len(steps) - int(np.searchsorted(ascending, step, side="right"))
+            u[:c] = np.einsum("mij,mj->mi", K[:c], u[:c])     # matrices with steps > step
         v[bad] = u
     return v.reshape(R.shape[:-2] + (4,))
 
