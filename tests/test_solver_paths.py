@@ -130,6 +130,24 @@ def test_quaternions_of_many_non_orthogonal_matrices(sigma):
     np.testing.assert_allclose(q, want, atol=1e-13, rtol=0)
 
 
+def test_cond_bound_never_passes_an_ill_conditioned_CtC():
+    """``_cond_CtC_surely_ok`` may say "not certain" but never "fine" when cond(CᵀC) >
+    MAX_COND_CTC; it does say "fine" up to cond = MAX_COND_CTC / 10 (its bound is at
+    most 9× the condition number)."""
+    rng = np.random.default_rng(9)
+    Q = Rotation.random(2000, random_state=10).as_matrix()
+    cond = 10 ** rng.uniform(0, 8, 2000)
+    lam = np.stack([np.ones(2000), 10 ** rng.uniform(0, 1, 2000) * np.sqrt(cond), cond], 1)
+    lam[:, 1] = np.minimum(lam[:, 1], cond)
+    A = (Q * lam[:, None, :]) @ np.swapaxes(Q, 1, 2) * 10 ** rng.uniform(-3, 3, (2000, 1, 1))
+    for k in range(2000):
+        ok = solver._cond_CtC_surely_ok(A[k:k + 1])
+        if cond[k] > solver.MAX_COND_CTC:
+            assert not ok, cond[k]
+        if cond[k] < solver.MAX_COND_CTC / 10:
+            assert ok, cond[k]
+
+
 def test_chunked_batch_names_an_ill_conditioned_sample():
     """A sample whose motions turn about one axis, in a batch large enough to be chunked,
     raises the same error as its single solve, naming the sample."""
