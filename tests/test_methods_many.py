@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rasc.errors import DegenerateDataError, InputError
 from rasc.handeye import methods
@@ -91,3 +93,32 @@ def test_plugins_and_unknown_options_go_set_by_set():
     assert all(isinstance(e, TypeError) for e in bad)
     with pytest.raises(InputError, match="unknown"):
         solve_many("no-such-method", T_cw, PAPER)
+
+
+@settings(max_examples=20, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), S=st.integers(1, 30),
+       bad=st.lists(st.tuples(st.integers(0, 29), st.sampled_from(["pan-only", "nan",
+                                                                     "not rigid", "few"])),
+                    max_size=4),
+       variant=st.sampled_from(["exponential", "literal"]))
+def test_any_batch_with_degenerate_members_gives_each_set_its_own_outcome(seed, S, bad,
+                                                                          variant):
+    """Random batch sizes and noisy pose sets, with degenerate or invalid members at
+    random places (pan-only motion, a NaN, a non-rigid matrix, motions too small to use):
+    every set's outcome is its own solve's, to the bit or to the message."""
+    T_cw = noisy_sets(seed, S, variant)
+    T_gp = np.repeat(PAPER[None], S, 0)
+    for k, kind in bad:
+        k %= S
+        if kind == "pan-only":
+            T_gp[k] = pan_tilt([(a, 0.0) for a in np.linspace(-8, 8, 9)])
+        elif kind == "nan":
+            T_cw[k, k % 9, 0, 3] = np.nan
+        elif kind == "not rigid":
+            T_cw[k, 0, :3, :3] *= 1.01
+        else:                                   # all motions below MIN_PAIR_ROTATION_RAD
+            T_gp[k] = pan_tilt([(1e-3 * a, 1e-3 * (a % 2)) for a in range(9)])
+    options = {"check_rigid": variant == "exponential"}
+    got = solve_many("rasc", T_cw, T_gp, **options)
+    for s in range(S):
+        assert_same(got[s], solve_or_error("rasc", T_cw[s], T_gp[s], **options))
