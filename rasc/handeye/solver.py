@@ -29,21 +29,27 @@ and π, equal to :func:`rasc.geometry.transforms.rotvec_from_matrix` of the pair
 for rotations (tested to 1e-12). A half turn's log has no sign of its own; the sign of
 each half-turn α is taken to agree with the other pairs' R_X (:func:`_align_half_turns`).
 
-Speed. For nine views the solve is a few hundred numpy calls on arrays of a few dozen
+Speed. For nine views the solve is about a hundred numpy calls on arrays of a few dozen
 numbers, so it is their count that costs: both inputs are validated in one pass and their
 logs taken in one pass, no scipy Rotation objects are made, the sums over views are
 matrix products in a component-major layout (:func:`_stacked`), one eigen-decomposition
-serves the axis-spread check and cond(CᵀC), whose eigenvectors also solve for t_X. For
-many views and for the batched form, every n²-sized step is one matrix product or a
-reduction over a leading axis, and batches go through in blocks of ``_CHUNK_FLOATS``.
-LAPACK is called through numpy's gufuncs directly (:func:`_eigh`, :func:`_svd`: the same
-numbers without np.linalg's per-call set-up), and the n²-sized temporaries live in
-per-thread scratch arrays (:func:`_scratch`): allocated afresh, each costs page faults
-whenever the allocator has returned the memory in between (376 per 88-view solve).
-In the batched form a pair-weight matrix shared by all samples is applied as one large
-product (:func:`_left_matmul`), literal input converges by matrix-vector products
-(:func:`_quaternions`) and cond(CᵀC) is bounded without eigenvalues
-(:func:`_cond_CtC_surely_ok`).
+serves the axis-spread check, cond(CᵀC) and the diagnostics, and every n²-sized step is
+one matrix product or elementwise pass. LAPACK is called through numpy's gufuncs directly
+(:func:`_eigh`, :func:`_svd`, :func:`_solve_spd`: the same numbers without np.linalg's
+per-call set-up), and the large n²-sized temporaries live in per-thread scratch arrays
+(:func:`_scratch`): allocated afresh, each costs page faults whenever the allocator has
+returned the memory in between (376 per 88-view solve).
+
+One code path for every batch size. A single solve is a batch of one sample, and batches
+go through in blocks of ``_CHUNK_FLOATS`` numbers, each block by the same code, whose
+every step treats a sample on its own: its own decisions (orthogonal to round-off or
+not, how many power steps per view, half turns), one LAPACK call per matrix, products
+per sample of fixed shape (never one BLAS product whose size, and so whose kernels and
+summation order, depends on the number of samples: measured to change last bits), and
+reductions along per-sample axes. So ``solve_rasc_batch(T)[k]``,
+``solve_rasc_batch(T[k:k+1])`` and ``solve_rasc(T[k])`` are the same bits
+(tests/test_solver_batch.py). The batched form, which returns no diagnostics, bounds
+cond(CᵀC) without eigenvalues where it can (:func:`_cond_CtC_surely_ok`).
 Timings, against OpenCV's PARK in the same run: ``benchmarks/bench_handeye.py`` (figures
 in the README).
 
