@@ -815,9 +815,10 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                 cells_done += 1
                 bar.update(1)
     except RascError:
-        # bad input found only now (a dataset that cannot be rendered or calibrated):
-        # a folder this run created and filled with nothing finished is removed
-        if created and count["rendered"] == 0 and cells_done == 0:
+        # bad input found only now (a dataset that cannot be rendered or calibrated, a
+        # scene that cannot be rendered again): a folder this run created is removed
+        # unless a cell has finished (its datasets alone are no result)
+        if created and cells_done == 0:
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
