@@ -21,6 +21,15 @@ from rasc.study.engine import cell_task  # noqa: E402
 from rasc.study.executors import Executor  # noqa: E402
 from rasc.study.spec import pose_grid  # noqa: E402
 
+
+@pytest.fixture(scope="module", autouse=True)
+def no_dataset_cache():
+    """Without the dataset cache (RASC_CACHE_DIR=none): every study here renders what it
+    needs, in the executor under test (the cache: tests/test_study_pose_sets.py)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RASC_CACHE_DIR", "none")
+        yield
+
 TINY = """\
 name = "tiny"
 seed = 3

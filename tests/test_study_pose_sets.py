@@ -34,6 +34,14 @@ from rasc.study.engine import (
 HEAD = "seed = 5\nsamples = 4\nmethods = ['rasc', 'li']\n"
 REPO = Path(__file__).resolve().parents[1]
 
+
+@pytest.fixture(autouse=True)
+def own_cache(tmp_path, monkeypatch):
+    """Each test its own dataset cache (RASC_CACHE_DIR), so that what it counts as
+    rendered does not depend on earlier runs."""
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache" / "study-datasets"
+
 # ------------------------------------------------------------------ bad input
 
 BAD = [
@@ -231,7 +239,8 @@ def default_doc(default_dataset):
 
 
 @pytest.mark.slow
-def test_pose_sets_rendered_with_a_given_datasets_intrinsics(default_doc, tmp_path):
+def test_pose_sets_rendered_with_a_given_datasets_intrinsics(default_doc, tmp_path,
+                                                             monkeypatch):
     """±8° is the dataset's own pose set (not rendered, the same document); ±2° is
     rendered in its scene and measured with its intrinsics: its noise-free extrinsics
     are within 5e-4 rad and 0.2 mm per axis of the rendered truth (measured on the ±8°
@@ -259,7 +268,8 @@ def test_pose_sets_rendered_with_a_given_datasets_intrinsics(default_doc, tmp_pa
         assert max(float(r[f"pose_rot_{a}_rad"]) for a in "xyz") < 5e-4
         assert max(float(r[f"pose_t_{a}_mm"]) for a in "xyz") < 0.2
         assert r["status"] == "ok" and float(r["translation_mm"]) < 2.0
-    # the same study again on 2 workers: the same bytes
+    # the same study again on 2 workers, rendering again (no cache): the same bytes
+    monkeypatch.setenv("RASC_CACHE_DIR", "none")
     again = run_study(spec, tmp_path / "o2", workers=2, quiet=True, dataset=default_doc,
                       figures=False, pose_errors=True)
     for name in ("samples.csv", "summary.csv"):
@@ -330,3 +340,52 @@ def test_readme_small_motions_example_runs(tmp_path):
         assert t[("2.0", m)]["n"] == "5" and t[("8.0", m)]["n"] == "5"
     assert float(t[("2.0", "rasc")]["translation_mm_mean"]) > float(
         t[("8.0", "rasc")]["translation_mm_mean"])
+
+
+# ------------------------------------------------------------------ the cache
+
+TINY_RENDER = """\
+seed = 2
+samples = 2
+methods = ['rasc']
+[fixed]
+intrinsics_views = 4
+intrinsics_from = 'dataset'
+corner_noise_px = 0.3
+[axes]
+motion_deg = [8.0, 3.0]
+"""
+
+
+@pytest.mark.slow
+def test_a_study_run_twice_renders_once(tmp_path, own_cache, monkeypatch, capsys):
+    """The second run copies both datasets (the base and the ±3° pose set) from the
+    cache and writes the same bytes; a damaged cache file is rendered again;
+    RASC_CACHE_DIR=none neither reads nor writes the cache."""
+    spec = load_spec(write(tmp_path, TINY_RENDER))
+    first = run_study(spec, tmp_path / "a", figures=False)
+    assert (first.datasets_rendered, first.datasets_cached) == (2, 0)
+    assert len(list(own_cache.glob("*.json"))) == 2
+    capsys.readouterr()
+    second = run_study(spec, tmp_path / "b", figures=False)
+    assert (second.datasets_rendered, second.datasets_cached) == (0, 2)
+    assert "2 dataset(s) copied from the cache" in capsys.readouterr().err
+
+    def tree(folder):
+        return {p.relative_to(folder).as_posix(): p.read_bytes()
+                for p in sorted(folder.rglob("*")) if p.is_file()}
+    a, b = tree(tmp_path / "a"), tree(tmp_path / "b")
+    assert a == b and any(n.startswith("datasets/") for n in a)
+    # a damaged entry is rendered again (and stored whole)
+    damaged = sorted(own_cache.glob("*.json"))[0]
+    damaged.write_text(damaged.read_text()[:100])
+    third = run_study(spec, tmp_path / "c", quiet=True, figures=False)
+    assert (third.datasets_rendered, third.datasets_cached) == (1, 1)
+    assert tree(tmp_path / "c") == a
+    json.loads(damaged.read_text())
+    # no cache at all
+    monkeypatch.setenv("RASC_CACHE_DIR", "none")
+    shutil.rmtree(own_cache)
+    fourth = run_study(spec, tmp_path / "d", quiet=True, figures=False)
+    assert (fourth.datasets_rendered, fourth.datasets_cached) == (2, 0)
+    assert not own_cache.exists() and tree(tmp_path / "d") == a

@@ -424,6 +424,88 @@ def _in_metres(doc: dict, metres: float) -> dict:
     return doc
 
 
+# ---------------------------------------------------------------------- the cache
+
+#: the distributions whose versions enter the cache key (the first of each group found)
+CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
+                   ("opencv-python-headless", "opencv-python", "opencv-contrib-python",
+                    "opencv-contrib-python-headless"))
+
+
+def cache_dir() -> Path | None:
+    """Where rendered study datasets are cached between runs: ``$RASC_CACHE_DIR/
+    study-datasets`` (``RASC_CACHE_DIR=none`` turns the cache off), else under
+    ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
+    root = os.environ.get("RASC_CACHE_DIR")
+    if root is not None and root.strip().lower() in ("none", "off", ""):
+        return None
+    if not root:
+        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
+    return Path(root) / "study-datasets"
+
+
+_CODE_DIGEST: list[str] = []
+
+
+def code_digest() -> str:
+    """sha256 over rasc's version, every file of the package (its code and models: the
+    renderer, the pipeline that calibrates a render, this engine) and the versions of
+    the libraries that render, detect and solve: what a cached dataset depends on."""
+    if not _CODE_DIGEST:
+        import hashlib
+        import importlib.metadata
+
+        import rasc
+        root = Path(rasc.__file__).parent
+        h = hashlib.sha256(f"rasc {rasc.__version__}\0".encode())
+        for p in sorted(root.rglob("*")):
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
+                h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+        for names in CACHE_LIBRARIES:
+            for name in names:
+                try:
+                    h.update(f"{name} {importlib.metadata.version(name)}\0".encode())
+                    break
+                except importlib.metadata.PackageNotFoundError:
+                    continue
+        _CODE_DIGEST.append(h.hexdigest())
+    return _CODE_DIGEST[0]
+
+
+def cache_key(kind: str, task: dict) -> str:
+    """The cache file name of a render (``kind`` "render") or pose-set (``kind`` "poses")
+    task: sha256 of :func:`code_digest`, the task's dataset key, render parameters (the
+    model as its file's sha256), seed and, for a pose set, its base dataset's sha256."""
+    from rasc.study.spec import _digest
+    what = {"format": "rasc-study-cache/1", "code": code_digest(), "kind": kind,
+            "key": task["key"], "render": task["render"], "seed": task["seed"]}
+    if kind == "poses":
+        what["base"] = dataset_digest_of(task["base"])
+    return _digest(what)[:32]
+
+
+def _cache_get(root: Path | None, name: str) -> dict | None:
+    if root is None:
+        return None
+    try:
+        doc = json.loads((root / f"{name}.json").read_text())
+    except (OSError, ValueError):
+        return None          # absent, unreadable or damaged: render it again
+    return doc if isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1" \
+        else None
+
+
+def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], None]) -> None:
+    """Store a dataset document in the cache (whole or not at all; best effort)."""
+    if root is None:
+        return
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(root / f"{name}.json", doc)
+    except OSError as exc:
+        log(f"rasc study: note: could not cache a dataset in {root} ({exc})")
+
+
 # ---------------------------------------------------------------------- samples
 
 def sample_rng(seed: int, cell: Cell, sample: int) -> np.random.Generator:
@@ -631,6 +713,8 @@ class StudyResult:
     samples_csv: Path
     summary_csv: Path
     figures: list[Path]
+    #: datasets copied from the cache (:func:`cache_dir`) instead of rendering
+    datasets_cached: int = 0
 
 
 def dataset_digest_of(doc: dict) -> str:
@@ -740,7 +824,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "study.json", _manifest(spec, cells, given))
     cells_done = 0
-    count = {"rendered": 0}
+    count = {"rendered": 0, "cached": 0}
     header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
               + (POSE_ERROR_COLUMNS if pose_errors else ()))
     try:
@@ -773,7 +857,9 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                  "model_path": (str(spec.model_path(wanted[k]["model"]))
                                 if wanted[k].get("model") else None)} for k in missing]
         datasets = {}
-        _render(executor, fn, tasks, out, quiet, "render datasets", count)
+        cache = cache_dir()
+        _render(executor, fn, tasks, out, quiet, "render datasets", count,
+                cache if fn is render_task else None, "render", log)
         for k in wanted:
             datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
 
@@ -797,7 +883,8 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                                                 if base_r.get("model") else None)})
         missing = [k for k in sorted(poses) if not (out / "datasets" / f"{k}.json").is_file()]
         tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]} for k in missing]
-        _render(executor, pose_task, tasks, out, quiet, "render pose sets", count)
+        _render(executor, pose_task, tasks, out, quiet, "render pose sets", count, cache,
+                "poses", log)
         for k in poses:
             datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
 
@@ -842,21 +929,38 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     if figures:
         from rasc.study.figures import plot_study
         files = plot_study(spec, summary, out / "figures")
+    if count["cached"] and not quiet:
+        log(f"rasc study: {count['cached']} dataset(s) copied from the cache {cache} "
+            "(same render parameters, seed and rasc; RASC_CACHE_DIR=none renders afresh)")
     return StudyResult(out, len(cells), cells_done, count["rendered"], out / "samples.csv",
-                       out / "summary.csv", files)
+                       out / "summary.csv", files, count["cached"])
 
 
 def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
-            desc: str, count: dict[str, int]) -> None:
+            desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
+            log: Callable[[str], None] = print) -> None:
     """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
-    (``count["rendered"]`` counts them)."""
+    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there is
+    copied instead (``count["cached"]``) and a rendered one stored there."""
     from rasc.progress import progress
 
-    if not tasks:
+    names = [cache_key(kind, t) for t in tasks] if cache is not None else []
+    todo = []
+    for k, task in enumerate(tasks):
+        doc = _cache_get(cache, names[k]) if cache is not None else None
+        if doc is not None and doc.get("key") == task["key"]:
+            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
+            count["cached"] += 1
+        else:
+            todo.append(k)
+    if not todo:
         return
-    with progress(total=len(tasks), desc=desc, quiet=quiet, unit="dataset") as bar:
-        for i, doc in executor.map_unordered(fn, tasks):
-            write_json_atomic(out / "datasets" / f"{tasks[i]['key']}.json", doc)
+    with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
+        for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
+            task = tasks[todo[i]]
+            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
+            if cache is not None:
+                _cache_put(cache, names[todo[i]], doc, log)
             count["rendered"] += 1
             bar.update(1)
 
