@@ -6,7 +6,8 @@ A study folder ``DIR``::
     study.json            the normalised spec, its sha256, the cells (the manifest)
     datasets/<key>.json   one per distinct set of render parameters: the real pipeline's
                           measurements of a rendered dataset (poses, corners, intrinsics)
-                          and the renderer's truth; reused by every cell that needs it
+                          and the renderer's truth; reused by every cell that needs it,
+                          and cached between runs (:func:`cache_dir`, RASC_CACHE_DIR)
     cells/cell-NNNNN.csv  one per finished cell (rows of samples.csv), written atomically
     samples.csv           one row per cell x sample x method
     summary.csv           per cell and method: n, failures, mean, median, std and a
@@ -24,7 +25,15 @@ Per sample, in this order: corner noise (``corner_noise_px``: an (N, 2) normal b
 view, in view order, then each view's extrinsics re-estimated with the pipeline's
 intrinsics, docs/METHOD.md §7), then eq. 13-14 pose noise on every ``T_cam_from_world``
 (``sigma_r``, ``sigma_t_mm``; ``noise_model`` literal or exponential; docs/METHOD.md §8),
-then every method on the same noisy poses (paired samples).
+then every method on the same noisy poses (paired samples); a solve beyond the spec's
+``gross_rotation_deg`` / ``gross_translation_mm`` is a failure with status ``gross``.
+``run_study(..., pose_errors=True)`` adds each sample's extrinsics error against the
+rendered truth (:data:`POSE_ERROR_COLUMNS`).
+
+``intrinsics_from = "dataset"`` (E6b): a cell's pose views are rendered in its base
+dataset's scene (:func:`pose_task`) and measured with the base's intrinsics; the base
+(the given dataset, or the one its render parameters give at the default pose set) is
+made first, and a cell whose pose set is the base's own uses the base itself.
 """
 
 from __future__ import annotations
