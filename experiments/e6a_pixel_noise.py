@@ -208,11 +208,12 @@ def slopes(summary: list[dict]) -> dict[str, float]:
     return out
 
 
-def plot(summary_csv, stem) -> list:
+def plot(summary_csv, stem, draft: bool = False) -> list:
     """Error against sigma (log-log), from the summary file; sigma = 0 as dotted lines."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     rows = read_csv(summary_csv)
     fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4))
@@ -238,12 +239,16 @@ def plot(summary_csv, stem) -> list:
         ax.set_yscale("log")
         ax.set_xlabel("corner noise σ (px)")
         ax.set_ylabel(f"T_cam_from_gaze {label}")
-        ax.grid(True, which="both", alpha=0.3)
+        if draft:                  # --quick: no minor ticks (text layout is the cost)
+            ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+            ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.grid(True, which="major" if draft else "both", alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper left")
     fig.suptitle("E6a: hand-eye error vs image corner noise (mean over samples; "
                  "sparse dots: RASC at σ = 0)", fontsize=10)
-    fig.tight_layout()
-    paths = save_figure(fig, stem)
+    if not draft:
+        fig.tight_layout()
+    paths = save_figure(fig, stem, (".png",) if draft else (".png", ".svg"), draft)
     plt.close(fig)
     return paths
 
@@ -332,7 +337,7 @@ def run(ctx: Context) -> Section:
     write_csv(out / "summary.csv", SUMMARY_HEADER,
               summarise(read_csv(out / "raw.csv") + read_csv(out / "eq13_matched_raw.csv")))
     summ_rows = read_csv(out / "summary.csv")
-    fig_paths = plot(out / "summary.csv", out / "e6a_pixel_noise")
+    fig_paths = plot(out / "summary.csv", out / "e6a_pixel_noise", draft=ctx.quick)
 
     truth = ctx.truth()
     camera = {"image_size": truth["left"]["image_size"],

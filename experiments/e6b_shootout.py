@@ -180,7 +180,7 @@ def analyse(summary: list[dict], pose: list[dict], spec) -> dict:
 MARKERS = "osD^v<>px*h"
 
 
-def plot(summary_csv, stem) -> list:
+def plot(summary_csv, stem, draft: bool = False) -> list:
     """Median errors and failures against the pose-set amplitude, from the summary file."""
     import matplotlib
     matplotlib.use("Agg")
@@ -213,7 +213,10 @@ def plot(summary_csv, stem) -> list:
         ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_xlabel("pose set (3×3 grid of pan, tilt)")
         ax.set_ylabel(f"T_cam_from_gaze {label}")
-        ax.grid(True, which="both", alpha=0.3)
+        if draft:                  # --quick: no minor ticks (text layout is the cost)
+            ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+            ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.grid(True, which="major" if draft else "both", alpha=0.3)
     n = int(rows[0]["n"]) if rows else 0
     axes[2].set_xticks(np.arange(len(sets)), [f"±{s:g}°" for s in sets])
     axes[2].set_ylim(0, max(1, n) * 1.05)
@@ -227,8 +230,9 @@ def plot(summary_csv, stem) -> list:
     fig.suptitle("E6b: hand-eye methods on identical rendered data, corner noise "
                  "(medians over runs that did not fail, both eyes; RASC, Park and Horaud "
                  "overlap in rotation)", fontsize=10)
-    fig.tight_layout()
-    paths = save_figure(fig, stem)
+    if not draft:
+        fig.tight_layout()
+    paths = save_figure(fig, stem, (".png",) if draft else (".png", ".svg"), draft)
     plt.close(fig)
     return paths
 
@@ -254,7 +258,7 @@ def run(ctx: Context) -> Section:
     rows = read_csv(out / "summary.csv")
     doc = analyse(rows, read_csv(out / "pose_noise_raw.csv"), spec)
     write_json(out / "summary.json", doc)
-    fig_paths = plot(out / "summary.csv", out / "e6b_shootout")
+    fig_paths = plot(out / "summary.csv", out / "e6b_shootout", draft=ctx.quick)
     by = {(float(r["pose_set_deg"]), r["method"]): r for r in rows}
     sets = tuple(doc["protocol"]["pose_sets_deg"])
     md = _markdown(ctx, sets, spec.samples, methods, by, doc)
