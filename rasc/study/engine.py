@@ -423,6 +423,10 @@ def _in_metres(doc: dict, metres: float) -> dict:
     if metres == 1.0:
         return doc
     doc["board"]["square_size"] *= metres
+    if "scene" in doc:
+        T = np.asarray(doc["scene"]["T_base_from_world"], float)
+        T[:3, 3] *= metres
+        doc["scene"]["T_base_from_world"] = T.tolist()
     for eye in doc["eyes"].values():
         for key in ("T_cam_from_world", "T_cam_from_gaze_true", "T_cam_from_world_true"):
             if key not in eye:
