@@ -409,12 +409,14 @@ def experiment_spec(ctx: Context, name: str):
     return replace(load_spec(SPECS / f"{name}.toml", quick=ctx.quick), seed=ctx.seed)
 
 
-def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False):
+def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False,
+             pose_errors: bool = False):
     """Run spec ``name`` on the default dataset (:meth:`Context.study_dataset`, never
     rendered again) into ``folder/<name>`` with ``ctx.workers`` processes; finished cells
     of an earlier run of the same spec on the same dataset are reused (``--resume``),
     anything else there is replaced. Returns ``(spec, rows)``: the spec and the tidy
-    samples (dicts of ``samples.csv``)."""
+    samples (dicts of ``samples.csv``). ``estimates``, ``pose_errors``: the extra columns
+    of :func:`rasc.study.run_study`."""
     import shutil
 
     from rasc.study import run_study
@@ -425,13 +427,13 @@ def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False):
     resume = (out / "study.json").is_file()
     try:
         run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True, dataset=data,
-                  estimates=estimates, figures=False)
+                  estimates=estimates, figures=False, pose_errors=pose_errors)
     except InputError:
         if not resume:
             raise
         shutil.rmtree(out)                  # another spec or dataset: start afresh
         run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
-                  estimates=estimates, figures=False)
+                  estimates=estimates, figures=False, pose_errors=pose_errors)
     return spec, read_csv(out / "samples.csv")
 
 

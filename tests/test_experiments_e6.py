@@ -1,10 +1,12 @@
-"""Experiment E6 (beyond the paper), --quick: E6a corner-noise sweep, E6b hand-eye shoot-out.
+"""Experiment E6 (beyond the paper), --quick: E6a corner-noise sweep, E6b hand-eye shoot-out,
+both run by the study engine from their specs (experiments/specs/e6*.toml).
 
 The default dataset is rendered once per module and shared (symlinked) by every run's
 output folder; each run calibrates it through the real pipeline. E6a runs four times:
-A and B (workers 1), C (workers 2), F (the full protocol, workers 2); E6b three times:
-A (workers 1), C (workers 2) and P (workers 1, with three fake failing methods added to
-the method table). Result files (CSV/JSON) must be byte-identical across A, B, C.
+A and B (workers 1), C (workers 2), F (the full protocol, workers 2); E6b twice: A
+(workers 1) and C (workers 2). Result files (CSV/JSON) must be byte-identical across A,
+B, C. Failure counting is checked on the analysis functions with made-up study rows
+(the engine's classification itself: tests/test_study_pose_sets.py).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E
 from rasc.geometry.transforms import make_transform, matrix_from_rotvec  # noqa: E402
 from rasc.handeye.methods import METHODS  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
+from rasc.study.spec import load_spec  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
@@ -65,35 +68,17 @@ def e6a_runs(dataset, tmp_path_factory):
     return out
 
 
-def _raises(T_cw, T_gp):
-    raise SolverFailure("fake solver gave up")
-
-
-def _returns_nan(T_cw, T_gp):
-    return SimpleNamespace(T_cam_from_gaze=np.full((4, 4), np.nan), quality=np.nan)
-
-
-def _returns_identity(T_cw, T_gp):
-    return SimpleNamespace(T_cam_from_gaze=np.eye(4), quality=0.0)
-
-
-FAKES = {"test-raises": _raises, "test-nan": _returns_nan, "test-identity": _returns_identity}
-
-
 @pytest.fixture(scope="module")
 def e6b_runs(dataset, tmp_path_factory):
     out = {}
     for name, workers in (("A", 1), ("C", 2)):
         ctx = make_ctx(tmp_path_factory.mktemp(f"e6b_{name}"), dataset, workers)
         out[name] = (ctx, e6b.run(ctx))
-    patch = pytest.MonkeyPatch()
-    try:
-        patch.setattr(e6b, "METHODS", {**METHODS, **FAKES})
-        ctx = make_ctx(tmp_path_factory.mktemp("e6b_P"), dataset, 1)
-        out["P"] = (ctx, e6b.run(ctx))
-    finally:
-        patch.undo()
     return out
+
+
+def spec(name: str, quick: bool = True):
+    return load_spec(common.SPECS / f"{name}.toml", quick=quick)
 
 
 # ------------------------------------------------------------------------ E6a
@@ -102,35 +87,43 @@ def e6b_runs(dataset, tmp_path_factory):
 def test_e6a_files_rows_and_section(e6a_runs):
     ctx, sec = e6a_runs["A"]
     folder = ctx.out / e6a.NAME
+    q = spec(e6a.SPEC)
+    sigmas = q.axes["corner_noise_px"]
+    assert q.methods == e6a.SOLVERS and q.samples == 3 and sigmas == (0.0, 0.1, 0.5, 2.0)
     raw = read_csv(folder / "raw.csv")
     assert tuple(raw[0]) == e6a.RAW_HEADER
-    n = len(e6a.QUICK_SIGMAS_PX) * e6a.QUICK_N_SEEDS * len(EYES) * len(e6a.SOLVERS)
-    assert len(raw) == n
+    assert len(raw) == len(sigmas) * q.samples * len(EYES) * len(e6a.SOLVERS)
     assert {r["status"] for r in raw} == {"ok"}
-    assert sorted({float(r["sigma_px"]) for r in raw}) == sorted(e6a.QUICK_SIGMAS_PX)
+    assert sorted({float(r["sigma_px"]) for r in raw}) == sorted(sigmas)
     model = read_csv(folder / "eq13_matched_raw.csv")
-    n_pos = sum(s > 0 for s in e6a.QUICK_SIGMAS_PX)
+    n_pos = sum(s > 0 for s in sigmas)
     assert len(model) == n_pos * len(EYES) * e6a.QUICK_MODEL_SAMPLES
     summary = read_csv(folder / "summary.csv")
     assert tuple(summary[0]) == e6a.SUMMARY_HEADER
-    assert len(summary) == len(EYES) * (len(e6a.QUICK_SIGMAS_PX) * len(e6a.SOLVERS) + n_pos)
-    assert all(int(r["n"]) == e6a.QUICK_N_SEEDS for r in summary if r["method"] != e6a.MODEL)
+    assert len(summary) == len(EYES) * (len(sigmas) * len(e6a.SOLVERS) + n_pos)
+    assert all(int(r["n"]) == q.samples for r in summary if r["method"] != e6a.MODEL)
     pose = read_csv(folder / "pose_noise.csv")
-    assert [float(r["sigma_px"]) for r in pose] == sorted(e6a.QUICK_SIGMAS_PX)
+    assert [float(r["sigma_px"]) for r in pose] == sorted(sigmas)
+    # the study itself is kept beside the files, with its pose-error columns
+    assert (folder / e6a.SPEC / "study.json").is_file()
+    assert "pose_t_z_mm" in read_csv(folder / e6a.SPEC / "samples.csv")[0]
     # the figure exists and the section embeds it by a path relative to out/
+    # --quick draws a draft PNG only; the full run (F) also the SVG
+    assert (folder / "e6a_pixel_noise.png").stat().st_size > 1000
+    assert not (folder / "e6a_pixel_noise.svg").exists()
     for ext in (".png", ".svg"):
-        assert (folder / f"e6a_pixel_noise{ext}").stat().st_size > 1000
+        assert (e6a_runs["F"][0].out / "e6a" / f"e6a_pixel_noise{ext}").stat().st_size > 1000
     assert "](e6a/e6a_pixel_noise.png)" in sec.markdown
     assert (ctx.out / "e6a/e6a_pixel_noise.png").is_file()
     assert all(Path(f).is_file() for f in sec.files)
     assert sec.key == "e6a" and sec.summary["failures"] == 0
-    for s in e6a.QUICK_SIGMAS_PX:
+    for s in sigmas:
         assert f"| {s:g} |" in sec.markdown        # one table row per level
 
 
 def test_e6a_error_grows_with_corner_noise(e6a_runs):
     """Errors are linear in σ above a floor of ~0.01 deg / 0.3 mm (full run: slope 0.6
-    deg/px, i.e. ~20x from 0.1 to 2 px); a factor 2 leaves room for 3-seed scatter."""
+    deg/px, i.e. ~20x from 0.1 to 2 px); a factor 2 leaves room for 3-sample scatter."""
     _, sec = e6a_runs["A"]
     s = sec.summary
     assert s["max_sigma_px"] == 2.0 and s["min_positive_sigma_px"] == 0.1
@@ -154,7 +147,7 @@ def test_e6a_noise_free_row_is_the_pipeline_result(e6a_runs):
     for eye in EYES:
         rows = [r for r in raw if r["method"] == "rasc" and r["eye"] == eye
                 and float(r["sigma_px"]) == 0.0]
-        assert len(rows) == e6a.QUICK_N_SEEDS
+        assert len(rows) == spec(e6a.SPEC).samples
         want = errors[eye]["T_cam_from_gaze"]
         for r in rows:
             assert float(r["rotation_deg"]) == pytest.approx(want["rotation_deg"], abs=1e-9)
@@ -167,58 +160,72 @@ def test_e6a_deterministic_and_independent_of_workers(e6a_runs):
     assert len(files["A"]) == 6
     assert files["A"] == files["B"]          # same seed, same bytes
     assert files["A"] == files["C"]          # workers 1 vs 2
+    study = {k: result_files(e6a_runs[k][0].out / e6a.NAME / e6a.SPEC) for k in "AC"}
+    assert study["A"] == study["C"] and "samples.csv" in study["A"]
 
 
 def test_e6a_quick_rows_are_the_full_protocol_rows(e6a_runs):
-    """Each (σ, seed) has its own generator keyed by σ, so the quick levels' results are
-    exactly the full run's rows for those levels and seeds."""
+    """The engine seeds each sample by its cell's parameters, so the quick levels'
+    results are exactly the full run's rows for those levels and samples."""
     quick = read_csv(e6a_runs["A"][0].out / "e6a/raw.csv")
     full = read_csv(e6a_runs["F"][0].out / "e6a/raw.csv")
-    assert len(full) == (len(e6a.SIGMAS_PX) * e6a.N_SEEDS * len(EYES) * len(e6a.SOLVERS))
-    key = ("sigma_px", "seed", "eye", "method")
+    f = spec(e6a.SPEC, quick=False)
+    assert len(full) == (len(f.axes["corner_noise_px"]) * f.samples * len(EYES)
+                         * len(e6a.SOLVERS))
+    key = ("sigma_px", "sample", "eye", "method")
     by_key = {tuple(r[k] for k in key): r for r in full}
     for r in quick:
         assert by_key[tuple(r[k] for k in key)] == r
     sec = e6a_runs["F"][1]
     assert sec.summary["failures"] == 0
-    assert "| 0.25 |" in sec.markdown and "10 seeds per level" in sec.markdown
+    assert "| 0.25 |" in sec.markdown and "10 samples per level" in sec.markdown
 
 
 # ------------------------------------------------------------------------ E6b
 
 
+def test_e6b_spec_has_every_method_and_the_gross_thresholds():
+    f = spec(e6b.SPEC, quick=False)
+    assert f.methods == tuple(METHODS)
+    assert (f.gross_rotation_deg, f.gross_translation_mm) == (10.0, 100.0)
+    assert f.axes["motion_deg"] == (8.0, 4.0, 2.0) and f.fixed["intrinsics_from"] == "dataset"
+
+
 def test_e6b_files_rows_and_section(e6b_runs):
     ctx, sec = e6b_runs["A"]
     folder = ctx.out / e6b.NAME
+    q = spec(e6b.SPEC)
+    sets, n_methods = q.axes["motion_deg"], len(METHODS)
+    assert sets == (8.0, 2.0)
     raw = read_csv(folder / "raw.csv")
     assert tuple(raw[0]) == e6b.RAW_HEADER
-    sets, n_methods = e6b.QUICK_POSE_SETS_DEG, len(METHODS)
-    assert len(raw) == len(sets) * (1 + e6b.QUICK_N_SEEDS) * len(EYES) * n_methods
-    # every method ran on every (set, sigma, seed, eye)
-    cells = {(r["pose_set_deg"], r["sigma_px"], r["seed"], r["eye"]) for r in raw}
-    assert len(cells) == len(sets) * (1 + e6b.QUICK_N_SEEDS) * len(EYES)
+    assert len(raw) == len(sets) * (1 + q.samples) * len(EYES) * n_methods
+    # every method ran on every (set, sigma, sample, eye)
+    cells = {(r["pose_set_deg"], r["sigma_px"], r["sample"], r["eye"]) for r in raw}
+    assert len(cells) == len(sets) * (1 + q.samples) * len(EYES)
     for c in cells:
         assert sorted(r["method"] for r in raw
-                      if (r["pose_set_deg"], r["sigma_px"], r["seed"], r["eye"]) == c
+                      if (r["pose_set_deg"], r["sigma_px"], r["sample"], r["eye"]) == c
                       ) == sorted(METHODS)
     summary = read_csv(folder / "summary.csv")
     assert tuple(summary[0]) == e6b.SUMMARY_HEADER
     assert len(summary) == len(sets) * n_methods
-    assert all(int(r["n"]) == 2 * e6b.QUICK_N_SEEDS for r in summary)
-    for ext in (".png", ".svg"):
-        assert (folder / f"e6b_shootout{ext}").stat().st_size > 1000
+    assert all(int(r["n"]) == 2 * q.samples for r in summary)
+    assert (folder / "e6b_shootout.png").stat().st_size > 1000      # --quick: a draft PNG
     assert "](e6b/e6b_shootout.png)" in sec.markdown
     assert all(Path(f).is_file() for f in sec.files)
     for m in METHODS:
         assert f"| ±2° | {m} |" in sec.markdown and f"| ±8° | {m} |" in sec.markdown
-    assert sec.summary["noisy_runs_per_cell"] == 2 * e6b.QUICK_N_SEEDS
+    assert sec.summary["noisy_runs_per_cell"] == 2 * q.samples
+    # one pose set rendered (±2°); ±8° is the default dataset's own
+    assert len(list((folder / e6b.SPEC / "datasets").glob("*.json"))) == 2
 
 
-def test_e6b_sanity(e6b_runs, e6a_runs):
+def test_e6b_sanity(e6b_runs):
     ctx, sec = e6b_runs["A"]
     s = sec.summary
     # RASC never fails on these grids, and its error grows as the motions shrink (full
-    # run: 3x from ±8° to ±2°, so the ordering is robust to 2 seeds)
+    # run: 3x from ±8° to ±2°, so the ordering is robust to 2 samples)
     assert all(v == 0 for v in s["failures"]["rasc"].values())
     assert all(v == 0 for v in s["clean_failures"]["rasc"].values())
     assert s["median_rotation_deg"]["rasc"]["2"] > s["median_rotation_deg"]["rasc"]["8"]
@@ -248,43 +255,70 @@ def test_e6b_deterministic_and_independent_of_workers(e6b_runs):
     c = result_files(e6b_runs["C"][0].out / e6b.NAME)
     assert len(a) == 4
     assert a == c
-    # run P (workers 1, another process state, extra methods) gives the real methods'
-    # rows byte for byte as run A: two runs with the same seed agree
-    raw_a = read_csv(e6b_runs["A"][0].out / "e6b/raw.csv")
-    raw_p = read_csv(e6b_runs["P"][0].out / "e6b/raw.csv")
-    assert [r for r in raw_p if r["method"] in METHODS] == raw_a
+    study_a = result_files(e6b_runs["A"][0].out / e6b.NAME / e6b.SPEC)
+    assert study_a == result_files(e6b_runs["C"][0].out / e6b.NAME / e6b.SPEC)
 
 
-def test_e6b_failures_are_counted_not_crashes(e6b_runs):
-    """Fake methods: one raises, one returns NaN, one returns the identity (gross). The
-    run completes and every one of their runs is counted, by kind."""
-    ctx, sec = e6b_runs["P"]
-    n_runs = 2 * e6b.QUICK_N_SEEDS
-    raw = read_csv(ctx.out / "e6b/raw.csv")
-    kinds = {"test-raises": "exception", "test-nan": "nan", "test-identity": "gross"}
-    for name, kind in kinds.items():
-        rows = [r for r in raw if r["method"] == name]
-        assert len(rows) == len(e6b.QUICK_POSE_SETS_DEG) * (1 + e6b.QUICK_N_SEEDS) * 2
-        assert {r["status"] for r in rows} == {kind}
-        for a in e6b.QUICK_POSE_SETS_DEG:
-            assert sec.summary["failures"][name][f"{a:g}"] == n_runs
-            assert sec.summary["clean_failures"][name][f"{a:g}"] == 2
-    assert all("SolverFailure: fake solver gave up" in r["detail"]
-               for r in raw if r["method"] == "test-raises")
-    assert all("(the identity returned)" in r["detail"]
-               for r in raw if r["method"] == "test-identity")
-    summary = {(r["pose_set_deg"], r["method"]): r
-               for r in read_csv(ctx.out / "e6b/summary.csv")}
-    for name, col in (("test-raises", "exceptions"), ("test-nan", "nans"),
-                      ("test-identity", "gross")):
-        assert int(summary[("2.0", name)][col]) == n_runs
-        assert summary[("2.0", name)]["rotation_median_deg"] == "nan"
-    assert f"**{n_runs}** ({n_runs} exc.)" in sec.markdown
-    assert f"**{n_runs}** ({n_runs} NaN)" in sec.markdown
-    assert f"**{n_runs}** ({n_runs} gross)" in sec.markdown
+def _tidy(method: str, status: str, sample: int, sigma: float, eye: str = "left",
+          motion: float = 2.0, rot: float = 0.5, trans: float = 5.0) -> dict:
+    """One made-up row of a study's samples.csv, as csv.DictReader gives it."""
+    failed = status.startswith("failed") or status == "non-finite"
+    num = (lambda x: "") if failed else repr
+    return {"cell": "0", "motion_deg": repr(motion), "corner_noise_px": repr(sigma),
+            "eye": eye, "sample": str(sample), "method": method, "status": status,
+            "translation_mm": num(trans), "rotation_deg": num(rot), "rotation_fro": num(0.01),
+            "quality": num(0.1), **{f"pose_rot_{a}_rad": "0.001" for a in "xyz"},
+            **{f"pose_t_{a}_mm": "0.2" for a in "xyz"}}
+
+
+def test_e6b_failures_are_counted_by_kind(tmp_path):
+    """The analysis over made-up study rows: the engine's statuses become exception /
+    nan / gross, are counted per kind over the noisy runs (both eyes), kept out of the
+    medians, and the noise-free cell (one row per eye, its samples repeated) counts
+    once per eye."""
+    tidy = []
+    for eye in EYES:
+        for s in range(3):                 # noise-free cell: the engine repeats sample 0
+            tidy += [_tidy("good", "ok", s, 0.0, eye, rot=0.1, trans=1.0),
+                     _tidy("raises", "failed: SolverFailure", s, 0.0, eye),
+                     _tidy("mixed", "non-finite", s, 0.0, eye)]
+        for s in range(3):
+            tidy += [_tidy("good", "ok", s, 0.25, eye, rot=0.2 + s, trans=2.0 + s),
+                     _tidy("raises", "failed: SolverFailure", s, 0.25, eye),
+                     _tidy("mixed", "gross" if s == 0 else "ok", s, 0.25, eye,
+                           rot=20.0 if s == 0 else 1.0, trans=3.0)]
+    raw = e6b.raw_rows(tidy)
+    assert len(raw) == 2 * 3 + 2 * 3 * 3          # noise-free: sample 0 only
+    write_csv_rows = [dict(zip(e6b.RAW_HEADER, map(str, r), strict=True)) for r in raw]
+    assert {r["status"] for r in write_csv_rows if r["method"] == "raises"} == {"exception"}
+    assert {r["detail"] for r in write_csv_rows if r["method"] == "raises"} == {"SolverFailure"}
+    rows = e6b.summarise(write_csv_rows, ("good", "raises", "mixed"))
+    by = {r[1]: dict(zip(e6b.SUMMARY_HEADER, r, strict=True)) for r in rows}
+    assert (by["good"]["n"], by["good"]["failures"], by["good"]["clean_failures"]) == (6, 0, 0)
+    assert by["good"]["rotation_median_deg"] == pytest.approx(1.2)   # 0.2 1.2 2.2 per eye
+    assert by["good"]["clean_translation_mm"] == pytest.approx(1.0)
+    assert (by["raises"]["failures"], by["raises"]["exceptions"]) == (6, 6)
+    assert by["raises"]["clean_failures"] == 2 and by["raises"]["first_failure"] == "SolverFailure"
+    assert (by["mixed"]["failures"], by["mixed"]["gross"], by["mixed"]["nans"]) == (2, 2, 0)
+    assert by["mixed"]["clean_failures"] == 2           # its noise-free runs were non-finite
+    assert by["mixed"]["rotation_median_deg"] == pytest.approx(1.0)  # gross left out
+    assert by["mixed"]["first_failure"] == "non-finite T_cam_from_gaze"
+    assert e6b._failure_kinds({k: str(v) for k, v in by["mixed"].items()}) == "**2** (2 gross)"
 
 
 # -------------------------------------------------------- run_method, render-free
+
+def _raises(T_cw, T_gp):
+    raise SolverFailure("fake solver gave up")
+
+
+def _returns_nan(T_cw, T_gp):
+    return SimpleNamespace(T_cam_from_gaze=np.full((4, 4), np.nan), quality=np.nan)
+
+
+def _returns_identity(T_cw, T_gp):
+    return SimpleNamespace(T_cam_from_gaze=np.eye(4), quality=0.0)
+
 
 
 def _synthetic(seed: int = 0):

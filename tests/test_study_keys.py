@@ -25,6 +25,15 @@ from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.engine import ESTIMATE_COLUMNS, cell_task, home_view, unit_builds  # noqa: E402
 from rasc.study.spec import PARAMS  # noqa: E402
 
+
+@pytest.fixture(scope="module", autouse=True)
+def no_dataset_cache():
+    """Without the dataset cache (RASC_CACHE_DIR=none): every study here renders what it
+    needs, in the executor under test (the cache: tests/test_study_pose_sets.py)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RASC_CACHE_DIR", "none")
+        yield
+
 HEAD = "seed = 5\nsamples = 6\nmethods = ['rasc', 'li']\n"
 
 # ------------------------------------------------------------------ bad input

@@ -6,7 +6,8 @@ A study folder ``DIR``::
     study.json            the normalised spec, its sha256, the cells (the manifest)
     datasets/<key>.json   one per distinct set of render parameters: the real pipeline's
                           measurements of a rendered dataset (poses, corners, intrinsics)
-                          and the renderer's truth; reused by every cell that needs it
+                          and the renderer's truth; reused by every cell that needs it,
+                          and cached between runs (:func:`cache_dir`, RASC_CACHE_DIR)
     cells/cell-NNNNN.csv  one per finished cell (rows of samples.csv), written atomically
     samples.csv           one row per cell x sample x method
     summary.csv           per cell and method: n, failures, mean, median, std and a
@@ -24,7 +25,15 @@ Per sample, in this order: corner noise (``corner_noise_px``: an (N, 2) normal b
 view, in view order, then each view's extrinsics re-estimated with the pipeline's
 intrinsics, docs/METHOD.md §7), then eq. 13-14 pose noise on every ``T_cam_from_world``
 (``sigma_r``, ``sigma_t_mm``; ``noise_model`` literal or exponential; docs/METHOD.md §8),
-then every method on the same noisy poses (paired samples).
+then every method on the same noisy poses (paired samples); a solve beyond the spec's
+``gross_rotation_deg`` / ``gross_translation_mm`` is a failure with status ``gross``.
+``run_study(..., pose_errors=True)`` adds each sample's extrinsics error against the
+rendered truth (:data:`POSE_ERROR_COLUMNS`).
+
+``intrinsics_from = "dataset"`` (E6b): a cell's pose views are rendered in its base
+dataset's scene (:func:`pose_task`) and measured with the base's intrinsics; the base
+(the given dataset, or the one its render parameters give at the default pose set) is
+made first, and a cell whose pose set is the base's own uses the base itself.
 """
 
 from __future__ import annotations
@@ -51,11 +60,13 @@ from rasc.study.executors import Executor, make_executor, worker_environment
 from rasc.study.spec import (
     FORMAT,
     PARAMS,
+    POSE_PARAMS,
     STATS,
     SUMMARY_TAIL,
     UNIT_PARAMS,
     Cell,
     Spec,
+    check_beside_dataset,
     dataset_metres,
     pose_grid,
 )
@@ -136,9 +147,15 @@ def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
         deviations from what the data give without added noise.
     """
     eyes = {}
+    views = (truth or {}).get("views", {})
     for eye, res in cal.eyes.items():
         ref = (truth[eye]["T_cam_from_gaze"] if truth is not None
                else np.asarray(res.handeye.T_cam_from_gaze, float).tolist())
+        if all(f in views for f in res.pose_files):
+            extra_eye = {"T_cam_from_world_true": [views[f]["T_cam_from_world"]
+                                                   for f in res.pose_files]}
+        else:
+            extra_eye = {}
         eyes[eye] = {
             "files": list(res.pose_files),
             "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
@@ -147,12 +164,33 @@ def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
                         for f in res.pose_files],
             "K": np.asarray(res.intrinsics.K, float).tolist(),
             "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
-            "T_cam_from_gaze_true": ref}
+            "T_cam_from_gaze_true": ref, **extra_eye}
+    scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
+        if truth is not None else None
     return {"format": "rasc-study-dataset/1", **extra,
             **({} if truth is not None else {"reference": "measured"}),
+            **({"scene": scene} if scene is not None else {}),
             "board": {"inner_corners": list(board.inner_corners),
                       "square_size": board.square_size},
             "eyes": eyes}
+
+
+def _scene_record(truth: dict, pose_files) -> dict | None:
+    """What re-rendering a dataset's scene needs and checks, from its ground truth: the
+    render options, the board's pose (at the first pose view) and each head as built;
+    None for a dataset whose ground truth does not record them (not rendered by rasc)."""
+    opts = truth.get("render_options")
+    views = truth.get("views", {})
+    first = views.get(pose_files[0]) if pose_files else None
+    if opts is None or first is None or "T_base_from_world" not in first or not all(
+            "unit_as_built" in truth.get(eye, {}) for eye in EYES):
+        return None
+    return {"render_options": {k: opts.get(k) for k in (
+                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist")},
+            "model_file": truth.get("model_file"),
+            "generated_scene": truth.get("generated_scene", False),
+            "T_base_from_world": first["T_base_from_world"],
+            "heads": {eye: truth[eye]["unit_as_built"] for eye in EYES}}
 
 
 def render_task(task: dict) -> dict:
@@ -209,18 +247,276 @@ def folder_task(task: dict) -> dict:
     return _in_metres(doc, dataset_metres(folder))
 
 
+#: the scene re-rendered for ``intrinsics_from = "dataset"`` must be the base's: the
+#: board's pose, the heads' constants within this (both come from the same model through
+#: quaternion round trips: ~1e-15 seen; a different scene differs by millimetres)
+SAME_SCENE_ATOL = 1e-9
+#: the generator of a pose-only render's image degradation: SeedSequence([seed, this, key])
+POSE_RENDER_KEY = 0x9053
+
+
+def same_poses(doc: dict, poses_deg) -> bool:
+    """Whether both eyes of a dataset document have exactly the pose set ``poses_deg``
+    (pan, tilt in degrees, in this order; within 1e-12 rad)."""
+    want = np.radians(np.asarray(poses_deg, float))
+    for eye in doc["eyes"].values():
+        have = np.asarray(eye["pan_tilt_rad"], float)
+        if have.shape != want.shape or np.abs(have - want).max() > 1e-12:
+            return False
+    return True
+
+
+def _differs(a, b, path: str = "") -> str | None:
+    """The first place two JSON trees differ (numbers within SAME_SCENE_ATOL), or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if k not in a or k not in b:
+                return f"{path}.{k}".lstrip(".")
+            d = _differs(a[k], b[k], f"{path}.{k}")
+            if d:
+                return d
+        return None
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        if len(a) != len(b):
+            return path.lstrip(".")
+        for k, (x, y) in enumerate(zip(a, b, strict=True)):
+            d = _differs(x, y, f"{path}[{k}]")
+            if d:
+                return d
+        return None
+    if isinstance(a, int | float) and isinstance(b, int | float) and \
+            not isinstance(a, bool) and not isinstance(b, bool):
+        return None if abs(float(a) - float(b)) <= SAME_SCENE_ATOL else path.lstrip(".")
+    return None if a == b else path.lstrip(".")
+
+
+def pose_task(task: dict) -> dict:
+    """``intrinsics_from = "dataset"``: render only the pose views of ``task["render"]``'s
+    pose set in the base dataset's scene, detect their corners (the pipeline's detector)
+    and estimate each view's extrinsics with the base's intrinsics (docs/METHOD.md §7).
+    Returns a dataset document like :func:`render_task`'s (JSON-ready).
+
+    The scene: a base rendered by this study is re-rendered from its render parameters;
+    a given base from its ``scene`` record (the ground truth's render options, board
+    pose and heads, checked against the package model's within SAME_SCENE_ATOL).
+
+    Raises
+    ------
+    rasc.errors.InputError
+        The base has no scene record (not rendered by rasc), its scene is not the package
+        model's, or a pose view cannot see the board.
+    rasc.errors.DegenerateDataError
+        The board is not found in a rendered pose view.
+    """
+    worker_environment()
+    from rasc.head.pipeline import CalibrationOptions
+    from rasc.sim.render import RenderOptions, check_pose_views
+    from rasc.sim.scene import (
+        StereoHeadSim,
+        T_base_from_world_facing,
+        degrade,
+        distortion_warp,
+    )
+    from rasc.vision.board import Board
+    from rasc.vision.camera import detect_corners, estimate_extrinsics
+
+    base, r = task["base"], task["render"]
+    where = task["where"]
+    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
+    poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
+    if "render" in base:                   # rendered by this study: its own parameters
+        b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
+             if p.kind == "render"}
+        scene = {"seed": base["seed"], "target_distance": b["distance"],
+                 "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
+                 "dist": list(b["distortion"])}
+        model_path, units, record = task.get("model_path"), unit_builds(base["render"]), None
+    else:
+        record = base.get("scene")
+        if record is None:
+            raise InputError(f"{where}: intrinsics_from = 'dataset' renders pose views in "
+                             "the dataset's scene, but the dataset records none (its "
+                             "ground_truth.json has no render_options, views and heads: "
+                             "not rendered by rasc render)")
+        if record.get("generated_scene"):
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset was "
+                             "rendered from a generated scene, which cannot be rendered again")
+        scene = record["render_options"]
+        model_path, units = None, None
+    board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
+    options = RenderOptions(poses_deg=poses, target_distance=scene["target_distance"],
+                            seed=scene["seed"], noise_sigma=scene["noise_sigma"] or 0.0,
+                            blur_sigma=scene["blur_sigma"] or 0.0,
+                            dist=tuple(scene["dist"] or ()))
+    dist = np.zeros(5)
+    dist[:len(options.dist)] = options.dist
+    distorted = bool(np.any(dist != 0))
+    rng = np.random.default_rng(np.random.SeedSequence(
+        [task["seed"], POSE_RENDER_KEY, int(task["key"], 16)]))
+    detector = CalibrationOptions().detector
+    images: dict[str, list] = {eye: [] for eye in EYES}
+    T_true: dict[str, list] = {eye: [] for eye in EYES}
+    with StereoHeadSim(model_path, units=units) as sim:
+        if sim.board != board:
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the scene's board "
+                             f"{sim.board} is not the dataset's {board}")
+        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        if record is not None:
+            gt = sim.ground_truth()
+            diff = _differs(sim.T_base_from_world.tolist(), record["T_base_from_world"]) \
+                and "T_base_from_world"
+            for eye in EYES:
+                diff = diff or _differs(gt[eye]["unit_as_built"], record["heads"][eye],
+                                        f"{eye}.unit_as_built")
+            if diff:
+                raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset's scene "
+                                 f"is not the package model's ({diff} differs); only a "
+                                 "dataset rendered from it can be rendered again")
+        check_pose_views(sim, options, dist if distorted else None)
+        warp = {eye: distortion_warp(sim.K(eye), dist, sim.image_size) for eye in EYES} \
+            if distorted else {}
+        for pan, tilt in poses:
+            for eye in EYES:
+                sim.set_angles(eye, np.radians(pan), np.radians(tilt))
+            for eye in EYES:
+                image = sim.render_grey(eye)
+                if distorted:              # as rasc.sim.render: distortion, blur, noise
+                    image = warp[eye](image)
+                images[eye].append(degrade(image, rng, blur_sigma=options.blur_sigma,
+                                           noise_sigma=options.noise_sigma))
+                T_true[eye].append(sim.T_cam_from_world(eye).tolist())
+        X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
+    pan_tilt = np.radians(np.asarray(poses, float))
+    eyes = {}
+    for eye, data in base["eyes"].items():
+        X_true = np.asarray(data["T_cam_from_gaze_true"], float)
+        if np.abs(X_sim[eye] - X_true).max() > SAME_SCENE_ATOL:
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the rendered {eye} "
+                             "head's T_cam_from_gaze is not the dataset's truth")
+        K, d = np.asarray(data["K"], float), np.asarray(data["dist"], float)
+        files, corners, T_cw = [], [], []
+        for k, image in enumerate(images[eye]):
+            name = f"poses±{full['motion_deg']:g}/{eye}_{k:02d}"
+            c = detect_corners(image, board, method=detector)
+            if c is None:
+                raise DegenerateDataError(f"{where}: the pose view {name} (pan, tilt = "
+                                          f"{poses[k][0]:g}, {poses[k][1]:g} deg): board "
+                                          "not found")
+            files.append(name)
+            corners.append(np.asarray(c, float).tolist())
+            T_cw.append(estimate_extrinsics(c, board, K, d)[0].tolist())
+        eyes[eye] = {"files": files, "pan_tilt_rad": pan_tilt.tolist(), "T_cam_from_world": T_cw,
+                     "corners": corners, "K": data["K"], "dist": data["dist"],
+                     "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
+                     "T_cam_from_world_true": T_true[eye]}
+    out = {"format": "rasc-study-dataset/1", "key": task["key"], "render": r,
+           "seed": task["seed"], "intrinsics_of": task["base_key"],
+           "board": base["board"], "eyes": eyes}
+    if record is not None:
+        out["scene"] = record
+    return out
+
+
 def _in_metres(doc: dict, metres: float) -> dict:
     """A dataset document's lengths (the board's square size, every translation) scaled
     by ``metres`` per unit: the cells measure errors and eq. 14 noise in metres."""
     if metres == 1.0:
         return doc
     doc["board"]["square_size"] *= metres
+    if "scene" in doc:
+        T = np.asarray(doc["scene"]["T_base_from_world"], float)
+        T[:3, 3] *= metres
+        doc["scene"]["T_base_from_world"] = T.tolist()
     for eye in doc["eyes"].values():
-        for key in ("T_cam_from_world", "T_cam_from_gaze_true"):
+        for key in ("T_cam_from_world", "T_cam_from_gaze_true", "T_cam_from_world_true"):
+            if key not in eye:
+                continue
             T = np.asarray(eye[key], float)
             T[..., :3, 3] *= metres
             eye[key] = T.tolist()
     return doc
+
+
+# ---------------------------------------------------------------------- the cache
+
+#: the distributions whose versions enter the cache key (the first of each group found)
+CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
+                   ("opencv-python-headless", "opencv-python", "opencv-contrib-python",
+                    "opencv-contrib-python-headless"))
+
+
+def cache_dir() -> Path | None:
+    """Where rendered study datasets are cached between runs: ``$RASC_CACHE_DIR/
+    study-datasets`` (``RASC_CACHE_DIR=none`` turns the cache off), else under
+    ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
+    root = os.environ.get("RASC_CACHE_DIR")
+    if root is not None and root.strip().lower() in ("none", "off", ""):
+        return None
+    if not root:
+        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
+    return Path(root) / "study-datasets"
+
+
+_CODE_DIGEST: list[str] = []
+
+
+def code_digest() -> str:
+    """sha256 over rasc's version, every file of the package (its code and models: the
+    renderer, the pipeline that calibrates a render, this engine) and the versions of
+    the libraries that render, detect and solve: what a cached dataset depends on."""
+    if not _CODE_DIGEST:
+        import hashlib
+        import importlib.metadata
+
+        import rasc
+        root = Path(rasc.__file__).parent
+        h = hashlib.sha256(f"rasc {rasc.__version__}\0".encode())
+        for p in sorted(root.rglob("*")):
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
+                h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+        for names in CACHE_LIBRARIES:
+            for name in names:
+                try:
+                    h.update(f"{name} {importlib.metadata.version(name)}\0".encode())
+                    break
+                except importlib.metadata.PackageNotFoundError:
+                    continue
+        _CODE_DIGEST.append(h.hexdigest())
+    return _CODE_DIGEST[0]
+
+
+def cache_key(kind: str, task: dict) -> str:
+    """The cache file name of a render (``kind`` "render") or pose-set (``kind`` "poses")
+    task: sha256 of :func:`code_digest`, the task's dataset key, render parameters (the
+    model as its file's sha256), seed and, for a pose set, its base dataset's sha256."""
+    from rasc.study.spec import _digest
+    what = {"format": "rasc-study-cache/1", "code": code_digest(), "kind": kind,
+            "key": task["key"], "render": task["render"], "seed": task["seed"]}
+    if kind == "poses":
+        what["base"] = dataset_digest_of(task["base"])
+    return _digest(what)[:32]
+
+
+def _cache_get(root: Path | None, name: str) -> dict | None:
+    if root is None:
+        return None
+    try:
+        doc = json.loads((root / f"{name}.json").read_text())
+    except (OSError, ValueError):
+        return None          # absent, unreadable or damaged: render it again
+    return doc if isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1" \
+        else None
+
+
+def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], None]) -> None:
+    """Store a dataset document in the cache (whole or not at all; best effort)."""
+    if root is None:
+        return
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(root / f"{name}.json", doc)
+    except OSError as exc:
+        log(f"rasc study: note: could not cache a dataset in {root} ({exc})")
 
 
 # ---------------------------------------------------------------------- samples
@@ -296,6 +592,31 @@ def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.n
 #: the estimate's columns of samples.csv with ``estimates=True`` (mm; R row-major)
 ESTIMATE_COLUMNS = ("t_x_mm", "t_y_mm", "t_z_mm",
                     *(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)))
+#: the sample's extrinsics error against the rendered truth, with ``pose_errors=True``:
+#: RMS over the pose views, per camera axis (x right, y down, z optical axis), of the
+#: rotation-error vector log(R R_true^T) (rad) and of t - t_true (mm); the eq. 13-14
+#: equivalent (docs/METHOD.md §8) is the RMS of each triple
+POSE_ERROR_COLUMNS = (*(f"pose_rot_{a}_rad" for a in "xyz"), *(f"pose_t_{a}_mm" for a in "xyz"))
+
+
+def pose_error_rms(T_cw: np.ndarray, T_true: np.ndarray) -> list[float]:
+    """:data:`POSE_ERROR_COLUMNS` of one pose set: ``T_cw``, ``T_true`` (n, 4, 4) in
+    metres → [rot x, y, z (rad), t x, y, z (mm)], RMS over the n views."""
+    from rasc.geometry.transforms import rotvec_from_matrix
+
+    w = rotvec_from_matrix(T_cw[:, :3, :3] @ np.swapaxes(T_true[:, :3, :3], -1, -2))
+    dt = 1000.0 * (T_cw[:, :3, 3] - T_true[:, :3, 3])
+    return [*map(float, np.sqrt(np.mean(w**2, axis=0))),
+            *map(float, np.sqrt(np.mean(dt**2, axis=0)))]
+
+
+def classify_gross(res: tuple, gross: tuple[float | None, float | None]) -> tuple:
+    """A scored solve (:func:`_score`'s tuple) with status "gross" when it is "ok" but
+    farther from the truth than ``gross`` = (deg, mm) allows (None: no limit)."""
+    deg, mm = gross
+    if res[0] == "ok" and (deg is not None and res[2] > deg or mm is not None and res[1] > mm):
+        return ("gross", *res[1:])
+    return res
 
 
 def home_view(pan_tilt: np.ndarray, where: str) -> int:
@@ -353,6 +674,14 @@ def cell_task(task: dict) -> list[list]:
         sets.append(T_cw)
     sets = np.array(sets)
     scored = {m: _score_samples(m, sets, T_gp, T_true, literal) for m in task["methods"]}
+    gross = task.get("gross", (None, None))
+    if gross != (None, None):
+        scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
+    pose_err = None
+    if task.get("pose_errors"):
+        truth = eye.get("T_cam_from_world_true")
+        pose_err = ([pose_error_rms(T, np.asarray(truth, float)) for T in sets]
+                    if truth is not None else [[float("nan")] * 6] * len(sets))
     rows = []
     for s in range(task["samples"]):
         for method in task["methods"]:
@@ -361,6 +690,8 @@ def cell_task(task: dict) -> list[list]:
             if task.get("estimates"):
                 row += ([*(1000.0 * T[:3, 3]), *T[:3, :3].ravel()] if T is not None
                         else [float("nan")] * len(ESTIMATE_COLUMNS))
+            if pose_err is not None:
+                row += pose_err[s if noisy else 0]
             rows.append(row)
     return rows
 
@@ -415,6 +746,8 @@ class StudyResult:
     samples_csv: Path
     summary_csv: Path
     figures: list[Path]
+    #: datasets copied from the cache (:func:`cache_dir`) instead of rendering
+    datasets_cached: int = 0
 
 
 def dataset_digest_of(doc: dict) -> str:
@@ -473,7 +806,8 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
               dask: str | None = None, resume: bool = False, quiet: bool = False,
               executor: Executor | None = None,
               log: Callable[[str], None] | None = None, dataset: dict | None = None,
-              estimates: bool = False, figures: bool = True) -> StudyResult:
+              estimates: bool = False, figures: bool = True,
+              pose_errors: bool = False) -> StudyResult:
     """Run (or, with ``resume``, continue) ``spec`` into the folder ``out``.
 
     Parameters
@@ -485,6 +819,9 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         ``study.json`` and ``--resume`` continues only the same dataset.
     estimates : bool
         Add the estimate (:data:`ESTIMATE_COLUMNS`) to every row of ``samples.csv``.
+    pose_errors : bool
+        Add the sample's extrinsics error against the rendered truth
+        (:data:`POSE_ERROR_COLUMNS`, empty for a dataset without one) to every row.
     figures : bool
         Draw ``figures/<axis>.png`` (callers that plot their own may skip them).
 
@@ -506,11 +843,9 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         if spec.dataset_path() is not None:
             raise InputError(f"{spec.path}: fixed.dataset: the caller gives the dataset "
                              "already; leave it out of the spec")
-        for table, t in (("fixed", spec.fixed), ("axes", spec.axes)):
-            for key in t:
-                if PARAMS[key].kind == "render":
-                    raise InputError(f"{spec.path}: {table}.{key}: a render parameter, but "
-                                     "the study runs on a given dataset")
+        def fail(key: str, msg: str):
+            raise InputError(f"{spec.path}: {key}: {msg}")
+        check_beside_dataset(spec.fixed, spec.axes, fail, "the study runs on a given dataset")
         given = dataset_digest_of(dataset)
     elif spec.dataset_path() is not None:
         given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
@@ -521,18 +856,26 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     for sub in ("cells", "datasets"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "study.json", _manifest(spec, cells, given))
-    cells_done = rendered = 0
-    header = SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
+    cells_done = 0
+    count = {"rendered": 0, "cached": 0}
+    header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
+              + (POSE_ERROR_COLUMNS if pose_errors else ()))
     try:
-        # 1. datasets: the one given, or one per distinct set of render parameters
-        if given is not None:
-            keys = {c.index: given for c in cells}
-            wanted = {given: None}
-        else:
-            keys = {c.index: dataset_key(c.render_params(), spec.seed) for c in cells}
-            wanted = {}
-            for c in cells:
-                wanted.setdefault(keys[c.index], c.render_params())
+        # 1. datasets: the one given, or one per distinct set of render parameters;
+        # cells with intrinsics_from = "dataset" first need their base dataset
+        def base_of(c: Cell) -> tuple[str, dict]:
+            r = c.render_params()
+            if given is not None:
+                return given, {}
+            if c.params["intrinsics_from"] != "dataset":
+                return dataset_key(r, spec.seed), r
+            b = {k: v for k, v in r.items() if k != "intrinsics_from"}
+            b.update({k: PARAMS[k].default for k in POSE_PARAMS})
+            return dataset_key(b, spec.seed), b
+        bases = {c.index: base_of(c) for c in cells}
+        wanted: dict[str, dict] = {}
+        for k, r in bases.values():
+            wanted.setdefault(k, r)
         missing = [k for k in wanted if not (out / "datasets" / f"{k}.json").is_file()]
         if dataset is not None:
             for k in missing:
@@ -546,22 +889,45 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                 {"key": k, "render": wanted[k], "seed": spec.seed,
                  "model_path": (str(spec.model_path(wanted[k]["model"]))
                                 if wanted[k].get("model") else None)} for k in missing]
-        if tasks:
-            with progress(total=len(tasks), desc="render datasets", quiet=quiet,
-                          unit="dataset") as bar:
-                for i, doc in executor.map_unordered(fn, tasks):
-                    write_json_atomic(out / "datasets" / f"{missing[i]}.json", doc)
-                    rendered += 1
-                    bar.update(1)
         datasets = {}
+        cache = cache_dir()
+        _render(executor, fn, tasks, out, quiet, "render datasets", count,
+                cache if fn is render_task else None, "render", log)
         for k in wanted:
+            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+
+        # 1b. pose sets in a base's scene with its intrinsics (intrinsics_from = "dataset")
+        keys, poses = {}, {}
+        for c in cells:
+            base_key, base_r = bases[c.index]
+            r = c.render_params()
+            if c.params["intrinsics_from"] != "dataset":
+                keys[c.index] = base_key
+                continue
+            grid = pose_grid(*(c.params[k] for k in ("layout", "positions", "motion_deg")))
+            if same_poses(datasets[base_key], grid):
+                keys[c.index] = base_key               # the base's own pose set
+                continue
+            k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
+            keys[c.index] = k
+            poses.setdefault(k, {"key": k, "base_key": base_key, "render": r,
+                                 "seed": spec.seed, "where": str(spec.path),
+                                 "model_path": (str(spec.model_path(base_r["model"]))
+                                                if base_r.get("model") else None)})
+        missing = [k for k in sorted(poses) if not (out / "datasets" / f"{k}.json").is_file()]
+        tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]} for k in missing]
+        _render(executor, pose_task, tasks, out, quiet, "render pose sets", count, cache,
+                "poses", log)
+        for k in poses:
             datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
 
         # 2. cells
         todo = [c for c in cells if not _cell_done(out, c, header)]
         tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
                   "samples": spec.samples, "methods": spec.methods,
-                  "estimates": estimates} for c in todo]
+                  "estimates": estimates, "pose_errors": pose_errors,
+                  "gross": (spec.gross_rotation_deg, spec.gross_translation_mm)}
+                 for c in todo]
         with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
             for i, rows in executor.map_unordered(cell_task, tasks):
@@ -569,9 +935,10 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                 cells_done += 1
                 bar.update(1)
     except RascError:
-        # bad input found only now (a dataset that cannot be rendered or calibrated):
-        # a folder this run created and filled with nothing finished is removed
-        if created and rendered == 0 and cells_done == 0:
+        # bad input found only now (a dataset that cannot be rendered or calibrated, a
+        # scene that cannot be rendered again): a folder this run created is removed
+        # unless a cell has finished (its datasets alone are no result)
+        if created and cells_done == 0:
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
@@ -595,8 +962,40 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     if figures:
         from rasc.study.figures import plot_study
         files = plot_study(spec, summary, out / "figures")
-    return StudyResult(out, len(cells), cells_done, rendered, out / "samples.csv",
-                       out / "summary.csv", files)
+    if count["cached"] and not quiet:
+        log(f"rasc study: {count['cached']} dataset(s) copied from the cache {cache} "
+            "(same render parameters, seed and rasc; RASC_CACHE_DIR=none renders afresh)")
+    return StudyResult(out, len(cells), cells_done, count["rendered"], out / "samples.csv",
+                       out / "summary.csv", files, count["cached"])
+
+
+def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
+            desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
+            log: Callable[[str], None] = print) -> None:
+    """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
+    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there is
+    copied instead (``count["cached"]``) and a rendered one stored there."""
+    from rasc.progress import progress
+
+    names = [cache_key(kind, t) for t in tasks] if cache is not None else []
+    todo = []
+    for k, task in enumerate(tasks):
+        doc = _cache_get(cache, names[k]) if cache is not None else None
+        if doc is not None and doc.get("key") == task["key"]:
+            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
+            count["cached"] += 1
+        else:
+            todo.append(k)
+    if not todo:
+        return
+    with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
+        for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
+            task = tasks[todo[i]]
+            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
+            if cache is not None:
+                _cache_put(cache, names[todo[i]], doc, log)
+            count["rendered"] += 1
+            bar.update(1)
 
 
 def _samples_text(out: Path, cells: list[Cell], axes: list[str], header) -> str:
@@ -638,4 +1037,4 @@ def _read_cell(out: Path, cell: Cell) -> list[list]:
 
 __all__ = ["run_study", "StudyResult", "summarise", "cell_task", "render_task", "PARAMS",
            "dumps_json", "dataset_document", "unit_builds", "ESTIMATE_COLUMNS",
-           "SAMPLE_COLUMNS"]
+           "SAMPLE_COLUMNS", "POSE_ERROR_COLUMNS", "pose_task", "pose_error_rms"]

@@ -31,7 +31,19 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
 - ``[fixed] dataset = "folder"``: an existing dataset instead of rendering (no render
   parameter beside it); ``run_study(..., dataset=doc)`` does the same from Python;
 - ``[quick]`` with ``samples``, ``methods`` and ``[quick.axes]`` (subsets): the reduced
-  protocol ``load_spec(path, quick=True)`` returns, made of the full protocol's cells.
+  protocol ``load_spec(path, quick=True)`` returns, made of the full protocol's cells;
+- ``intrinsics_from = "dataset"`` (render): the cell's pose views are rendered in the
+  scene of its *base* dataset and measured with the base's intrinsics instead of
+  calibrating intrinsics again; only the pose set (``motion_deg``, ``layout``,
+  ``positions``) differs from the base. The base is the ``[fixed] dataset`` (or the
+  dataset given to ``run_study``), which must then be a rendered one (its
+  ``ground_truth.json`` records the scene), else the dataset the same render parameters
+  give at the default pose set. A cell whose pose set is the base's own is the base (no
+  render). Beside a given dataset only ``intrinsics_from = "dataset"`` and the pose-set
+  parameters are allowed;
+- ``gross_rotation_deg``, ``gross_translation_mm`` (top level, > 0): a solve farther
+  from the truth than either is a failure with status ``gross`` (its errors are kept in
+  ``samples.csv``, left out of the summary's statistics); absent, nothing is gross.
 
 Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
 empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
@@ -69,6 +81,9 @@ PAPER_SIGMA_R_PER_LEVEL, PAPER_SIGMA_T_MM_PER_LEVEL = 0.005, 1.0
 LAYOUTS = ("grid", "cross", "ring")
 NOISE_MODELS = ("literal", "exponential")
 NOISE_ON = ("all", "home")
+INTRINSICS_FROM = ("calibrate", "dataset")
+#: the render parameters that make a pose set (what ``intrinsics_from = "dataset"`` varies)
+POSE_PARAMS = ("motion_deg", "layout", "positions")
 UNITS_EYES = ("both", *EYES)
 #: |axis_skew_deg| below this (rasc.sim.units: at 90° the axes would be parallel)
 MAX_SKEW_DEG = 45.0
@@ -194,6 +209,10 @@ PARAMS: dict[str, Param] = {
     "tilt_scale": Param(_positive, 1.0, "render", "tilt encoder scale (1 = exact)"),
     "units_eye": Param(_choice(UNITS_EYES), "both", "render",
                        "which pan-tilt unit(s) the head-model parameters apply to"),
+    "intrinsics_from": Param(_choice(INTRINSICS_FROM), "calibrate", "render",
+                             "calibrate: intrinsics from the cell's own rendered intrinsics "
+                             "views; dataset: the base dataset's intrinsics, only the pose "
+                             "views rendered (in the base's scene)"),
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
@@ -203,12 +222,13 @@ PARAMS: dict[str, Param] = {
 UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zero_deg",
                "pan_scale", "tilt_scale")
 #: parameters that enter a cell's identity only when they differ from their default
-IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset")
+IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None, "bootstrap": _int_at_least(100),
             "confidence": None, "paired": None, "fixed": None, "axes": None,
-            "quick": None}
+            "quick": None, "gross_rotation_deg": _positive,
+            "gross_translation_mm": _positive}
 #: what a [quick] table may narrow (load_spec(..., quick=True))
 QUICK_KEYS = ("samples", "methods", "axes")
 REQUIRED = ("seed", "samples", "methods")
@@ -311,6 +331,9 @@ class Spec:
     model_digests: dict[str, str]
     paired: tuple[str, ...] = ()
     dataset_digests: dict[str, str] = field(default_factory=dict)
+    #: gross-failure thresholds (deg, mm); None: not given
+    gross_rotation_deg: float | None = None
+    gross_translation_mm: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The normalised spec (what its hash covers; relative model paths resolved to
@@ -327,6 +350,9 @@ class Spec:
             out["paired"] = list(self.paired)
         if self.dataset_digests:
             out["dataset_digests"] = dict(self.dataset_digests)
+        for key in ("gross_rotation_deg", "gross_translation_mm"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
         return out
 
     @property
@@ -430,7 +456,8 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         if key not in doc:
             fail(key, "missing")
     top = {}
-    for key in ("name", "description", "seed", "samples", "bootstrap"):
+    for key in ("name", "description", "seed", "samples", "bootstrap",
+                "gross_rotation_deg", "gross_translation_mm"):
         if key in doc:
             try:
                 top[key] = TOP_KEYS[key](doc[key])
@@ -525,11 +552,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         fail("axes.dataset", "a study runs on one dataset; give it in [fixed]")
     dataset_digests: dict[str, str] = {}
     if fixed.get("dataset"):
-        for table, t in (("fixed", fixed), ("axes", axes)):
-            for key in t:
-                if PARAMS[key].kind == "render":
-                    fail(f"{table}.{key}", "a render parameter, but [fixed] dataset is "
-                         "given: the study runs on that dataset's images")
+        check_beside_dataset(fixed, axes, fail, "[fixed] dataset is given")
         folder = path.parent / fixed["dataset"]
         if not (folder / "manifest.json").is_file():
             fail("fixed.dataset", f"{folder}: not a dataset folder (no manifest.json)")
@@ -557,9 +580,36 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
                 samples=top["samples"], methods=tuple(methods),
                 bootstrap=top.get("bootstrap", 1000), confidence=confidence, fixed=fixed,
                 axes=axes, model_digests=digests, paired=tuple(paired),
-                dataset_digests=dataset_digests)
+                dataset_digests=dataset_digests,
+                gross_rotation_deg=top.get("gross_rotation_deg"),
+                gross_translation_mm=top.get("gross_translation_mm"))
     narrowed = _quick(doc.get("quick", {}), spec, fail)
     return narrowed if quick else spec
+
+
+def check_beside_dataset(fixed: dict[str, Any], axes: dict[str, tuple],
+                         fail: Callable[[str, str], None], given: str) -> None:
+    """Beside a given dataset, render parameters are refused, except the pose set
+    (:data:`POSE_PARAMS`) with ``intrinsics_from = "dataset"`` in ``[fixed]``: the study
+    then renders only pose views in that dataset's scene."""
+    reuse = fixed.get("intrinsics_from") == "dataset"
+    if "intrinsics_from" in axes:
+        fail("axes.intrinsics_from", f"{given}: give intrinsics_from = 'dataset' in [fixed]")
+    for table, t in (("fixed", fixed), ("axes", axes)):
+        for key in t:
+            if PARAMS[key].kind != "render" or key == "intrinsics_from" and reuse:
+                continue
+            if key in POSE_PARAMS and reuse:
+                continue
+            if key == "intrinsics_from":
+                fail(f"{table}.{key}", f"{given}: 'calibrate' would calibrate it again; "
+                     "'dataset' renders only pose views with its intrinsics")
+            fail(f"{table}.{key}", f"a render parameter, but {given}: the study runs on "
+                 "that dataset's images" + (" (with intrinsics_from = 'dataset' only "
+                                            "motion_deg, layout and positions may differ)"
+                                            if key not in POSE_PARAMS else
+                                            "; give intrinsics_from = 'dataset' to render "
+                                            "its pose views at another pose set"))
 
 
 def _quick(table: Any, spec: Spec, fail: Callable[[str, str], None]) -> Spec:
