@@ -43,7 +43,8 @@ its gauge value and returned as ``None`` with the reason, never as a number. Wit
 mounts this always removes the encoder offsets, the tilt point along the pan and the
 tilt axis, and the turn of the tilt axis about the pan axis (docs/METHOD.md §10).
 
-**Uncertainty.** σ² (JᵀJ)⁻¹ at the optimum, with J by central differences and σ² the
+**Uncertainty.** σ² (JᵀJ)⁻¹ at the optimum, with J analytic where the Levenberg–Marquardt
+Jacobian is and by central differences elsewhere (see Solver), and σ² the
 residual sum of squares over (m − n): the standard deviation of every estimated
 parameter, valid for independent corner noise of equal variance.
 
@@ -53,10 +54,10 @@ follows the block structure — a corner depends only on its eye's intrinsics an
 kinematics, the mounts (right eye) and its own board pose: the intrinsics and every board
 pose analytically (projection with distortion and K, the board's rotation through SO(3)'s
 left Jacobian; within 1e-7 of central differences, tests/test_refine_jacobian.py), the
-kinematic parameters by forward differences on their own images only. That halved the
+kinematic parameters by differences on their own images only (forward in the iterations,
+central for the identifiability test and the covariance). That halved the forward
 Jacobian's time (57 → 26 ms on the default synthetic head) and cut E7's run per case by
-about a third; the identifiability test and the covariance keep central differences over
-every column (:meth:`_Problem.jacobian`). :func:`_levenberg_marquardt` says why not
+about a third. :func:`_levenberg_marquardt` says why not
 :func:`scipy.optimize.least_squares`, which was tried first.
 
 **Robustness.** The soft-L1 loss with ``f_scale`` three times the corner noise (estimated
@@ -639,12 +640,19 @@ class _Problem:
         return [np.arange(e - c, e) for c, e in zip(counts, ends, strict=True)]
 
     def jacobian(self, x: np.ndarray, h: float = 1e-5, central: bool = True,
-                 r0: np.ndarray | None = None) -> sp.csr_matrix:
-        """Finite differences over the block structure: one evaluation (pair, when
-        ``central``) per global parameter, on the images it moves only, and one per
-        board-pose coordinate for all boards at once (their corners are disjoint).
-        Central: truncation error ~h² (1e-10 relative), for the identifiability test and
-        the covariance; forward (with ``r0``, the residuals at x): for the iterations."""
+                 r0: np.ndarray | None = None, analytic: bool = True) -> sp.csr_matrix:
+        """The Jacobian of :meth:`residuals` with respect to ``x`` (sparse, (2M, n)).
+
+        ``analytic`` (default): the intrinsics and board-pose columns analytically, the
+        kinematic ones by differences (:meth:`jacobian_lm`). Otherwise finite differences
+        over the block structure: one evaluation (pair, when ``central``) per global
+        parameter, on the images it moves only, and one per board-pose coordinate for all
+        boards at once (their corners are disjoint). Central: truncation error ~h² (1e-10
+        relative), for the identifiability test and the covariance; forward (with ``r0``,
+        the residuals at x): for the iterations."""
+        if analytic:
+            return self.jacobian_lm(x, self.residuals(x) if r0 is None and not central
+                                    else r0, h=h, central=central)
         rows_of = self._rows_of_images()
         n = len(self.names)
         col_imgs = self.column_images()
@@ -678,13 +686,15 @@ class _Problem:
                               (np.concatenate(data_r), np.concatenate(data_c))), shape=(m, n))
 
 
-    def jacobian_lm(self, x: np.ndarray, r0: np.ndarray, h: float = 1e-6) -> sp.csr_matrix:
-        """The Jacobian for the Levenberg–Marquardt iterations: the intrinsics and every
-        board pose analytically (:meth:`_project`: projection with distortion and K,
-        chained through the board's rotation by SO(3)'s left Jacobian), the kinematic
-        parameters (hand-eye, unit, mounts) by forward differences on their own images as
-        in :meth:`jacobian` (``r0``: the residuals at ``x``). The same matrix as
-        :meth:`jacobian` up to the differences' error (tests/test_refine_jacobian.py)."""
+    def jacobian_lm(self, x: np.ndarray, r0: np.ndarray | None, h: float = 1e-6,
+                    central: bool = False) -> sp.csr_matrix:
+        """The Jacobian with the intrinsics and every board pose analytically
+        (:meth:`_project`: projection with distortion and K, chained through the board's
+        rotation by SO(3)'s left Jacobian), the kinematic parameters (hand-eye, unit,
+        mounts) by differences on their own images as in :meth:`jacobian`: forward from
+        ``r0`` (the residuals at ``x``; the iterations) or ``central`` (the
+        identifiability test, the covariance). The same matrix as ``jacobian(...,
+        analytic=False)`` up to the differences' error (tests/test_refine_jacobian.py)."""
         n_img = len(self.img_eye)
         everything = np.arange(n_img)
         _, d = self._project(x, everything, self._chain(x, everything), derivatives=True)
@@ -724,7 +734,11 @@ class _Problem:
             dx[j] = h
             data_r.append(rows)
             data_c.append(np.full(len(rows), j))
-            data_v.append((self.residuals_of(x + dx, imgs) - r0[rows]) / h)
+            if central:
+                data_v.append((self.residuals_of(x + dx, imgs)
+                               - self.residuals_of(x - dx, imgs)) / (2 * h))
+            else:
+                data_v.append((self.residuals_of(x + dx, imgs) - r0[rows]) / h)
         m = int(mask.sum()) * 2
         return sp.csr_matrix((np.concatenate(data_v),
                               (np.concatenate(data_r), np.concatenate(data_c))), shape=(m, n))
