@@ -13,7 +13,8 @@ writes, its total is the process's wall time. Goals: the full reproduction under
 the reproduction (``git archive REF`` into a temporary folder, with this environment's
 Python) alternately with this one, so the before/after table comes from one run under
 the same load: its columns are ``quick before``, ``quick after`` (and the same for the
-full run), its rows the union of both versions' stages.
+full run), its rows the union of both versions' stages; and it compares the two
+versions' raw results (every CSV and JSON file, byte for byte) per mode.
 
 Absolute times move with the machine and its load, so the table also gives each total
 scaled by a yardstick measured in the same run, before and after: the median time of
@@ -86,6 +87,17 @@ def run_mode(quick: bool, seed: int, workers: int, folder: Path,
     return wall, stage_times(folder / "REPORT.md")
 
 
+def compare_results(a: Path, b: Path) -> tuple[int, list[str]]:
+    """The raw results (every CSV and JSON file) of two runs: (how many, the names of
+    those that differ in their bytes or exist in one run only)."""
+    def files(root: Path) -> dict[str, bytes]:
+        return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*")
+                if p.is_file() and p.suffix in (".csv", ".json")}
+    fa, fb = files(a), files(b)
+    names = sorted(set(fa) | set(fb))
+    return len(names), [n for n in names if fa.get(n) != fb.get(n)]
+
+
 def export_ref(ref: str, folder: Path) -> Path:
     """The tree of git ``ref`` of this repository, extracted into ``folder``."""
     folder.mkdir(parents=True)
@@ -122,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
                 results[mode, version] = run_mode(mode == "quick", args.seed, args.workers,
                                                   Path(tmp) / f"{mode}-{version}",
                                                   repos[version])
+        same = {mode: compare_results(Path(tmp) / f"{mode}-before", Path(tmp) / f"{mode}-after")
+                for mode in modes} if args.before else {}
     ystick_after = yardstick_ms()
 
     load = os.getloadavg()
@@ -151,6 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'scaled to the reference':<{width}}"
           + "".join(f"{results[c][0] * scale:>{cw}.1f}" for c in cols))
     print(f"{'goal':<{width}}" + "".join(f"{GOALS_S[m]:>{cw}.0f}" for m, _ in cols))
+    for mode, (n, differ) in same.items():
+        print(f"\n{mode}: raw results (CSV/JSON) before and after: {n} files, "
+              + (f"{len(differ)} differ: {', '.join(differ)}" if differ else
+                 "all byte-identical"))
     print("\n" + "; ".join(
         f"{m}{' ' + v if args.before else ''}: goal "
         f"{'met' if results[m, v][0] <= GOALS_S[m] else 'NOT met'} here, "

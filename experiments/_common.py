@@ -165,13 +165,141 @@ def dataset_cache(options: dict) -> Path | None:
     or ``~/.cache/rasc``, keyed by the sha256 of the options."""
     import hashlib
 
+    root = cache_root()
+    if root is None:
+        return None
+    key = hashlib.sha256(dumps_json(options).encode()).hexdigest()[:24]
+    return root / "reproduce-datasets" / key
+
+
+def cache_root() -> Path | None:
+    """``$RASC_CACHE_DIR`` (``none``, ``off`` or empty: no cache, None), else
+    ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
     root = os.environ.get("RASC_CACHE_DIR")
     if root is not None and root.strip().lower() in ("none", "off", ""):
         return None
     if not root:
         root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
-    key = hashlib.sha256(dumps_json(options).encode()).hexdigest()[:24]
-    return Path(root) / "reproduce-datasets" / key
+    return Path(root)
+
+
+#: the packages whose code computes a calibration (rasc.head.pipeline.calibrate_dataset):
+#: their sources, with rasc's top-level modules, are part of a cached calibration's key
+CALIBRATION_CODE = ("geometry", "handeye", "head", "vision")
+#: the format of a cached calibration (bump it when the entry's layout changes)
+CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/1"
+
+
+def _tree_digest(root: Path, files: Iterable[Path]) -> str:
+    """sha256 over the relative path and bytes of every file in ``files`` (sorted)."""
+    import hashlib
+    h = hashlib.sha256()
+    for p in sorted(files):
+        if p.is_file() and "__pycache__" not in p.parts:
+            data = p.read_bytes()
+            h.update(p.relative_to(root).as_posix().encode() + b"\0"
+                     + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
+
+
+def calibration_code_digest(root: Path | None = None) -> str:
+    """sha256 over the source of the code that computes a calibration: rasc's top-level
+    modules and the packages of :data:`CALIBRATION_CODE` (every ``.py`` file) of the
+    package folder ``root`` (default: the imported rasc's)."""
+    if root is None:
+        import rasc
+        root = Path(rasc.__file__).parent
+    files = [*root.glob("*.py")]
+    for pkg in CALIBRATION_CODE:
+        files += (root / pkg).rglob("*.py")
+    return _tree_digest(root, files)
+
+
+def calibration_key(dataset: Path) -> dict:
+    """What the default options' calibration of ``dataset`` depends on: the dataset's
+    content (sha256 of every file in it), the code that computes it
+    (:func:`calibration_code_digest`) and the libraries and Python it runs on."""
+    import platform
+
+    import cv2
+    import scipy
+
+    import rasc
+    return {"format": CALIBRATION_CACHE_FORMAT, "rasc_version": rasc.__version__,
+            "dataset_sha256": _tree_digest(dataset, Path(dataset).rglob("*")),
+            "code_sha256": calibration_code_digest(),
+            "libraries": {"python": platform.python_version(), "numpy": np.__version__,
+                          "scipy": scipy.__version__, "opencv": cv2.__version__,
+                          "machine": platform.machine()}}
+
+
+def calibration_cache(key: dict) -> Path | None:
+    """Where the calibration with ``key`` (:func:`calibration_key`) is cached (None: the
+    cache is off), under :func:`cache_root`, named by the sha256 of the key."""
+    import hashlib
+
+    root = cache_root()
+    if root is None:
+        return None
+    name = hashlib.sha256(dumps_json(key).encode()).hexdigest()[:32]
+    return root / "reproduce-calibrations" / f"{name}.pickle"
+
+
+def _check_private(path: Path) -> None:
+    """Refuse (ValueError) a cache entry that someone else could have written: unpickling
+    runs code, so the entry and its folder must belong to this user and be writable by
+    nobody else."""
+    import stat
+
+    if not hasattr(os, "getuid"):
+        return
+    for where in (path, path.parent):
+        st = where.stat()
+        if st.st_uid != os.getuid():
+            raise ValueError(f"{where} belongs to user {st.st_uid}, not to this user "
+                             f"({os.getuid()}); not unpickled")
+        if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            raise ValueError(f"{where} is writable by others "
+                             f"(mode {stat.filemode(st.st_mode)}); not unpickled")
+
+
+def load_cached_calibration(path: Path, key: dict):
+    """The calibration cached in ``path`` if it was stored under exactly ``key``, else
+    None (missing: silently; unreadable, corrupt or another key: with a note on stderr,
+    and the caller computes it afresh)."""
+    import pickle
+
+    if not path.is_file():
+        return None
+    try:
+        _check_private(path)
+        entry = pickle.loads(path.read_bytes())
+        if not isinstance(entry, dict) or entry.get("key") != key:
+            raise ValueError("stored under another key")
+        from rasc.head.pipeline import Calibration
+        if not isinstance(entry.get("calibration"), Calibration):
+            raise ValueError("no calibration in it")
+        return entry["calibration"]
+    except Exception as exc:   # noqa: BLE001  (any unreadable entry is only a cache miss)
+        print(f"reproduce: note: ignored the cached calibration {path} "
+              f"({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); "
+              "calibrating afresh", file=sys.stderr)
+        return None
+
+
+def store_calibration(path: Path, key: dict, cal) -> None:
+    """Cache ``cal`` under ``key`` in ``path``, atomically (best effort: a note on
+    stderr if it cannot be written)."""
+    import pickle
+
+    from rasc.io import write_bytes_atomic
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_bytes_atomic(path, pickle.dumps({"key": key, "calibration": cal},
+                                              protocol=pickle.HIGHEST_PROTOCOL))
+    except OSError as exc:
+        print(f"reproduce: note: could not cache the calibration in {path} ({exc})",
+              file=sys.stderr)
 
 
 def _record(folder: Path) -> dict | None:
@@ -210,8 +338,10 @@ class Context:
     calibrated once (``out/data/``) through the real pipeline.
 
     ``ctx.dataset_dir()`` renders the default dataset (seeded by ``--seed``) on first
-    use; ``ctx.calibration()`` runs ``rasc.head.pipeline.calibrate_dataset`` on it once and
-    writes ``out/data/calibration.json``; ``ctx.truth()`` is its ``ground_truth.json``.
+    use; ``ctx.calibration()`` runs ``rasc.head.pipeline.calibrate_dataset`` on it once
+    (or reads it from the cache, :func:`calibration_cache`, keyed by the dataset's bytes
+    and the calibration code) and writes ``out/data/calibration.json``; ``ctx.truth()``
+    is its ``ground_truth.json``.
     Experiments write into ``ctx.dir(name)`` and return a :class:`Section` for the report.
     """
 
@@ -323,10 +453,22 @@ class Context:
             from rasc.head.pipeline import calibrate_dataset
             from rasc.vision.dataset import load_dataset
 
-            ds = load_dataset(self.dataset_dir())
-            with stage("calibrate the default dataset (detection, intrinsics, extrinsics, "
-                       "RASC, loop closure)"):
-                self._calibration = calibrate_dataset(ds)
+            folder = self.dataset_dir()
+            key = calibration_key(folder)
+            cache = calibration_cache(key)
+            cal = None if cache is None else load_cached_calibration(cache, key)
+            if cal is not None:
+                print(f"reproduce: the default dataset's calibration read from the cache "
+                      f"{cache} (same dataset bytes, same calibration code; "
+                      "RASC_CACHE_DIR=none calibrates afresh)", file=sys.stderr)
+            else:
+                ds = load_dataset(folder)
+                with stage("calibrate the default dataset (detection, intrinsics, "
+                           "extrinsics, RASC, loop closure)"):
+                    cal = calibrate_dataset(ds)
+                if cache is not None:
+                    store_calibration(cache, key, cal)
+            self._calibration = cal
             doc = self._calibration.to_dict()
             doc.pop("timings_s", None)  # wall times are not results: keep files identical
             write_json(self.out / "data" / "calibration.json", doc)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import sys
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -62,6 +63,28 @@ def warm() -> None:
 #: whether :func:`warm` ran to its end in this process (tests check it)
 WARMED = False
 
+
+#: set (to "1") in the environment of the forkserver that reproduce.py starts: see
+#: :func:`_exit_without_teardown`
+FORKSERVER_ENV = "RASC_REPRODUCE_FORKSERVER"
+
+
+def _exit_without_teardown() -> None:
+    """The forkserver's last atexit handler: end it at once. It ends (SystemExit) when
+    reproduce.py has finished, and its interpreter's teardown of everything imported
+    here took 0.6-0.8 s on the bench machine, during which it still holds the stderr it
+    shares with reproduce.py: a caller reading that pipe to its end (a test, the
+    benchmark, a CI log) waited for it. It has nothing to flush or write (its children,
+    the pool's workers, end with os._exit as forkserver children always do)."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    os._exit(0)
+
+
+if os.environ.get(FORKSERVER_ENV) == "1":
+    import atexit
+    atexit.register(_exit_without_teardown)
 
 # a failed warm-up only costs time (the workers then import what they need themselves)
 with contextlib.suppress(Exception):

@@ -1,0 +1,201 @@
+"""The reproduction's cache of the default dataset's calibration (experiments/_common.py).
+
+A cached calibration must round-trip exactly (every file an experiment writes from it is
+the same bytes as from a fresh calibration), must be keyed so that another dataset or a
+change to the calibration code can never be served a stale one, and a corrupt or foreign
+entry must be ignored with a note and recomputed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
+
+from experiments import _common  # noqa: E402
+from experiments import e4_triangulation as e4  # noqa: E402
+from experiments import e5_base_to_ptu as e5  # noqa: E402
+from experiments._common import (  # noqa: E402
+    Context,
+    calibration_cache,
+    calibration_code_digest,
+    calibration_key,
+    load_cached_calibration,
+    store_calibration,
+)
+from rasc.io import dumps_json  # noqa: E402
+
+
+def _context(out: Path, dataset: Path) -> Context:
+    """A quick, single-worker context on ``dataset`` (the session's rendered default
+    dataset, used in place: it has no render record, so dataset_dir is bypassed)."""
+    (out / "data").mkdir(parents=True)
+    ctx = Context(argparse.Namespace(seed=0, quick=True, out=out, workers=1))
+    ctx.dataset_dir = lambda: dataset
+    return ctx
+
+
+def _outputs(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.suffix in (".csv", ".json", ".md")}
+
+
+def test_cached_calibration_gives_the_same_bytes_downstream(default_dataset, tmp_path,
+                                                            monkeypatch, capsys):
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "cache"))
+    fresh = _context(tmp_path / "fresh", default_dataset)
+    cal = fresh.calibration()
+    err = capsys.readouterr().err
+    assert "calibrate the default dataset" in err and "from the cache" not in err
+    key = calibration_key(default_dataset)
+    assert calibration_cache(key).is_file()          # stored on the way
+
+    cached = _context(tmp_path / "cached", default_dataset)
+    cal2 = cached.calibration()
+    err = capsys.readouterr().err
+    assert "read from the cache" in err and "calibrate the default dataset (" not in err
+    assert cal2 is not cal
+    # the calibration file, the study document the study experiments start from, and
+    # two experiments run on it: the same bytes
+    assert (fresh.out / "data" / "calibration.json").read_bytes() == \
+        (cached.out / "data" / "calibration.json").read_bytes()
+    assert dumps_json(fresh.study_dataset()) == dumps_json(cached.study_dataset())
+    for ctx in (fresh, cached):
+        e4.run(ctx)
+        e5.run(ctx)
+    a, b = _outputs(fresh.out), _outputs(cached.out)
+    assert len(a) >= 6 and sorted(a) == sorted(b)
+    assert [n for n in a if a[n] != b[n]] == []
+
+
+def test_the_key_follows_the_dataset_bytes(default_dataset, tmp_path):
+    copy = tmp_path / "ds"
+    shutil.copytree(default_dataset, copy)
+    k0 = calibration_key(copy)
+    assert calibration_key(default_dataset) == k0      # content, not location
+    image = sorted(copy.rglob("*.png"))[0]
+    data = bytearray(image.read_bytes())
+    data[-20] ^= 1                                     # one bit of one image
+    image.write_bytes(bytes(data))
+    k1 = calibration_key(copy)
+    assert k1["dataset_sha256"] != k0["dataset_sha256"]
+    assert calibration_cache(k1) != calibration_cache(k0)
+
+
+def test_the_key_follows_the_calibration_code_only(tmp_path):
+    import rasc
+    root = tmp_path / "rasc"
+    shutil.copytree(Path(rasc.__file__).parent, root,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    d0 = calibration_code_digest(root)
+    assert d0 == calibration_code_digest()
+    # a change outside the calibration code (the renderer, the study engine): same key
+    for other in (root / "sim" / "scene.py", root / "study" / "engine.py"):
+        other.write_text(other.read_text() + "\n# changed\n")
+    assert calibration_code_digest(root) == d0
+    # one character in any package that computes a calibration: another key
+    for pkg in ("geometry", "handeye", "head", "vision"):
+        src = sorted((root / pkg).glob("*.py"))[-1]
+        text = src.read_text()
+        src.write_text(text + " ")
+        assert calibration_code_digest(root) != d0, pkg
+        src.write_text(text)
+    assert calibration_code_digest(root) == d0
+
+
+def test_cache_off_and_where_it_lives(monkeypatch, tmp_path):
+    key = {"format": "x"}
+    for off in ("none", "None", "off", ""):
+        monkeypatch.setenv("RASC_CACHE_DIR", off)
+        assert calibration_cache(key) is None
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path))
+    assert calibration_cache(key).parent == tmp_path / "reproduce-calibrations"
+    assert calibration_cache(key) != calibration_cache({"format": "y"})
+
+
+def test_corrupt_or_foreign_entries_are_ignored_with_a_note(default_calibration, tmp_path,
+                                                             capsys):
+    path = tmp_path / "entry.pickle"
+    key = {"format": _common.CALIBRATION_CACHE_FORMAT, "dataset_sha256": "a"}
+    assert load_cached_calibration(path, key) is None          # missing: silent
+    assert capsys.readouterr().err == ""
+    store_calibration(path, key, default_calibration)
+    assert [p.name for p in tmp_path.iterdir()] == ["entry.pickle"]   # no temporary left
+    back = load_cached_calibration(path, key)
+    assert dumps_json(back.to_dict()) == dumps_json(default_calibration.to_dict())
+    # another key (a stale entry under a colliding name): ignored, with a note
+    assert load_cached_calibration(path, {**key, "dataset_sha256": "b"}) is None
+    assert "stored under another key" in capsys.readouterr().err
+    # truncated, garbage, empty: ignored, with a note naming the file
+    data = path.read_bytes()
+    for bad in (data[:len(data) // 2], b"not a pickle", b""):
+        path.write_bytes(bad)
+        assert load_cached_calibration(path, key) is None
+        err = capsys.readouterr().err
+        assert err.startswith("reproduce: note: ignored the cached calibration")
+        assert str(path) in err and err.count("\n") == 1
+
+
+class _Trap:
+    """Unpickling this writes a file: proof that the entry was unpickled."""
+
+    def __init__(self, mark: Path) -> None:
+        self.mark = mark
+
+    def __reduce__(self):
+        return (Path.write_text, (self.mark, "unpickled"))
+
+
+def test_an_entry_others_can_write_is_never_unpickled(tmp_path, capsys):
+    """Unpickling runs code, so an entry (or its folder) writable by group or others is
+    refused before it is read; the same file in a private folder is read (the control)."""
+    import os
+    import pickle
+
+    mark = tmp_path / "mark"
+    key = {"format": _common.CALIBRATION_CACHE_FORMAT, "dataset_sha256": "a"}
+    for folder_mode, file_mode in ((0o777, 0o600), (0o700, 0o666), (0o770, 0o600)):
+        folder = tmp_path / f"c{folder_mode:o}{file_mode:o}"
+        folder.mkdir()
+        path = folder / "entry.pickle"
+        path.write_bytes(pickle.dumps({"key": key, "calibration": _Trap(mark)}))
+        os.chmod(path, file_mode)
+        os.chmod(folder, folder_mode)
+        assert load_cached_calibration(path, key) is None
+        err = capsys.readouterr().err
+        assert "writable by others" in err and "not unpickled" in err
+        assert not mark.exists()
+    private = tmp_path / "private"
+    private.mkdir(mode=0o700)
+    path = private / "entry.pickle"
+    path.write_bytes(pickle.dumps({"key": key, "calibration": _Trap(mark)}))
+    os.chmod(path, 0o600)
+    assert load_cached_calibration(path, key) is None      # read, then refused: not a Calibration
+    assert mark.read_text() == "unpickled"
+
+
+def test_a_corrupt_entry_is_recomputed_and_replaced(default_dataset, tmp_path, monkeypatch,
+                                                   capsys):
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "cache"))
+    path = calibration_cache(calibration_key(default_dataset))
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"\x80\x05garbage")
+    ctx = _context(tmp_path / "out", default_dataset)
+    ctx.calibration()
+    err = capsys.readouterr().err
+    assert "ignored the cached calibration" in err and "calibrate the default dataset (" in err
+    # replaced by a good entry: the next run reads it
+    assert load_cached_calibration(path, calibration_key(default_dataset)) is not None
+    assert capsys.readouterr().err == ""
+
+
+if __name__ == "__main__":
+    pytest.main([__file__, "-q"])
