@@ -19,20 +19,15 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rasc.errors import InputError, RascError
-from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import T_gaze_from_ptu
-from rasc.geometry.transforms import rotation_error_deg, rotvec_from_matrix
+from rasc.errors import InputError
 from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
 from rasc.progress import progress
 from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
-from rasc.vision.camera import estimate_extrinsics
 from rasc.vision.dataset import load_dataset
 
 REPO = Path(__file__).resolve().parents[1]
@@ -618,159 +613,6 @@ R_COLS = tuple(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
 HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "method", "status",
           "t_err_mm", "R_err_fro", "R_err_deg", "quality", "t_x_mm", "t_y_mm", "t_z_mm",
           *R_COLS)
-
-
-# ===================================================== corner noise (E6a and E6b)
-
-#: A result is a gross failure above either threshold (the shoot-out's rule, applied here
-#: too): 10 deg and 100 mm are ~20x the worst honest error seen at 2 px of corner noise
-#: (about 1 deg / 35 mm, measured), so no honest solution is counted as failed, while a
-#: solver that has lost the rotation (errors of tens of degrees) or the translation
-#: (decimetres) is.
-GROSS_ROTATION_DEG = 10.0
-GROSS_TRANSLATION_MM = 100.0
-
-
-# ------------------------------------------------------------------ shared with E6b
-
-@dataclass(frozen=True)
-class EyeData:
-    """One eye's detected pose corners and everything needed to solve and score them.
-
-    Attributes
-    ----------
-    eye : "left" | "right"
-    files : tuple of str, length n (manifest file names, or synthetic labels)
-    corners : ndarray, shape (n, N, 2), canonical order, pixels
-    T_gaze_from_ptu : ndarray, shape (n, 4, 4), eq. 3 at the commanded angles
-    K : ndarray, shape (3, 3); dist : ndarray, shape (5,) (the pipeline's intrinsics)
-    T_cam_from_gaze_true : ndarray, shape (4, 4)
-    T_cam_from_world_true : ndarray, shape (n, 4, 4) (rendered truth per view)
-    """
-
-    eye: str
-    files: tuple[str, ...]
-    corners: np.ndarray
-    T_gaze_from_ptu: np.ndarray
-    K: np.ndarray
-    dist: np.ndarray
-    T_cam_from_gaze_true: np.ndarray
-    T_cam_from_world_true: np.ndarray
-
-
-def pose_eye_data(ctx: Context) -> dict[str, EyeData]:
-    """The default dataset's pose views of both eyes with the corners the pipeline
-    detected and kept (``ctx.calibration().eyes[eye].corners["pose"]``: never detected
-    again), in the pipeline's view order.
-
-    Raises
-    ------
-    rasc.errors.InputError
-        A pose view the pipeline did not use (its board was not found; names the file).
-    """
-    ds = load_dataset(ctx.dataset_dir())
-    cal, truth = ctx.calibration(), ctx.truth()
-    out = {}
-    for eye in EYES:
-        res = cal.eyes[eye]
-        kept = res.corners.get("pose", {})
-        entries = ds.select(eye, "pose")
-        for e in entries:
-            if e.file not in kept:
-                raise InputError(f"{ds.manifest_path}: images[{e.index}] ({e.file}): board "
-                                 "not found by the pipeline; E6 needs every pose view")
-        files = list(res.pose_files)
-        pan_tilt = np.asarray(res.pan_tilt, dtype=float)
-        intr = res.intrinsics
-        out[eye] = EyeData(
-            eye=eye, files=tuple(files), corners=np.array([kept[f] for f in files]),
-            T_gaze_from_ptu=T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1]),
-            K=np.array(intr.K), dist=np.array(intr.dist),
-            T_cam_from_gaze_true=np.array(truth[eye]["T_cam_from_gaze"], dtype=float),
-            T_cam_from_world_true=np.array([truth["views"][f]["T_cam_from_world"]
-                                            for f in files], dtype=float))
-    return out
-
-
-def noisy_extrinsics(data: EyeData, board, sigma_px: float,
-                     rng: np.random.Generator) -> np.ndarray:
-    """Add N(0, sigma_px^2) to every corner coordinate, re-estimate each view's extrinsics.
-
-    Draws one (N, 2) block per view, in view order (also for sigma = 0, so the stream
-    does not depend on the level). Returns ``T_cam_from_world`` (n, 4, 4).
-    """
-    T = []
-    for c in data.corners:
-        noise = rng.standard_normal(c.shape)
-        T.append(estimate_extrinsics(c + sigma_px * noise, board, data.K, data.dist)[0])
-    return np.array(T)
-
-
-def pose_noise(T_est: np.ndarray, T_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Extrinsics error per camera axis: RMS rotation (rad) and translation, over the views.
-
-    Parameters
-    ----------
-    T_est, T_true : (n, 4, 4) ``T_cam_from_world``
-
-    Returns
-    -------
-    (rot_rms (3,), t_rms (3,)): RMS over views of the rotation-error vector
-    ``log(R_est R_true^T)`` and of ``t_est - t_true``, per camera axis (x right, y down,
-    z optical axis), in rad and in the input's length unit. The eq. 13-14 equivalent is
-    ``sqrt(mean(rot_rms^2))``: the paper draws ``R' = R (I + [w]x)``, i.e.
-    ``w = log(R_true^T R_est)`` in the board frame, and the per-axis RMS over all three
-    axes is the same in either frame (it depends on ``|w|`` only).
-    """
-    w = rotvec_from_matrix(T_est[:, :3, :3] @ np.swapaxes(T_true[:, :3, :3], -1, -2))
-    dt = T_est[:, :3, 3] - T_true[:, :3, 3]
-    return np.sqrt(np.mean(w**2, axis=0)), np.sqrt(np.mean(dt**2, axis=0))
-
-
-#: What a method may raise that counts as its failure (not a crash of the experiment):
-#: the library's errors (SolverFailure, DegenerateDataError, InputError) and numerical
-#: breakdowns. Programming errors (TypeError, AttributeError, ...) still propagate.
-FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
-
-
-def run_method(solver, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-               T_cam_from_gaze_true: np.ndarray) -> dict:
-    """Run one hand-eye solver and score it against the truth, never raising on failure.
-
-    Parameters
-    ----------
-    solver : callable(T_cam_from_world (n,4,4), T_gaze_from_ptu (n,4,4)) -> HandEyeResult
-    T_cam_from_gaze_true : (4, 4), metres
-
-    Returns
-    -------
-    dict with ``status`` ("ok", "exception", "nan" or "gross"), ``detail`` (exception
-    class and message, or the gross error), ``rotation_deg``, ``translation_mm``,
-    ``quality`` (NaN when there is no result).
-    """
-    nan = float("nan")
-    try:
-        res = solver(T_cam_from_world, T_gaze_from_ptu)
-    except FAILURES as exc:
-        msg = " ".join(str(exc).split())
-        return {"status": "exception", "detail": f"{type(exc).__name__}: {msg[:300]}",
-                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
-    T = np.asarray(res.T_cam_from_gaze, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return {"status": "nan", "detail": "non-finite T_cam_from_gaze",
-                "rotation_deg": nan, "translation_mm": nan, "quality": nan}
-    rot = float(rotation_error_deg(T[:3, :3], T_cam_from_gaze_true[:3, :3]))
-    trans = 1000.0 * float(np.linalg.norm(T[:3, 3] - T_cam_from_gaze_true[:3, 3]))
-    quality = float(res.quality)
-    if not (np.isfinite(rot) and np.isfinite(trans)):
-        return {"status": "nan", "detail": "non-finite error", "rotation_deg": nan,
-                "translation_mm": nan, "quality": quality}
-    gross = rot > GROSS_ROTATION_DEG or trans > GROSS_TRANSLATION_MM
-    # an exact identity is what OpenCV's TSAI returns when it gives up (it only logs)
-    what = " (the identity returned)" if np.array_equal(T, np.eye(4)) else ""
-    return {"status": "gross" if gross else "ok",
-            "detail": f"gross: {rot:.4g} deg, {trans:.4g} mm{what}" if gross else "",
-            "rotation_deg": rot, "translation_mm": trans, "quality": quality}
 
 
 def mean_std(values) -> tuple[float, float]:
