@@ -349,11 +349,11 @@ POSE_RMS_WARN_RATIO = 4.0
 
 
 def _finish(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
-            log: Callable[[str], None], sizes: dict) -> Calibration:
+            log: Callable[[str], None], sizes: dict, model_fit=None) -> Calibration:
     """The last steps of a calibration (closed form or refined): the model-fit check and
     the refinement (:func:`_check_and_refine`), the stage timings, and the errors against
     the dataset's ground truth when it has one."""
-    _check_and_refine(cal, dataset, options, timer, log, sizes)
+    _check_and_refine(cal, dataset, options, timer, log, sizes, model_fit)
     cal.timings = dict(timer.timings)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
@@ -362,17 +362,21 @@ def _finish(cal: Calibration, dataset, options: CalibrationOptions, timer: _Time
 
 
 def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
-                      log: Callable[[str], None], sizes) -> None:
-    """The paper model's fit check (always) and, for ``model="general"``, the whole-head
-    refinement, which replaces ``cal.head`` and the base's ``T_ptuL_from_ptuR``."""
+                      log: Callable[[str], None], sizes, model_fit=None) -> None:
+    """The paper model's fit check (always; ``model_fit``, when given, is that check
+    already made on the same closed-form calibration) and, for ``model="general"``, the
+    whole-head refinement, which replaces ``cal.head`` and the base's
+    ``T_ptuL_from_ptuR``."""
     from rasc.head.fit import calibration_fit, misfit_warning
     from rasc.head.refine import observations_from_calibration, refine_head
 
     if options.model not in MODELS:
         raise InputError(f"model: expected one of {', '.join(MODELS)}, got {options.model!r}")
-    t0 = time.perf_counter()
-    cal.model_fit = calibration_fit(cal, dataset.board.object_points())
-    timer.add("model-fit check", time.perf_counter() - t0)
+    if model_fit is None:
+        t0 = time.perf_counter()
+        model_fit = calibration_fit(cal, dataset.board.object_points())
+        timer.add("model-fit check", time.perf_counter() - t0)
+    cal.model_fit = model_fit
     if options.model == "paper":
         w = misfit_warning(cal.model_fit)
         if w is not None:
@@ -443,9 +447,12 @@ def refine_calibration(cal: Calibration, dataset,
     out.warnings = [w for w in out.warnings if not w.endswith(REMEDY)]
     timer = _Timer()
     timer.timings = dict(cal.timings)
-    timer.timings.pop("model-fit check", None)
+    if cal.model_fit is None:         # (a calibration read back without its check)
+        timer.timings.pop("model-fit check", None)
     sizes = {eye: getattr(cal.head, eye).image_size for eye in EYES}
-    return _finish(out, dataset, options, timer, log, sizes)
+    # the fit check depends only on the closed form (cal.head, cal.eyes), which ``out``
+    # shares: cal's own check is reused, not made again
+    return _finish(out, dataset, options, timer, log, sizes, cal.model_fit)
 
 
 def _eye_std(res, eye: str) -> dict[str, float | None]:
