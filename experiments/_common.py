@@ -509,8 +509,27 @@ def init_experiment_worker() -> None:
 
 def script_main(run: Callable[[Context], Section], doc: str,
                 argv: Sequence[str] | None = None) -> int:
-    """What every experiment script's ``main`` does: arguments → ``run`` → its section."""
-    print(run(Context.from_argv(doc, argv)).markdown)
+    """What every experiment script's ``main`` does: arguments → ``run`` → its section
+    (status 0). Interrupted (Ctrl-C, or SIGTERM): one line on stderr saying what is kept
+    (every file is written whole, so the files already written are complete; a study's
+    finished cells are reused by the next run), status 130."""
+    from rasc.interrupt import received, signals_as_interrupt
+
+    ctx = Context.from_argv(doc, argv)
+    module = getattr(run, "__module__", "experiment").rsplit(".", 1)[-1]
+    if module == "__main__":                     # python -m experiments.<name>
+        module = Path(sys.argv[0]).stem
+    try:
+        with signals_as_interrupt():
+            section = run(ctx)
+            if received():    # a library that was loading swallowed the KeyboardInterrupt
+                raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        print(f"{module}: interrupted: kept the files already written under {ctx.out} (each "
+              "written whole: nothing half-written is left); a study's finished cells are "
+              "reused by the next run; no section printed", file=sys.stderr)
+        return 130
+    print(section.markdown)
     return 0
 
 

@@ -26,7 +26,6 @@ the raw file), ``summary.json``, and the figures, plotted from the summary CSV.
 
 from __future__ import annotations
 
-import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -608,4 +607,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

@@ -15,7 +15,6 @@ Output in ``<out>/e2/``: ``home_samples.csv`` (raw, one row per sample and metho
 
 from __future__ import annotations
 
-import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -183,4 +182,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

@@ -25,7 +25,6 @@ raw file).
 
 from __future__ import annotations
 
-import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -346,4 +345,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

@@ -36,7 +36,6 @@ levels with 100, both variants, and the figure as PNG only.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 
 import numpy as np
@@ -451,4 +450,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

@@ -30,8 +30,6 @@ protocol's cells and draws) and 20 matched-model samples instead of 200.
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
 from experiments._common import (
@@ -491,4 +489,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

@@ -27,8 +27,6 @@ cells and draws).
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
 from experiments._common import (
@@ -446,4 +444,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())

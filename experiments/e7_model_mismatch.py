@@ -399,4 +399,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rasc.interrupt import exit_process
+    exit_process(main())
