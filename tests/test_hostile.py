@@ -776,7 +776,13 @@ SUBPROCESS_CASES = {
 }
 
 
-@pytest.mark.parametrize("name", list(SUBPROCESS_CASES))
+#: cases that take seconds (two whole renders at once): marked slow, out of `make test-fast`
+_SLOW_PROCESS_CASES = {"traceback/two renders into one --out"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)
+                                  if n in _SLOW_PROCESS_CASES else n
+                                  for n in SUBPROCESS_CASES])
 def test_hostile_process(name, ws):
     fn, sig = SUBPROCESS_CASES[name]
     fn(ws, sig)
