@@ -18,12 +18,15 @@ import json
 import math
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from conftest import _locked, _shared_root
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
 sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
@@ -40,10 +43,15 @@ KEYS = [importlib.import_module(f"experiments.{name}").NAME for name, _ in repro
 
 @pytest.fixture(scope="module")
 def pooled(tmp_path_factory) -> Path:
-    """``reproduce --quick --seed 0 --workers 2`` (the pool) in this process."""
-    folder = tmp_path_factory.mktemp("reproduce_w2")
-    assert reproduce.main(["--quick", "--seed", "0", "--out", str(folder),
-                           "--workers", "2"]) == 0
+    """``reproduce --quick --seed 0 --workers 2`` (the pool) in this process; once per test
+    run (xdist workers share it under a file lock, as conftest's dataset). Read-only."""
+    shared = _shared_root(tmp_path_factory)
+    folder = shared / "reproduce_w2"
+    with _locked(shared / "reproduce_w2.lock"):
+        if not (folder / "REPORT.md").is_file():      # written last: the run is complete
+            shutil.rmtree(folder, ignore_errors=True)
+            assert reproduce.main(["--quick", "--seed", "0", "--out", str(folder),
+                                   "--workers", "2"]) == 0
     return folder
 
 
@@ -51,28 +59,37 @@ def pooled(tmp_path_factory) -> Path:
 def serial(tmp_path_factory) -> dict:
     """``python -m experiments.reproduce --quick --workers 1`` (seed 0), SIGTERM as soon as
     it announces the last experiment; then that experiment alone, in this process, into
-    the same folder. Returns the folder, the exit status and stderr after the signal."""
+    the same folder. Returns the folder, the exit status, stderr after the signal and the
+    folder's names after the signal. Once per test run, as :func:`pooled`. Read-only."""
     from experiments._common import Context
 
-    out = tmp_path_factory.mktemp("reproduce_w1")
-    (out / "REPORT.md").write_text("an earlier run's report")
-    title = dict(reproduce.EXPERIMENTS)[INTERRUPTED]
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.reproduce", "--quick",
-                             "--seed", "0", "--workers", "1", "--out", str(out)],
-                            cwd=EXPERIMENTS.parent, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "MUJOCO_GL": "egl"})
-    for line in proc.stderr:
-        if line.startswith(f"== {title}"):   # every earlier experiment has been renamed
-            proc.send_signal(signal.SIGTERM)
-            break
-    rest = proc.stderr.read()
-    status = proc.wait(timeout=120)
-    names = {p.name for p in out.iterdir()}
-    # the last experiment as the serial path runs it (module.run on a --workers 1 context)
-    ctx = Context.from_argv(reproduce.__doc__, ["--quick", "--seed", "0", "--workers", "1",
-                                                "--out", str(out)])
-    importlib.import_module(f"experiments.{INTERRUPTED}").run(ctx)
-    return {"out": out, "status": status, "stderr": rest, "names_after_sigterm": names}
+    shared = _shared_root(tmp_path_factory)
+    out, record = shared / "reproduce_w1", shared / "reproduce_w1.json"
+    with _locked(shared / "reproduce_w1.lock"):
+        if not record.is_file():                      # written last: the run is complete
+            shutil.rmtree(out, ignore_errors=True)
+            out.mkdir()
+            (out / "REPORT.md").write_text("an earlier run's report")
+            title = dict(reproduce.EXPERIMENTS)[INTERRUPTED]
+            proc = subprocess.Popen([sys.executable, "-m", "experiments.reproduce", "--quick",
+                                     "--seed", "0", "--workers", "1", "--out", str(out)],
+                                    cwd=EXPERIMENTS.parent, stderr=subprocess.PIPE, text=True,
+                                    env={**os.environ, "MUJOCO_GL": "egl"})
+            for line in proc.stderr:
+                if line.startswith(f"== {title}"):   # every earlier one has been renamed
+                    proc.send_signal(signal.SIGTERM)
+                    break
+            rest = proc.stderr.read()
+            status = proc.wait(timeout=120)
+            names = sorted(p.name for p in out.iterdir())
+            # the last experiment as the serial path runs it (module.run, --workers 1)
+            ctx = Context.from_argv(reproduce.__doc__, ["--quick", "--seed", "0", "--workers",
+                                                        "1", "--out", str(out)])
+            importlib.import_module(f"experiments.{INTERRUPTED}").run(ctx)
+            record.write_text(json.dumps({"status": status, "stderr": rest,
+                                          "names_after_sigterm": names}))
+    info = json.loads(record.read_text())
+    return {**info, "out": out, "names_after_sigterm": set(info["names_after_sigterm"])}
 
 
 def _results(folder: Path) -> dict[str, bytes]:
@@ -145,8 +162,6 @@ def test_headline_numbers_are_sane(pooled):
 def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(pooled, tmp_path,
                                                                     capsys):
     """A seed-1 run into a folder holding a seed-0 dataset renders afresh and says so."""
-    import shutil
-
     from experiments._common import DATASET_OPTIONS, Context
 
     out = tmp_path / "run"
