@@ -53,7 +53,7 @@ lock:
 	.venv-lock/bin/python -m pip install --quiet --upgrade pip
 	.venv-lock/bin/python -m pip install --quiet '.[test,dask]'
 	{ grep "^#" constraints.txt; \
-	  .venv-lock/bin/python -m pip freeze --exclude rasc; } > constraints.txt.new
+	  .venv-lock/bin/python -m pip freeze --all --exclude rasc --exclude pip; } > constraints.txt.new
 	mv constraints.txt.new constraints.txt
 	rm -rf .venv-lock
 
@@ -64,7 +64,7 @@ check-latest:
 	.venv-latest/bin/python -m pip install --quiet --upgrade pip
 	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test,dask]'
 	grep -v '^#' constraints.txt > .venv-latest/locked.txt
-	.venv-latest/bin/python -m pip freeze --exclude rasc | diff .venv-latest/locked.txt - \
+	.venv-latest/bin/python -m pip freeze --all --exclude rasc --exclude pip | diff .venv-latest/locked.txt - \
 	  && echo 'check-latest: the newest versions are the locked ones' || true
 	.venv-latest/bin/python -m pytest -q -n $(JOBS)
 

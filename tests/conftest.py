@@ -8,6 +8,10 @@ Helpers (import them: ``from conftest import PAPER, rig``):
 - ``rig(rng)``: a realistic eye, ``(T_cam_from_gaze, T_ptu_from_world)``.
 - ``random_rigid(rng, n)``: n random rigid transforms.
 - ``pan_tilt(poses_deg)``: ``T_gaze_from_ptu`` of (pan, tilt) pairs in degrees.
+- ``pip_build_flags()``: ``["--no-build-isolation"]`` when this environment has the build
+  backend pyproject asks for (setuptools >= 77, in the ``test`` extra), else ``[]``: the
+  tests' ``pip install``/``pip wheel`` of local folders then build without a fresh build
+  environment (about 2 s of CPU less each, and no registry or pip cache needed).
 
 Fixtures (session scope, built on first use):
 
@@ -121,6 +125,17 @@ def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     return subprocess.run([sys.executable, "-m", "rasc", *map(str, argv)], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=300, check=False)
+
+
+def pip_build_flags() -> list[str]:
+    """``["--no-build-isolation"]`` if setuptools >= 77 (pyproject's [build-system]
+    requirement, also in the ``test`` extra) is importable here, else ``[]``."""
+    try:
+        import setuptools
+    except ImportError:
+        return []
+    major = int(setuptools.__version__.split(".")[0])
+    return ["--no-build-isolation"] if major >= 77 else []
 
 
 def _shared_root(tmp_path_factory: pytest.TempPathFactory) -> Path:

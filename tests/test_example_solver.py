@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import pip_build_flags
+
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE_PKG = REPO / "examples" / "my_solver"
 POSES = REPO / "examples" / "handeye_nine_poses.json"
@@ -49,7 +51,7 @@ def test_example_installed_registers_my_solver(tmp_path):
         "__pycache__", "build", "*.egg-info"))
     site = tmp_path / "site"
     pip = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
-                          "--target", str(site), str(src)],
+                          *pip_build_flags(), "--target", str(site), str(src)],
                          capture_output=True, text=True, timeout=600)
     assert pip.returncode == 0, pip.stdout + pip.stderr
     out = tmp_path / "result.json"

@@ -32,6 +32,7 @@ import hashlib
 import json
 import re
 import resource
+import shlex
 import shutil
 import signal
 import struct
@@ -775,7 +776,13 @@ SUBPROCESS_CASES = {
 }
 
 
-@pytest.mark.parametrize("name", list(SUBPROCESS_CASES))
+#: cases that take seconds (two whole renders at once): marked slow, out of `make test-fast`
+_SLOW_PROCESS_CASES = {"traceback/two renders into one --out"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)
+                                  if n in _SLOW_PROCESS_CASES else n
+                                  for n in SUBPROCESS_CASES])
 def test_hostile_process(name, ws):
     fn, sig = SUBPROCESS_CASES[name]
     fn(ws, sig)
@@ -842,24 +849,41 @@ def readme_session() -> list[tuple[str, list[str]]]:
     return session
 
 
+#: what only a shell and a real process give: redirections, devices, signals, other programs
+_SHELL_ONLY = re.compile(r"[<>|;&$`]|/dev/|^(?!rasc )")
+
+
 @pytest.mark.slow
-def test_readme_refusal_examples_are_true(ws):
-    """Each command of the README's example, run by bash in a folder as the README
-    describes; its output must be what the README shows, and an error exits 2."""
+def test_readme_refusal_examples_are_true(ws, capsys, monkeypatch):
+    """Each command of the README's example, in a folder as the README describes; its
+    output must be what the README shows, and an error exits 2. Commands that need a shell
+    or a process (redirections, /dev/zero, /dev/full, ``timeout``, other programs) run in
+    bash; a plain ``rasc ARGS`` runs as ``rasc.cli.main(ARGS)`` in this process, the same
+    code ``rasc`` runs after start-up (its output and status are main's), saving a Python
+    start-up each."""
     shutil.copytree(ws / "ds", ws / "run" / "ds")
     shutil.copy(EXAMPLE, ws / "run" / "poses.json")
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}:{os.environ['PATH']}")
     session = readme_session()
     assert len(session) >= 10
+    monkeypatch.chdir(ws / "run")
+    ran = {"bash": 0, "in-process": 0}
     for command, expected in session:
-        proc = subprocess.run(["bash", "-c", command], cwd=ws / "run", env=env, text=True,
-                              capture_output=True, timeout=120, check=False)
-        got = (proc.stdout + proc.stderr).splitlines()
+        if _SHELL_ONLY.search(command):
+            proc = subprocess.run(["bash", "-c", command], cwd=ws / "run", env=env, text=True,
+                                  capture_output=True, timeout=120, check=False)
+            code, out, err = proc.returncode, proc.stdout, proc.stderr
+            ran["bash"] += 1
+        else:
+            code, out, err = run_in_process(shlex.split(command)[1:], capsys)
+            ran["in-process"] += 1
+        got = (out + err).splitlines()
         assert len(got) == len(expected), (command, got)
         for g, e in zip(got, expected, strict=True):
             assert g.startswith(e[:-3]) if e.endswith("...") else g == e, (command, g)
         if any(": error: " in e for e in expected):
-            assert proc.returncode == 2, (command, proc.returncode)
+            assert code == 2, (command, code)
+    assert ran["bash"] >= 3 and ran["in-process"] >= 3, ran
     assert sorted(p.name for p in (ws / "run").iterdir() if p.name.startswith(".")) == []
 
 

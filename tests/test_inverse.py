@@ -178,6 +178,7 @@ def test_views_beat_every_method_under_the_papers_noise(level):
     assert mean["rasc-views"] < 0.7 * min(mean[m] for m in PEERS), mean
 
 
+@pytest.mark.slow  # ~2 s
 def test_views_beat_every_method_under_corner_noise():
     """Realistic pose errors instead of the paper's model: the board's 54 corners
     projected by a pinhole camera (f = 1000 px), 0.5 px Gaussian corner noise, the pose

@@ -5,8 +5,9 @@ calibrate`` run from a temporary folder with rasc imported from the install.
 The wheel is built from a copy of the project's files (pyproject.toml, README.md, rasc/)
 so the checkout gets no build/ or egg-info; it is installed with ``--no-deps`` into a
 target folder put first on PYTHONPATH, reusing this environment's dependencies (no
-network). The build backend comes from pip's build isolation, or from this environment
-when its setuptools is new enough (>= 77, pyproject's build requirement)."""
+network). The build backend comes from this environment (setuptools >= 77, pyproject's
+build requirement, is in the ``test`` extra: ``--no-build-isolation``, see
+``conftest.pip_build_flags``), or from pip's build isolation where it is older."""
 
 from __future__ import annotations
 
@@ -20,16 +21,9 @@ from pathlib import Path
 
 import pytest
 
+from conftest import pip_build_flags
+
 REPO = Path(__file__).resolve().parents[1]
-
-
-def _no_isolation_flag() -> list[str]:
-    try:
-        import setuptools
-    except ImportError:
-        return []
-    major = int(setuptools.__version__.split(".")[0])
-    return ["--no-build-isolation"] if major >= 77 else []
 
 
 @pytest.mark.slow
@@ -42,7 +36,7 @@ def test_wheel_installs_renders_and_calibrates_away_from_the_checkout(tmp_path):
                     ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     wheels = tmp_path / "wheels"
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps",
-                            *_no_isolation_flag(), "-w", str(wheels), str(src)],
+                            *pip_build_flags(), "-w", str(wheels), str(src)],
                            capture_output=True, text=True, timeout=900)
     assert build.returncode == 0, build.stdout + build.stderr
     (wheel,) = wheels.glob("rasc-*.whl")

@@ -143,6 +143,7 @@ def write(path: Path, content: str | bytes) -> None:
 
 # ------------------------------------------------------------------- the reader itself
 
+@pytest.mark.slow  # a large property test: ~2.5 s
 @SETTINGS
 @given(value=json_values)
 def test_reader_on_random_documents(value, tmp_path):

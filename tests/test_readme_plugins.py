@@ -21,6 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import pip_build_flags
+
 REPO = Path(__file__).resolve().parents[1]
 README = (REPO / "README.md").read_text(encoding="utf-8")
 EXAMPLE_PKG = REPO / "examples" / "my_solver"
@@ -67,7 +69,7 @@ def test_bring_your_own_solver_console(tmp_path):
             shutil.copytree(EXAMPLE_PKG, src, ignore=shutil.ignore_patterns(
                 "__pycache__", "build", "*.egg-info"))
             argv = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
-                    "--target", str(site), str(src)]
+                    *pip_build_flags(), "--target", str(site), str(src)]
             proc = subprocess.run(argv, capture_output=True, text=True, timeout=600)
             assert proc.returncode == 0, proc.stderr
             extra_path.append(str(site))

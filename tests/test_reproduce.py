@@ -1,18 +1,32 @@
-"""``python -m experiments.reproduce --quick`` end to end: the report, sane numbers, determinism.
+"""``python -m experiments.reproduce --quick`` end to end: the report, sane numbers,
+determinism, interrupts.
 
-Two quick runs with one seed, one with --workers 1 and one with --workers 2, must write
-byte-identical result files (CSV, JSON and the rendered dataset); the report must hold
-every section with its figures, and the headline numbers must be sane.
+Two quick runs with one seed: ``pooled`` (``--workers 2``, in this process: the pool of
+forkserver workers) and ``serial`` (``--workers 1``, a real ``python -m`` process, sent
+SIGTERM when the last experiment, E7, starts; the finished experiments E1–E6b are kept,
+and E7 is then run alone in this process, ``module.run(ctx)`` as the serial path runs
+it). Together they must write byte-identical result files (CSV, JSON and the rendered
+dataset) for every experiment; the pooled report must hold every section with its
+figures, and the headline numbers must be sane. (One serial run serves both the
+worker-count equality and the interrupt test: before, a whole in-process ``--workers 1``
+run and a separate interrupted run repeated the same work.)
 """
 
 import csv
+import importlib
 import json
 import math
+import os
 import re
+import shutil
+import signal
+import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from conftest import _locked, _shared_root
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
 sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
@@ -21,16 +35,61 @@ from experiments import reproduce  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
+#: the experiment the serial run is interrupted in (the last one: every other finishes)
+INTERRUPTED = reproduce.EXPERIMENTS[-1][0]
+#: every experiment's folder name (``module.NAME``), in report order
+KEYS = [importlib.import_module(f"experiments.{name}").NAME for name, _ in reproduce.EXPERIMENTS]
+
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    out = {}
-    for workers in (1, 2):
-        folder = tmp_path_factory.mktemp(f"reproduce_w{workers}")
-        assert reproduce.main(["--quick", "--seed", "0", "--out", str(folder),
-                               "--workers", str(workers)]) == 0
-        out[workers] = folder
-    return out
+def pooled(tmp_path_factory) -> Path:
+    """``reproduce --quick --seed 0 --workers 2`` (the pool) in this process; once per test
+    run (xdist workers share it under a file lock, as conftest's dataset). Read-only."""
+    shared = _shared_root(tmp_path_factory)
+    folder = shared / "reproduce_w2"
+    with _locked(shared / "reproduce_w2.lock"):
+        if not (folder / "REPORT.md").is_file():      # written last: the run is complete
+            shutil.rmtree(folder, ignore_errors=True)
+            assert reproduce.main(["--quick", "--seed", "0", "--out", str(folder),
+                                   "--workers", "2"]) == 0
+    return folder
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory) -> dict:
+    """``python -m experiments.reproduce --quick --workers 1`` (seed 0), SIGTERM as soon as
+    it announces the last experiment; then that experiment alone, in this process, into
+    the same folder. Returns the folder, the exit status, stderr after the signal and the
+    folder's names after the signal. Once per test run, as :func:`pooled`. Read-only."""
+    from experiments._common import Context
+
+    shared = _shared_root(tmp_path_factory)
+    out, record = shared / "reproduce_w1", shared / "reproduce_w1.json"
+    with _locked(shared / "reproduce_w1.lock"):
+        if not record.is_file():                      # written last: the run is complete
+            shutil.rmtree(out, ignore_errors=True)
+            out.mkdir()
+            (out / "REPORT.md").write_text("an earlier run's report")
+            title = dict(reproduce.EXPERIMENTS)[INTERRUPTED]
+            proc = subprocess.Popen([sys.executable, "-m", "experiments.reproduce", "--quick",
+                                     "--seed", "0", "--workers", "1", "--out", str(out)],
+                                    cwd=EXPERIMENTS.parent, stderr=subprocess.PIPE, text=True,
+                                    env={**os.environ, "MUJOCO_GL": "egl"})
+            for line in proc.stderr:
+                if line.startswith(f"== {title}"):   # every earlier one has been renamed
+                    proc.send_signal(signal.SIGTERM)
+                    break
+            rest = proc.stderr.read()
+            status = proc.wait(timeout=120)
+            names = sorted(p.name for p in out.iterdir())
+            # the last experiment as the serial path runs it (module.run, --workers 1)
+            ctx = Context.from_argv(reproduce.__doc__, ["--quick", "--seed", "0", "--workers",
+                                                        "1", "--out", str(out)])
+            importlib.import_module(f"experiments.{INTERRUPTED}").run(ctx)
+            record.write_text(json.dumps({"status": status, "stderr": rest,
+                                          "names_after_sigterm": names}))
+    info = json.loads(record.read_text())
+    return {**info, "out": out, "names_after_sigterm": set(info["names_after_sigterm"])}
 
 
 def _results(folder: Path) -> dict[str, bytes]:
@@ -40,16 +99,17 @@ def _results(folder: Path) -> dict[str, bytes]:
             if p.suffix in (".csv", ".json") or p.suffix == ".png" and "data" in p.parts}
 
 
-def test_same_seed_same_bytes_for_any_worker_count(runs):
-    a, b = _results(runs[1]), _results(runs[2])
+def test_same_seed_same_bytes_for_any_worker_count(pooled, serial):
+    a, b = _results(serial["out"]), _results(pooled)
     assert len(a) > 40  # every experiment's raw files plus the dataset's images
+    assert {name.split("/")[0] for name in a} == {"data", *KEYS}
     assert sorted(a) == sorted(b)
     differ = [name for name in a if a[name] != b[name]]
     assert differ == []
 
 
-def test_report_has_every_section_and_its_figures(runs):
-    out = runs[1]
+def test_report_has_every_section_and_its_figures(pooled):
+    out = pooled
     report = (out / "REPORT.md").read_text()
     for _, title in reproduce.EXPERIMENTS:
         assert f". {title}\n" in report, title
@@ -64,8 +124,8 @@ def test_report_has_every_section_and_its_figures(runs):
         assert paper_value in report
 
 
-def test_headline_numbers_are_sane(runs):
-    out = runs[1]
+def test_headline_numbers_are_sane(pooled):
+    out = pooled
     with open(out / "e1" / "noise_summary.csv") as f:
         rows = [r for r in csv.DictReader(f)
                 if r["method"] == "rasc" and r["variant"] == "literal"]
@@ -99,14 +159,13 @@ def test_headline_numbers_are_sane(runs):
         assert std[0] <= 0.9 and std[1] <= 1.3 and std[2] <= 5.4, (model, std)
 
 
-def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(runs, tmp_path, capsys):
+def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(pooled, tmp_path,
+                                                                    capsys):
     """A seed-1 run into a folder holding a seed-0 dataset renders afresh and says so."""
-    import shutil
-
     from experiments._common import DATASET_OPTIONS, Context
 
     out = tmp_path / "run"
-    shutil.copytree(runs[1] / "data" / "dataset", out / "data" / "dataset")
+    shutil.copytree(pooled / "data" / "dataset", out / "data" / "dataset")
     doc = Context.from_argv(reproduce.__doc__, ["--quick", "--out", str(out)])
     assert doc.dataset_dir() == out / "data" / "dataset"       # seed 0: reused
     assert "rendering it afresh" not in capsys.readouterr().err
@@ -116,77 +175,58 @@ def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(runs, tmp_
     record = json.loads((out / "data" / "dataset" / DATASET_OPTIONS).read_text())
     assert record["render_options"]["seed"] == 1
     # the seed draws the intrinsics views (the pose views have no random part)
-    old = (runs[1] / "data" / "dataset" / "intrinsics").iterdir()
+    old = (pooled / "data" / "dataset" / "intrinsics").iterdir()
     new = out / "data" / "dataset" / "intrinsics"
     changed = [p.name for p in old if p.read_bytes() != (new / p.name).read_bytes()]
     assert changed                     # the images are seed 1's, not seed 0's
     assert not [p for p in (out / "data").iterdir() if p.name.startswith(".")]
 
 
-def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(tmp_path, runs):
-    """SIGTERM while E2 runs: E1 kept, E2's staging folder removed, no REPORT.md, 130."""
-    import os
-    import shutil
-    import signal
-    import subprocess
-
-    out = tmp_path / "run"
-    shutil.copytree(runs[1] / "data" / "dataset", out / "data" / "dataset")
-    (out / "REPORT.md").write_text("an earlier run's report")
-    repo = EXPERIMENTS.parent
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.reproduce", "--quick",
-                             "--workers", "1", "--out", str(out)], cwd=repo,
-                            stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "MUJOCO_GL": "egl"})
-    lines = []
-    for line in proc.stderr:
-        lines.append(line)
-        if line.startswith("== E2"):        # E1 has finished and been renamed
-            proc.send_signal(signal.SIGTERM)
-            break
-    rest = proc.stderr.read()
-    assert proc.wait(timeout=120) == 130
+def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(serial):
+    """SIGTERM while the last experiment (E7) runs: every earlier one kept, E7's staging
+    folder removed, the earlier report removed and none written, status 130."""
+    assert serial["status"] == 130
+    rest = serial["stderr"]
     assert "Traceback" not in rest
     last = rest.strip().splitlines()[-1]
     assert last.startswith("reproduce: interrupted: kept the finished experiments"), last
-    assert ": e1;" in last and "stopped the unfinished: e2 and removed" in last
-    names = {p.name for p in out.iterdir()}
-    assert "e1" in names and "e2" not in names and "REPORT.md" not in names
+    assert f": {', '.join(KEYS[:-1])};" in last, last
+    assert f"stopped the unfinished: {KEYS[-1]} and removed" in last, last
+    names = serial["names_after_sigterm"]
+    assert set(KEYS[:-1]) <= names and KEYS[-1] not in names and "REPORT.md" not in names
     assert not [n for n in names if n.startswith(".")]
-    assert not [p for p in out.rglob("*.tmp")]
+    assert not [p for p in serial["out"].rglob("*.tmp")]
 
 
-def test_forkserver_warm_up_loads_the_libraries_and_every_experiment():
-    """experiments._warm (imported once by the pool's forkserver) swallows its errors, so
-    a broken warm-up would only show as slow workers: check that it loads everything."""
-    import os
-    import subprocess
-
-    code = ("import sys, experiments._warm\n"
+@pytest.fixture(scope="module")
+def warm_up() -> dict:
+    """What a fresh interpreter holds after ``import experiments._warm`` (what the pool's
+    forkserver imports), asked once for both tests below."""
+    code = ("import json, sys, experiments._warm\n"
+            "main_loaded = 'experiments.reproduce' in sys.modules\n"
             "need = ['cv2', 'mujoco', 'matplotlib.pyplot', 'scipy.optimize', "
             "'matplotlib.backends.backend_svg'] + "
             "['experiments.' + n for n, _ in __import__('experiments.reproduce', "
             "fromlist=['x']).EXPERIMENTS]\n"
-            "print([m for m in need if m not in sys.modules], experiments._warm.WARMED)\n")
-    # (reproduce itself is imported by this check, after the warm-up: the warm-up must not
-    # import it, or every worker of `python -m experiments.reproduce` warns at start-up)
+            "print(json.dumps({'main_loaded': main_loaded, 'warmed': experiments._warm.WARMED, "
+            "'missing': [m for m in need if m not in sys.modules]}))\n")
+    # (reproduce itself is imported by this check, after main_loaded is read: the warm-up
+    # must not import it, or every worker of `python -m experiments.reproduce` warns)
     proc = subprocess.run([sys.executable, "-c", code], cwd=EXPERIMENTS.parent,
                           capture_output=True, text=True, timeout=120,
                           env={**os.environ, "MUJOCO_GL": "egl"})
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "[] True"
+    return json.loads(proc.stdout)
 
 
-def test_warm_up_leaves_the_main_module_alone():
+def test_forkserver_warm_up_loads_the_libraries_and_every_experiment(warm_up):
+    """experiments._warm (imported once by the pool's forkserver) swallows its errors, so
+    a broken warm-up would only show as slow workers: check that it loads everything."""
+    assert warm_up["missing"] == [] and warm_up["warmed"] is True
+
+
+def test_warm_up_leaves_the_main_module_alone(warm_up):
     """The warm-up runs in the forkserver of ``python -m experiments.reproduce``; each worker
     then re-imports that module as its ``__main__`` and runpy warns if it is already loaded
     ("found in sys.modules after import of package"), a line per worker on stderr."""
-    import os
-    import subprocess
-
-    code = "import sys, experiments._warm\nprint('experiments.reproduce' in sys.modules)\n"
-    proc = subprocess.run([sys.executable, "-c", code], cwd=EXPERIMENTS.parent,
-                          capture_output=True, text=True, timeout=120,
-                          env={**os.environ, "MUJOCO_GL": "egl"})
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "False"
+    assert warm_up["main_loaded"] is False

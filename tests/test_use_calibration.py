@@ -442,6 +442,7 @@ def test_mutated_documents_never_traceback(path, value):
         assert str(exc).startswith("cal.json: ") and "\n" not in str(exc)
 
 
+@pytest.mark.slow  # 200 examples: ~2.5 s
 @settings(max_examples=200, deadline=None)
 @given(doc=_JSON)
 def test_random_documents_never_traceback(doc):
