@@ -56,8 +56,7 @@ def result_files(folder: Path) -> dict[str, bytes]:
 @pytest.fixture(scope="module")
 def e6a_runs(dataset, tmp_path_factory):
     out = {}
-    for name, workers, quick in (("A", 1, True), ("B", 1, True), ("C", 2, True),
-                                 ("F", 2, False)):
+    for name, workers, quick in (("A", 1, True), ("C", 2, True), ("F", 2, False)):
         ctx = make_ctx(tmp_path_factory.mktemp(f"e6a_{name}"), dataset, workers, quick)
         out[name] = (ctx, e6a.run(ctx))
     return out
@@ -151,10 +150,9 @@ def test_e6a_noise_free_row_is_the_pipeline_result(e6a_runs):
 
 
 def test_e6a_deterministic_and_independent_of_workers(e6a_runs):
-    files = {k: result_files(e6a_runs[k][0].out / e6a.NAME) for k in "ABC"}
+    files = {k: result_files(e6a_runs[k][0].out / e6a.NAME) for k in "AC"}
     assert len(files["A"]) == 6
-    assert files["A"] == files["B"]          # same seed, same bytes
-    assert files["A"] == files["C"]          # workers 1 vs 2
+    assert files["A"] == files["C"]          # two runs, same seed: same bytes, workers 1 vs 2
     study = {k: result_files(e6a_runs[k][0].out / e6a.NAME / e6a.SPEC) for k in "AC"}
     assert study["A"] == study["C"] and "samples.csv" in study["A"]
 

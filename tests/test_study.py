@@ -212,11 +212,13 @@ def files(folder: Path) -> dict[str, bytes]:
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """The tiny study run in this process."""
+    """The tiny study run by the process pool (``--workers 2``); the serial path (one
+    process) is compared with it byte for byte by the resume test below."""
     root = tmp_path_factory.mktemp("study")
     spec = write(root, TINY)
-    assert cli(["study", str(spec), "--out", str(root / "serial"), "--quiet"]) == 0
-    return spec, root / "serial"
+    assert cli(["study", str(spec), "--out", str(root / "pool"), "--workers", "2",
+                "--quiet"]) == 0
+    return spec, root / "pool"
 
 
 def test_study_writes_tidy_samples_summary_and_figures(reference):
@@ -246,19 +248,15 @@ def test_study_writes_tidy_samples_summary_and_figures(reference):
 
 @pytest.mark.slow
 def test_process_pool_and_dask_localcluster_give_the_same_bytes(reference, tmp_path):
-    spec, serial = reference
-    assert cli(["study", str(spec), "--out", str(tmp_path / "pool"), "--workers", "2",
-                "--quiet"]) == 0
+    spec, pool = reference                      # the process pool's run, 2 workers
     assert cli(["study", str(spec), "--out", str(tmp_path / "dask"), "--workers", "2",
                 "--dask", "local", "--quiet"]) == 0
-    want = files(serial)
-    assert files(tmp_path / "pool") == want
-    assert files(tmp_path / "dask") == want
+    assert files(tmp_path / "dask") == files(pool)
 
 
 def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
         reference, tmp_path, capsys):
-    spec_path, serial = reference
+    spec_path, pool = reference
     spec = load_spec(spec_path)
     out = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
@@ -274,7 +272,7 @@ def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
     assert cli(["study", str(spec_path), "--out", str(out), "--quiet"]) == 2
     assert "--resume" in capsys.readouterr().err
     assert cli(["study", str(spec_path), "--out", str(out), "--resume", "--quiet"]) == 0
-    assert files(out) == files(serial)
+    assert files(out) == files(pool)             # serial (resumed) = pool
     # a different spec does not resume into it
     other = write(tmp_path, TINY.replace("samples = 4", "samples = 5"), "other.toml")
     assert cli(["study", str(other), "--out", str(out), "--resume", "--quiet"]) == 2
