@@ -1069,13 +1069,15 @@ def _diagnostics(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeDiagnost
     u = s if len(out["theta"]) > 1 else 0                        # the sample's unit
     s1, _, s3 = out["sv"][s].tolist()
     theta = out["theta"][u]
-    theta = (theta if pair.n_pairs == 2 * len(theta) else theta[pair.used]).tolist()
+    if pair.n_pairs != 2 * len(theta):
+        theta = theta[pair.used]
     deg = 180.0 / math.pi
     return HandEyeDiagnostics(
         n_positions=n, n_pairs=pair.n_pairs,
         n_pairs_used=pair.n_pairs if out["wk"] is pair.wk_all else int(_sum(out["wk"][u])),
         cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=float(out["cond_CtC"][s]),
-        min_rotation_deg=min(theta) * deg, max_rotation_deg=max(theta) * deg,
+        min_rotation_deg=float(_min(theta, None)) * deg,
+        max_rotation_deg=float(_max(theta, None)) * deg,
         axis_spread=float(out["axis_spread"][u]),
         dominant_axis=_unit_axis(out["dominant_axis"][u]))
 
