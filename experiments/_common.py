@@ -25,7 +25,13 @@ from typing import Any
 import numpy as np
 
 from rasc.errors import InputError
-from rasc.io import dumps_json, read_json_document, write_json_atomic, write_text_atomic
+from rasc.io import (
+    cache_root,
+    dumps_json,
+    read_json_document,
+    write_json_atomic,
+    write_text_atomic,
+)
 from rasc.progress import progress
 from rasc.study.figures import save_figure  # noqa: F401  (the experiments' figure saver)
 from rasc.vision.dataset import load_dataset
@@ -165,17 +171,6 @@ def dataset_cache(options: dict) -> Path | None:
         return None
     key = hashlib.sha256(dumps_json(options).encode()).hexdigest()[:24]
     return root / "reproduce-datasets" / key
-
-
-def cache_root() -> Path | None:
-    """``$RASC_CACHE_DIR`` (``none``, ``off`` or empty: no cache, None), else
-    ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
-    root = os.environ.get("RASC_CACHE_DIR")
-    if root is not None and root.strip().lower() in ("none", "off", ""):
-        return None
-    if not root:
-        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
-    return Path(root)
 
 
 #: the packages whose code computes a calibration (rasc.head.pipeline.calibrate_dataset):

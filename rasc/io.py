@@ -33,6 +33,18 @@ import numpy as np
 from rasc.errors import InputError
 
 
+def cache_root() -> Path | None:
+    """Where rasc keeps files between runs (the reproduction's default dataset and its
+    calibration, a study's rendered datasets): ``$RASC_CACHE_DIR`` (``none``, ``off``
+    or empty: no cache, None), else ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
+    root = os.environ.get("RASC_CACHE_DIR")
+    if root is not None and root.strip().lower() in ("none", "off", ""):
+        return None
+    if not root:
+        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
+    return Path(root)
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)

@@ -82,8 +82,9 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize(("text", "message"), BAD)
-def test_bad_spec_is_one_line_naming_file_and_key(tmp_path, capsys, text, message):
+def assert_refused(tmp_path: Path, capsys, text: str, message: str) -> str:
+    """``rasc study`` on a spec of ``text``: status 2, one line on stderr naming the spec
+    file and holding ``message``, and no output folder. Returns the line."""
     spec = write(tmp_path, text)
     out = tmp_path / "out"
     assert cli(["study", str(spec), "--out", str(out), "--quiet"]) == 2
@@ -91,9 +92,15 @@ def test_bad_spec_is_one_line_naming_file_and_key(tmp_path, capsys, text, messag
     assert err.count("\n") == 1, err
     assert err.startswith(f"rasc study: error: {spec}: "), err
     assert message in err, err
+    assert not out.exists()          # nothing written
+    return err
+
+
+@pytest.mark.parametrize(("text", "message"), BAD)
+def test_bad_spec_is_one_line_naming_file_and_key(tmp_path, capsys, text, message):
+    err = assert_refused(tmp_path, capsys, text, message)
     if "nosuch" in text:
         assert "'nosuch'" in err and "unknown" in err, err
-    assert not out.exists()          # nothing written
 
 
 def test_a_dataset_that_cannot_be_rendered_is_one_line_and_leaves_nothing(tmp_path, capsys):

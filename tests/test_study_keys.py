@@ -16,7 +16,12 @@ import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from test_study import synthetic_dataset, write  # noqa: E402
+from test_study import (  # noqa: E402, F401  (no_dataset_cache: module autouse)
+    assert_refused,
+    no_dataset_cache,
+    synthetic_dataset,
+    write,
+)
 
 from rasc.cli import main as cli  # noqa: E402
 from rasc.errors import DegenerateDataError, InputError  # noqa: E402
@@ -24,15 +29,6 @@ from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.engine import ESTIMATE_COLUMNS, cell_task, home_view, unit_builds  # noqa: E402
 from rasc.study.spec import PARAMS  # noqa: E402
-
-
-@pytest.fixture(scope="module", autouse=True)
-def no_dataset_cache():
-    """Without the dataset cache (RASC_CACHE_DIR=none): every study here renders what it
-    needs, in the executor under test (the cache: tests/test_study_pose_sets.py)."""
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RASC_CACHE_DIR", "none")
-        yield
 
 HEAD = "seed = 5\nsamples = 6\nmethods = ['rasc', 'li']\n"
 
@@ -61,12 +57,7 @@ BAD = [
 
 @pytest.mark.parametrize(("text", "message"), BAD)
 def test_bad_new_keys_are_one_line_naming_file_and_key(tmp_path, capsys, text, message):
-    spec = write(tmp_path, HEAD + text)
-    out = tmp_path / "out"
-    assert cli(["study", str(spec), "--out", str(out), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"rasc study: error: {spec}: ") and message in err, err
-    assert err.count("\n") == 1 and not out.exists()
+    assert_refused(tmp_path, capsys, HEAD + text, message)
 
 
 def test_render_parameter_beside_a_fixed_dataset_is_refused(tmp_path, capsys):

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from test_study import synthetic_dataset, write
+from test_study import assert_refused, synthetic_dataset, write
 
 from rasc.cli import main as cli
 from rasc.errors import InputError, SolverFailure
@@ -57,12 +57,7 @@ BAD = [
 
 @pytest.mark.parametrize(("text", "message"), BAD)
 def test_bad_keys_are_one_line_naming_file_and_key(tmp_path, capsys, text, message):
-    spec = write(tmp_path, HEAD + text)
-    out = tmp_path / "out"
-    assert cli(["study", str(spec), "--out", str(out), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"rasc study: error: {spec}: ") and message in err, err
-    assert err.count("\n") == 1 and not out.exists()
+    assert_refused(tmp_path, capsys, HEAD + text, message)
 
 
 BESIDE_A_DATASET = [

@@ -55,7 +55,7 @@ import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.io import dumps_json, write_json_atomic, write_text_atomic
+from rasc.io import cache_root, dumps_json, write_json_atomic, write_text_atomic
 from rasc.study.executors import Executor, make_executor, worker_environment
 from rasc.study.spec import (
     FORMAT,
@@ -446,15 +446,10 @@ CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
 
 
 def cache_dir() -> Path | None:
-    """Where rendered study datasets are cached between runs: ``$RASC_CACHE_DIR/
-    study-datasets`` (``RASC_CACHE_DIR=none`` turns the cache off), else under
-    ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
-    root = os.environ.get("RASC_CACHE_DIR")
-    if root is not None and root.strip().lower() in ("none", "off", ""):
-        return None
-    if not root:
-        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
-    return Path(root) / "study-datasets"
+    """Where rendered study datasets are cached between runs: ``study-datasets`` under
+    :func:`rasc.io.cache_root` (``RASC_CACHE_DIR=none`` turns the cache off)."""
+    root = cache_root()
+    return None if root is None else root / "study-datasets"
 
 
 _CODE_DIGEST: list[str] = []
