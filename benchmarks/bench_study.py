@@ -13,7 +13,8 @@ starts, so start-up is not counted; it is printed apart):
 * **renders**: ``--renders`` cells that each need their own dataset (board distance
   swept; 8 intrinsics views per eye, one sample): rendered and calibrated datasets/s.
 
-The outputs of every executor are compared byte for byte (CSV, JSON, figures).
+The outputs of every executor are compared byte for byte (CSV, JSON, figures). The
+study engine's dataset cache is off (RASC_CACHE_DIR=none): every run renders.
 """
 
 from __future__ import annotations
@@ -27,6 +28,9 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# every executor renders its datasets afresh: the study engine's dataset cache would
+# otherwise serve the later runs what the first one rendered
+os.environ["RASC_CACHE_DIR"] = "none"
 
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.executors import DaskExecutor, ProcessExecutor  # noqa: E402
