@@ -49,3 +49,27 @@ def test_refine_calibration_is_calibrate_with_the_general_model(monkeypatch):
     # and the refinement did change the head (the control that the comparison has teeth)
     assert not np.allclose(refined.head.left.T_cam_from_gaze, closed.head.left.T_cam_from_gaze,
                            atol=1e-9)
+
+
+def test_an_unreadable_ground_truth_is_refused_before_any_work(monkeypatch):
+    """The ground truth is read first: its error comes before detection and calibration
+    (seconds of work on real images), not after them."""
+    from pathlib import Path
+
+    import pytest
+
+    from rasc.errors import InputError
+    from rasc.head import pipeline
+
+    ds = _dataset()
+    calls = []
+    monkeypatch.setattr(pipeline, "calibrate_eye", lambda *a, **k: calls.append(1))
+
+    def unreadable():
+        raise InputError("ground_truth.json: malformed JSON (line 1, column 2)")
+
+    ds.ground_truth = Path("ground_truth.json")
+    ds.load_ground_truth = unreadable
+    with pytest.raises(InputError, match="malformed JSON"):
+        calibrate_dataset(ds)
+    assert calls == []

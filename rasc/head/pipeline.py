@@ -276,6 +276,8 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     options = options or CalibrationOptions()
     timer = _Timer()
     sizes = dataset.validate()  # reads every image header once
+    # a ground truth that cannot be read is refused now, not after the whole calibration
+    truth = None if dataset.ground_truth is None else dataset.load_ground_truth()
     eyes = {}
     for eye in EYES:
         if eye not in sizes:
@@ -315,7 +317,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
                       timings=timer.timings, warnings=warnings,
                       length_unit=dataset.length_unit)
-    return _finish(cal, dataset, options, timer, log, sizes)
+    return _finish(cal, dataset, options, timer, log, sizes, truth=truth)
 
 
 SCALES_MODES = ("auto", "estimate", "hold")
@@ -349,15 +351,17 @@ POSE_RMS_WARN_RATIO = 4.0
 
 
 def _finish(cal: Calibration, dataset, options: CalibrationOptions, timer: _Timer,
-            log: Callable[[str], None], sizes: dict, model_fit=None) -> Calibration:
+            log: Callable[[str], None], sizes: dict, model_fit=None,
+            truth: dict | None = None) -> Calibration:
     """The last steps of a calibration (closed form or refined): the model-fit check and
     the refinement (:func:`_check_and_refine`), the stage timings, and the errors against
-    the dataset's ground truth when it has one."""
+    the dataset's ground truth when it has one (``truth``: that document, already read)."""
     _check_and_refine(cal, dataset, options, timer, log, sizes, model_fit)
     cal.timings = dict(timer.timings)
     if dataset.ground_truth is not None:
-        cal.errors = errors_against_truth(cal, dataset.load_ground_truth(),
-                                          where=str(dataset.ground_truth))
+        cal.errors = errors_against_truth(
+            cal, dataset.load_ground_truth() if truth is None else truth,
+            where=str(dataset.ground_truth))
     return cal
 
 
