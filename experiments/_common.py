@@ -29,6 +29,7 @@ from rasc.io import (
     cache_root,
     dumps_json,
     read_json_document,
+    tree_digest,
     write_json_atomic,
     write_text_atomic,
 )
@@ -147,17 +148,11 @@ PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
 
 def renderer_digest() -> str:
     """sha256 over the renderer's code and models (rasc/sim, rasc/vision/board.py)."""
-    import hashlib
-
     import rasc
     root = Path(rasc.__file__).parent
-    h = hashlib.sha256()
-    files = sorted([*(root / "sim").rglob("*.py"), *(root / "sim" / "models").rglob("*"),
-                    root / "vision" / "board.py"])
-    for p in files:
-        if p.is_file() and "__pycache__" not in p.parts:
-            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
-    return h.hexdigest()
+    return tree_digest(root, [*(root / "sim").rglob("*.py"),
+                              *(root / "sim" / "models").rglob("*"),
+                              root / "vision" / "board.py"])
 
 
 def dataset_cache(options: dict) -> Path | None:
@@ -180,18 +175,6 @@ CALIBRATION_CODE = ("geometry", "handeye", "head", "vision")
 CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/1"
 
 
-def _tree_digest(root: Path, files: Iterable[Path]) -> str:
-    """sha256 over the relative path and bytes of every file in ``files`` (sorted)."""
-    import hashlib
-    h = hashlib.sha256()
-    for p in sorted(files):
-        if p.is_file() and "__pycache__" not in p.parts:
-            data = p.read_bytes()
-            h.update(p.relative_to(root).as_posix().encode() + b"\0"
-                     + len(data).to_bytes(8, "little") + data)
-    return h.hexdigest()
-
-
 def calibration_code_digest(root: Path | None = None) -> str:
     """sha256 over the source of the code that computes a calibration: rasc's top-level
     modules and the packages of :data:`CALIBRATION_CODE` (every ``.py`` file) of the
@@ -202,7 +185,7 @@ def calibration_code_digest(root: Path | None = None) -> str:
     files = [*root.glob("*.py")]
     for pkg in CALIBRATION_CODE:
         files += (root / pkg).rglob("*.py")
-    return _tree_digest(root, files)
+    return tree_digest(root, files)
 
 
 def calibration_key(dataset: Path) -> dict:
@@ -216,7 +199,7 @@ def calibration_key(dataset: Path) -> dict:
 
     import rasc
     return {"format": CALIBRATION_CACHE_FORMAT, "rasc_version": rasc.__version__,
-            "dataset_sha256": _tree_digest(dataset, Path(dataset).rglob("*")),
+            "dataset_sha256": tree_digest(dataset, Path(dataset).rglob("*")),
             "code_sha256": calibration_code_digest(),
             "libraries": {"python": platform.python_version(), "numpy": np.__version__,
                           "scipy": scipy.__version__, "opencv": cv2.__version__,

@@ -45,6 +45,22 @@ def cache_root() -> Path | None:
     return Path(root)
 
 
+def tree_digest(root: str | os.PathLike, files) -> str:
+    """sha256 over the path relative to ``root``, the length and the bytes of every
+    regular file of ``files`` (in sorted order; ``__pycache__`` and ``.pyc`` left out):
+    what a cache entry built from those files depends on."""
+    import hashlib
+
+    root = Path(root)
+    h = hashlib.sha256()
+    for p in sorted(Path(f) for f in files):
+        if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
+            data = p.read_bytes()
+            h.update(p.relative_to(root).as_posix().encode() + b"\0"
+                     + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)

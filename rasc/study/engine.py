@@ -55,7 +55,13 @@ import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.io import cache_root, dumps_json, write_json_atomic, write_text_atomic
+from rasc.io import (
+    cache_root,
+    dumps_json,
+    tree_digest,
+    write_json_atomic,
+    write_text_atomic,
+)
 from rasc.study.executors import Executor, make_executor, worker_environment
 from rasc.study.spec import (
     FORMAT,
@@ -466,9 +472,7 @@ def code_digest() -> str:
         import rasc
         root = Path(rasc.__file__).parent
         h = hashlib.sha256(f"rasc {rasc.__version__}\0".encode())
-        for p in sorted(root.rglob("*")):
-            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
-                h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+        h.update(tree_digest(root, root.rglob("*")).encode())
         for names in CACHE_LIBRARIES:
             for name in names:
                 try:
