@@ -262,6 +262,27 @@ def unit_summary(sim) -> list[str]:
     return lines
 
 
+def distortion_of(options: RenderOptions) -> tuple[np.ndarray, bool]:
+    """The five distortion coefficients (k1 k2 p1 p2 k3) of ``options.dist`` (zeros
+    beyond those given) and whether any is non-zero."""
+    dist = np.zeros(5)
+    dist[:len(options.dist)] = options.dist
+    return dist, bool(np.any(dist != 0))
+
+
+def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
+               options: RenderOptions) -> np.ndarray:
+    """The ``eye``'s current view as ``rasc render`` writes it: rendered grey, distorted
+    (``warp[eye]``, :func:`rasc.sim.scene.distortion_warp`, when the options distort),
+    then blurred and noised (:func:`rasc.sim.scene.degrade`, drawing from ``rng``)."""
+    from rasc.sim.scene import degrade
+
+    image = sim.render_grey(eye)
+    if eye in warp:
+        image = warp[eye](image)
+    return degrade(image, rng, blur_sigma=options.blur_sigma, noise_sigma=options.noise_sigma)
+
+
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                    model_path: str | Path | None = None, quiet: bool = False,
                    units: dict | None = None) -> Path:
@@ -276,7 +297,6 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     from rasc.sim.scene import (
         StereoHeadSim,
         T_base_from_world_facing,
-        degrade,
         distortion_warp,
     )
     from rasc.vision.camera import write_image
@@ -297,10 +317,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         board = sim.board
         size = sim.image_size
         gt = sim.ground_truth()
-        dist = np.zeros(5)
-        if options.dist:
-            dist[:len(options.dist)] = options.dist
-        distorted = bool(np.any(dist != 0))
+        dist, distorted = distortion_of(options)
         for eye in EYES:
             gt[eye]["dist"] = dist.tolist()
         # fail on bad positions or distances before rendering anything
@@ -330,12 +347,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
 
         def shoot(eye: str, name: str, entry: dict) -> None:
             sim.check_ground_truth(eye, name)
-            image = sim.render_grey(eye)
-            if distorted:  # as rasc.sim.scene.degrade: distortion, then blur, then noise
-                image = warp[eye](image)
-            image = degrade(image, rng, blur_sigma=options.blur_sigma,
-                            noise_sigma=options.noise_sigma)
-            write_image(out / name, image)
+            write_image(out / name, view_image(sim, eye, warp, rng, options))
             images.append({"file": name, "eye": eye, **entry})
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),

@@ -316,13 +316,8 @@ def pose_task(task: dict) -> dict:
     """
     worker_environment()
     from rasc.head.pipeline import CalibrationOptions
-    from rasc.sim.render import RenderOptions, check_pose_views
-    from rasc.sim.scene import (
-        StereoHeadSim,
-        T_base_from_world_facing,
-        degrade,
-        distortion_warp,
-    )
+    from rasc.sim.render import RenderOptions, check_pose_views, distortion_of, view_image
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
     from rasc.vision.board import Board
     from rasc.vision.camera import detect_corners, estimate_extrinsics
 
@@ -354,9 +349,7 @@ def pose_task(task: dict) -> dict:
                             seed=scene["seed"], noise_sigma=scene["noise_sigma"] or 0.0,
                             blur_sigma=scene["blur_sigma"] or 0.0,
                             dist=tuple(scene["dist"] or ()))
-    dist = np.zeros(5)
-    dist[:len(options.dist)] = options.dist
-    distorted = bool(np.any(dist != 0))
+    dist, distorted = distortion_of(options)
     rng = np.random.default_rng(np.random.SeedSequence(
         [task["seed"], POSE_RENDER_KEY, int(task["key"], 16)]))
     detector = CalibrationOptions().detector
@@ -385,11 +378,7 @@ def pose_task(task: dict) -> dict:
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             for eye in EYES:
-                image = sim.render_grey(eye)
-                if distorted:              # as rasc.sim.render: distortion, blur, noise
-                    image = warp[eye](image)
-                images[eye].append(degrade(image, rng, blur_sigma=options.blur_sigma,
-                                           noise_sigma=options.noise_sigma))
+                images[eye].append(view_image(sim, eye, warp, rng, options))
                 T_true[eye].append(sim.T_cam_from_world(eye).tolist())
         X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
     pan_tilt = np.radians(np.asarray(poses, float))
