@@ -170,7 +170,6 @@ def start_forkserver() -> None:
     on the other core, while this one imports its own libraries and reads or renders the
     default dataset); the pool built later connects to it. Best effort: on failure the
     pool starts it itself."""
-    import contextlib
     import multiprocessing
     from multiprocessing import forkserver
     with contextlib.suppress(Exception):
@@ -372,20 +371,9 @@ def _run(argv: list[str] | None, state: dict) -> int:
     return 0
 
 
-def exit_now(status: int) -> None:
-    """End the process with ``status`` once the output is flushed, without the
-    interpreter's teardown: every result is already written (atomically) and closed and
-    the pool joined, and freeing the loaded libraries (numpy, scipy, OpenCV, mujoco,
-    matplotlib) one object at a time took 0.6-0.7 s after "wrote REPORT.md" (measured on
-    the 2-core bench machine: the atexit handlers took 3 ms of it). An interrupt's 130
-    goes through :func:`rasc.interrupt.exit_process` as before."""
-    if status == 130:
-        exit_process(status)
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(OSError, ValueError):
-            stream.flush()
-    os._exit(status)
-
-
 if __name__ == "__main__":
-    exit_now(main())
+    # without the interpreter's teardown: every result is already written (atomically)
+    # and closed and the pool joined, and freeing the loaded libraries (numpy, scipy,
+    # OpenCV, mujoco, matplotlib) one object at a time took 0.6-0.7 s after "wrote
+    # REPORT.md" (measured on the 2-core bench machine; the atexit handlers 3 ms of it)
+    exit_process(main(), teardown=False)

@@ -87,7 +87,7 @@ def shielded(reraise: bool = True) -> Iterator[None]:
         raise KeyboardInterrupt(signal.Signals(arrived[0]).name)
 
 
-def exit_process(status: int) -> None:
+def exit_process(status: int, *, teardown: bool = True) -> None:
     """End the process with an entry point's ``status`` (never returns).
 
     After an interrupt (status 130; the command has cleaned up and said what it kept) the
@@ -95,11 +95,13 @@ def exit_process(status: int) -> None:
     KeyboardInterrupt that passed through code run by a library's import as unhandled
     even when the entry point caught it, and would then end the process by SIGINT instead
     of with status 130 (python/cpython gh-128130; measured here: about a third of the
-    SIGINTs that arrive 0.25-0.3 s after ``rasc`` starts).
+    SIGINTs that arrive 0.25-0.3 s after ``rasc`` starts). ``teardown=False`` ends any
+    status that way, without the interpreter's teardown (for a command whose results are
+    all written and closed, and whose loaded libraries take long to free).
     """
-    if status == 130:
+    if status == 130 or not teardown:
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):
                 stream.flush()
-        os._exit(130)
+        os._exit(status)
     sys.exit(status)
