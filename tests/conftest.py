@@ -22,6 +22,12 @@ Fixtures (session scope, built on first use):
   its calibration by ``rasc calibrate`` in a subprocess.
 - ``default_calibration``: :func:`rasc.head.pipeline.calibrate_dataset` of the dataset
   with the default options, in this process.
+- ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
+  that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
+  file), so the dataset they all ask for is rendered once per run, not once per suite.
+- ``my_solver_site``: examples/my_solver installed once per run (``pip install --no-deps
+  --target SITE`` of a copy, as a user's ``pip install ./examples/my_solver``); put SITE
+  on PYTHONPATH. Read-only.
 
 Under pytest-xdist the rendered files are made once per run, not once per worker: the
 first worker to need them builds them under a file lock in the run's shared temporary
@@ -38,6 +44,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -199,6 +206,43 @@ def default_calibration(default_dataset):
     from rasc.vision.dataset import load_dataset
 
     return calibrate_dataset(load_dataset(default_dataset))
+
+
+@pytest.fixture(scope="session")
+def rasc_testing_cache(tmp_path_factory) -> Path:
+    """A rasc.testing dataset cache (``--rasc-cache-dir`` / ``RASC_CACHE_DIR``) for the run.
+    Shared by xdist workers without a lock: rasc.testing renders into a temporary folder
+    and renames it into place, so two suites asking at once at worst both render."""
+    path = _shared_root(tmp_path_factory) / "rasc-testing-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
+#: the user's solver package of the README ("Bring your own solver") and of rasc.testing
+MY_SOLVER = Path(__file__).resolve().parents[1] / "examples" / "my_solver"
+
+
+@pytest.fixture(scope="session")
+def my_solver_site(tmp_path_factory) -> Path:
+    """examples/my_solver installed by ``pip install --no-deps --target SITE`` (this
+    environment's dependencies, no network) from a copy (building in place would leave
+    build/ in the checkout); once per run, under a file lock as the dataset. Read-only."""
+    shared = _shared_root(tmp_path_factory)
+    site, done = shared / "my_solver_site", shared / "my_solver_site.done"
+    with _locked(shared / "my_solver_site.lock"):
+        if not done.is_file():                        # written last: the install is whole
+            src = shared / "my_solver_src"
+            for folder in (site, src):
+                shutil.rmtree(folder, ignore_errors=True)
+            shutil.copytree(MY_SOLVER, src, ignore=shutil.ignore_patterns(
+                "__pycache__", "build", "*.egg-info"))
+            proc = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet",
+                                   "--no-deps", *pip_build_flags(), "--target", str(site),
+                                   str(src)], capture_output=True, text=True, timeout=600,
+                                  check=False)
+            assert proc.returncode == 0, proc.stdout + proc.stderr
+            done.write_text("")
+    return site
 
 
 #: A test using any of these needs the rendered default dataset: it is ``slow``.

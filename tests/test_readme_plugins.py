@@ -5,7 +5,8 @@ Console blocks: each ``$ `` line is run by the shell from the repository's root 
 environment's ``rasc`` first on PATH; lines after it up to the next ``$ `` are its
 expected output (stdout and stderr). ``pip install ./examples/my_solver`` is run as
 ``pip install --no-deps --target SITE`` on a copy (this environment's dependencies, no
-build/ left in the checkout), with SITE put on PYTHONPATH for the lines after it.
+build/ left in the checkout; once per run, conftest's ``my_solver_site``, shared with
+tests/test_example_solver.py), with SITE put on PYTHONPATH for the lines after it.
 Python blocks run as scripts (or, for the test file, under pytest) with
 ``examples/my_solver`` on PYTHONPATH."""
 
@@ -14,18 +15,16 @@ from __future__ import annotations
 import os
 import re
 import shlex
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from conftest import pip_build_flags
+from conftest import MY_SOLVER as EXAMPLE_PKG
 
 REPO = Path(__file__).resolve().parents[1]
 README = (REPO / "README.md").read_text(encoding="utf-8")
-EXAMPLE_PKG = REPO / "examples" / "my_solver"
 
 
 def section(title: str) -> str:
@@ -52,7 +51,7 @@ def test_sections_stand_right_before_measured_figures():
 
 
 @pytest.mark.slow
-def test_bring_your_own_solver_console(tmp_path):
+def test_bring_your_own_solver_console(my_solver_site):
     (block,) = blocks(section("Bring your own solver"), "console")
     commands: list[tuple[str, list[str]]] = []
     for line in block.splitlines():
@@ -61,18 +60,12 @@ def test_bring_your_own_solver_console(tmp_path):
         else:
             commands[-1][1].append(line)
     assert len(commands) == 4
-    site = tmp_path / "site"
     extra_path: list[str] = []
     for command, expected in commands:
         if command.startswith("pip install ./examples/my_solver"):
-            src = tmp_path / "my_solver"
-            shutil.copytree(EXAMPLE_PKG, src, ignore=shutil.ignore_patterns(
-                "__pycache__", "build", "*.egg-info"))
-            argv = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
-                    *pip_build_flags(), "--target", str(site), str(src)]
-            proc = subprocess.run(argv, capture_output=True, text=True, timeout=600)
-            assert proc.returncode == 0, proc.stderr
-            extra_path.append(str(site))
+            # the install itself: the my_solver_site fixture (pip exited 0), shared
+            assert command == "pip install ./examples/my_solver" and not expected, command
+            extra_path.append(str(my_solver_site))
             continue
         env = _env(PYTHONPATH=os.pathsep.join(extra_path))
         proc = subprocess.run(["bash", "-c", command], capture_output=True, text=True,
@@ -100,15 +93,17 @@ def test_bring_your_own_solver_python(tmp_path):
 
 
 @pytest.mark.slow
-def test_rasc_testing_example_file(tmp_path):
+def test_rasc_testing_example_file(tmp_path, rasc_testing_cache):
     """The user's test file as printed, run as the README says (the plugin loads itself
-    from the installed rasc), with the dataset cache in a temporary folder."""
+    from the installed rasc), with the dataset cache in a temporary folder (the run's,
+    conftest's ``rasc_testing_cache``: shared with tests/test_example_solver.py, whose
+    suite asks for the same dataset)."""
     (code,) = blocks(section("Regression tests for your own code (rasc.testing)"), "python")
     (tmp_path / "test_mine.py").write_text(code, encoding="utf-8")
     proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                            "test_mine.py"], capture_output=True, text=True, cwd=tmp_path,
                           env=_env(PYTHONPATH=str(EXAMPLE_PKG),
-                                   RASC_CACHE_DIR=str(tmp_path / "cache")), timeout=900)
+                                   RASC_CACHE_DIR=str(rasc_testing_cache)), timeout=900)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "4 passed" in proc.stdout, proc.stdout
     assert "PYTHONPATH=examples/my_solver pytest test_mine.py" in section(
