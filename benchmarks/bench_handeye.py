@@ -64,15 +64,21 @@ def median_time(fn, repeat: int, clock=time.perf_counter) -> float:
 
 def median_times(fns, repeat: int, block: int = 5) -> list[float]:
     """Median time per call of each of ``fns``, timed in turn in blocks of ``block``
-    calls, ``repeat`` calls each: on a shared machine every function sees the same load."""
+    calls, ``repeat`` calls each: on a shared machine every function sees the same load.
+
+    The order rotates from round to round, so that each function follows each other one
+    equally often: whatever runs right after OpenCV's calibrateHandEye was measured about
+    20 % slower than the same code run after another function (caches it evicted), which
+    a fixed order charged to one column."""
     for fn in fns:
         fn()                               # warm-up
     times = [[] for _ in fns]
-    for _ in range(max(1, repeat // block)):
-        for k, fn in enumerate(fns):
+    m = len(fns)
+    for r in range(max(1, repeat // block)):
+        for k in [(r + o) % m for o in range(m)]:
             t0 = time.perf_counter()
             for _ in range(block):
-                fn()
+                fns[k]()
             times[k].append((time.perf_counter() - t0) / block)
     return [statistics.median(t) for t in times]
 
