@@ -1061,13 +1061,6 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         identifiability=(free_all, dropped))
 
 
-def rotvec_std_deg(result: RefinementResult, name: str) -> np.ndarray:
-    """Standard deviations (deg) of the three rotation-vector components of a refined
-    transform (``"left.T_cam_from_gaze"``, ``"T_ptuL_from_ptuR"``)."""
-    idx = [result.names.index(f"{name}.rot{c}") for c in "xyz"]
-    return np.degrees(np.sqrt(np.diag(result.covariance)[idx]))
-
-
 __all__ = ["EyeObservations", "HeadObservations", "RefinementResult", "refine_head",
            "observations_from_calibration", "unit_from_parameters", "UNIT_PARAMETERS",
            "IDENTIFIABILITY_SINE", "REJECT_K", "GAUGE"]
