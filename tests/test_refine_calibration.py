@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from rasc.geometry.kinematics import PanTiltUnit
 from rasc.head import fit
@@ -71,5 +72,74 @@ def test_an_unreadable_ground_truth_is_refused_before_any_work(monkeypatch):
     ds.ground_truth = Path("ground_truth.json")
     ds.load_ground_truth = unreadable
     with pytest.raises(InputError, match="malformed JSON"):
+        calibrate_dataset(ds)
+    assert calls == []
+
+
+def _truth() -> dict:
+    """A ground truth of ``rasc render``'s layout (the values do not matter here)."""
+    eye = {"K": np.eye(3).tolist(), "T_cam_from_gaze": np.eye(4).tolist(),
+           "T_ptu_from_base": np.eye(4).tolist()}
+    return {"left": dict(eye), "right": dict(eye), "T_ptuL_from_ptuR": np.eye(4).tolist(),
+            "views": {"poses/left_00.png": {"eye": "left",
+                                            "T_cam_from_world": np.eye(4).tolist()}}}
+
+
+def _without(path: str):
+    def change(t):
+        *head, last = path.split(".")
+        for k in head:
+            t = t[k]
+        del t[last]
+    return change
+
+
+def _set(path: str, value):
+    def change(t):
+        *head, last = path.split(".")
+        for k in head:
+            t = t[k]
+        t[last] = value
+    return change
+
+
+STRUCTURE_CASES = {
+    "no right eye": (_without("right"), "missing field 'right'"),
+    "no K": (_without("left.K"), "missing field left.K"),
+    "no T_cam_from_gaze": (_without("right.T_cam_from_gaze"),
+                           "missing field right.T_cam_from_gaze"),
+    "no mount": (_without("T_ptuL_from_ptuR"), "missing field 'T_ptuL_from_ptuR'"),
+    "K of the wrong shape": (_set("left.K", [[1, 0], [0, 1]]),
+                             r"left.K: expected a 3x3 matrix of finite numbers"),
+    "NaN in a transform": (_set("right.T_ptu_from_base", [[float("nan")] * 4] * 4),
+                           r"right.T_ptu_from_base: expected a 4x4 matrix of finite numbers"),
+    "text for a matrix": (_set("T_ptuL_from_ptuR", "identity"),
+                          r"T_ptuL_from_ptuR: expected a 4x4 matrix"),
+    "eye not an object": (_set("left", [1, 2]), r"left: expected an object"),
+    "view without its pose": (_set("views", {"poses/left_00.png": {"eye": "left"}}),
+                              r"missing field views.poses/left_00.png.T_cam_from_world"),
+}
+
+
+@pytest.mark.parametrize("case", list(STRUCTURE_CASES))
+def test_a_ground_truth_of_the_wrong_shape_is_refused_before_any_work(case, monkeypatch):
+    """Valid JSON without a field the comparison reads (or with a matrix of the wrong
+    shape, or not finite) is refused with the file and the field named, before detection
+    and calibration, not after them (and never as NaN errors)."""
+    from pathlib import Path
+
+    from rasc.errors import InputError
+    from rasc.head import pipeline
+
+    change, message = STRUCTURE_CASES[case]
+    truth = _truth()
+    pipeline.check_ground_truth(truth, "gt.json")           # the control: accepted
+    change(truth)
+    ds = _dataset()
+    calls = []
+    monkeypatch.setattr(pipeline, "calibrate_eye", lambda *a, **k: calls.append(1))
+    ds.ground_truth = Path("gt.json")
+    ds.load_ground_truth = lambda: truth
+    with pytest.raises(InputError, match=rf"^gt\.json: {message}"):
         calibrate_dataset(ds)
     assert calls == []

@@ -278,6 +278,8 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     sizes = dataset.validate()  # reads every image header once
     # a ground truth that cannot be read is refused now, not after the whole calibration
     truth = None if dataset.ground_truth is None else dataset.load_ground_truth()
+    if truth is not None:           # ... and so is one that is valid JSON of the wrong shape
+        check_ground_truth(truth, str(dataset.ground_truth))
     eyes = {}
     for eye in EYES:
         if eye not in sizes:
@@ -470,6 +472,46 @@ def transform_error(T_est, T_true) -> dict[str, float]:
     T_est, T_true = np.asarray(T_est, float), np.asarray(T_true, float)
     return {"rotation_deg": float(rotation_error_deg(T_est[:3, :3], T_true[:3, :3])),
             "translation": float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))}
+
+
+def check_ground_truth(truth: Any, where: str = "ground truth") -> None:
+    """Refuse a ground truth that :func:`errors_against_truth` could not compare with,
+    before any calibration work: every field it reads present, each matrix finite and of
+    its shape (``rasc render``'s layout). Raises :class:`InputError` naming ``where`` (the
+    file) and the field."""
+    def matrix(value: Any, shape: tuple[int, int], field: str) -> None:
+        try:
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.shape != shape or not np.isfinite(a).all():
+            raise InputError(f"{where}: {field}: expected a {shape[0]}x{shape[1]} matrix of "
+                             "finite numbers")
+
+    if not isinstance(truth, dict):
+        raise InputError(f"{where}: expected a JSON object")
+    for eye in EYES:
+        t = truth.get(eye)
+        if not isinstance(t, dict):
+            raise InputError(f"{where}: missing field {eye!r}" if t is None
+                             else f"{where}: {eye}: expected an object")
+        for key, shape in (("K", (3, 3)), ("T_cam_from_gaze", (4, 4)),
+                           ("T_ptu_from_base", (4, 4))):
+            if key not in t:
+                raise InputError(f"{where}: missing field {eye}.{key}")
+            matrix(t[key], shape, f"{eye}.{key}")
+        if "unit" in t:
+            PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit")
+    if "T_ptuL_from_ptuR" not in truth:
+        raise InputError(f"{where}: missing field 'T_ptuL_from_ptuR'")
+    matrix(truth["T_ptuL_from_ptuR"], (4, 4), "T_ptuL_from_ptuR")
+    views = truth.get("views", {})
+    if not isinstance(views, dict):
+        raise InputError(f"{where}: views: expected an object")
+    for name, view in views.items():
+        if not isinstance(view, dict) or "T_cam_from_world" not in view:
+            raise InputError(f"{where}: missing field views.{name}.T_cam_from_world")
+        matrix(view["T_cam_from_world"], (4, 4), f"views.{name}.T_cam_from_world")
 
 
 def errors_against_truth(cal: Calibration, truth: dict,
