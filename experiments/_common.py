@@ -28,7 +28,9 @@ from rasc.errors import InputError
 from rasc.io import (
     cache_root,
     dumps_json,
+    prune_cache,
     read_json_document,
+    touch_cache_entry,
     tree_digest,
     write_json_atomic,
     write_text_atomic,
@@ -252,6 +254,7 @@ def load_cached_calibration(path: Path, key: dict):
         from rasc.head.pipeline import Calibration
         if not isinstance(entry.get("calibration"), Calibration):
             raise ValueError("no calibration in it")
+        touch_cache_entry(path)                       # used: the last to be pruned
         return entry["calibration"]
     except Exception as exc:   # noqa: BLE001  (any unreadable entry is only a cache miss)
         print(f"reproduce: note: ignored the cached calibration {path} "
@@ -270,6 +273,7 @@ def store_calibration(path: Path, key: dict, cal) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_bytes_atomic(path, pickle.dumps({"key": key, "calibration": cal},
                                               protocol=pickle.HIGHEST_PROTOCOL))
+        prune_cache(path.parent, keep=path)
     except OSError as exc:
         print(f"reproduce: note: could not cache the calibration in {path} ({exc})",
               file=sys.stderr)
@@ -295,6 +299,7 @@ def _store(dataset: Path, cache: Path) -> None:
                 (tmp / "d").replace(cache)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
+        prune_cache(cache.parent, keep=cache)
     except OSError as exc:
         print(f"reproduce: note: could not cache the dataset in {cache} ({exc})",
               file=sys.stderr)
@@ -402,6 +407,7 @@ class Context:
         try:
             if cache is not None and _record(cache) == want:
                 shutil.copytree(cache, tmp / "dataset")
+                touch_cache_entry(cache)
                 print(f"reproduce: the default dataset copied from the cache {cache} "
                       "(same options; RASC_CACHE_DIR=none renders it afresh)", file=sys.stderr)
             else:

@@ -36,13 +36,99 @@ from rasc.errors import InputError
 def cache_root() -> Path | None:
     """Where rasc keeps files between runs (the reproduction's default dataset and its
     calibration, a study's rendered datasets): ``$RASC_CACHE_DIR`` (``none``, ``off``
-    or empty: no cache, None), else ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``."""
+    or empty: no cache, None), else ``$XDG_CACHE_HOME/rasc`` or ``~/.cache/rasc``. Each
+    cache folder under it keeps at most :func:`cache_max_bytes` (:func:`prune_cache`)."""
     root = os.environ.get("RASC_CACHE_DIR")
     if root is not None and root.strip().lower() in ("none", "off", ""):
         return None
     if not root:
         root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rasc")
+    cache_max_bytes()                  # a bad RASC_CACHE_MAX_MB is refused before any work
     return Path(root)
+
+
+#: The most each of rasc's caches (a folder under :func:`cache_root`) keeps, in bytes, unless
+#: ``$RASC_CACHE_MAX_MB`` says otherwise: beyond it the least recently used entries go.
+CACHE_MAX_BYTES = 256 * 2**20
+
+
+def cache_max_bytes() -> int:
+    """The size each cache folder is pruned to: ``$RASC_CACHE_MAX_MB`` (a number of MiB
+    ≥ 0; anything else is refused) or :data:`CACHE_MAX_BYTES`."""
+    value = os.environ.get("RASC_CACHE_MAX_MB")
+    if value is None or not value.strip():
+        return CACHE_MAX_BYTES
+    try:
+        mb = float(value)
+    except ValueError:
+        mb = math.nan
+    if not (math.isfinite(mb) and mb >= 0):
+        raise InputError(f"RASC_CACHE_MAX_MB: expected a number of MiB >= 0, got {value!r}")
+    return int(mb * 2**20)
+
+
+def touch_cache_entry(path: str | os.PathLike) -> None:
+    """Mark a cache entry as just used (its modification time: :func:`prune_cache` removes
+    the least recently used first). Best effort."""
+    with contextlib.suppress(OSError):
+        os.utime(path)
+
+
+def _entry_bytes(path: Path) -> int:
+    if path.is_dir() and not path.is_symlink():
+        total = 0
+        for folder, _, files in os.walk(path):
+            for f in files:
+                with contextlib.suppress(OSError):
+                    total += os.lstat(os.path.join(folder, f)).st_size
+        return total
+    return path.lstat().st_size
+
+
+def prune_cache(folder: str | os.PathLike, max_bytes: int | None = None,
+                keep: str | os.PathLike | None = None) -> list[Path]:
+    """Remove a cache folder's least recently used entries (the files and folders directly
+    in it, oldest modification time first; readers :func:`touch_cache_entry` what they use)
+    until the rest take at most ``max_bytes`` (default :func:`cache_max_bytes`).
+
+    ``keep`` (the entry just written) is never removed, nor an entry being written
+    (``.tmp-*``, ``.*.tmp``). Best effort: an entry another process removes or uses at the
+    same time is skipped or, at worst, rebuilt by its next reader. Returns what was removed.
+    """
+    import shutil
+
+    folder = Path(folder)
+    budget = cache_max_bytes() if max_bytes is None else max_bytes
+    keep = None if keep is None else Path(keep).resolve()
+    entries = []
+    try:
+        children = list(folder.iterdir())
+    except OSError:
+        return []
+    for p in children:
+        if p.name.startswith(".") or p.name.endswith(".tmp"):
+            continue
+        try:
+            entries.append((p.lstat().st_mtime, p.name, p, _entry_bytes(p)))
+        except OSError:
+            continue
+    total = sum(e[3] for e in entries)
+    removed = []
+    for _, _, p, size in sorted(entries):
+        if total <= budget:
+            break
+        if keep is not None and p.resolve() == keep:
+            continue
+        try:
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+        except OSError:
+            continue
+        total -= size
+        removed.append(p)
+    return removed
 
 
 def tree_digest(root: str | os.PathLike, files) -> str:

@@ -58,6 +58,8 @@ from rasc.geometry.frames import EYES
 from rasc.io import (
     cache_root,
     dumps_json,
+    prune_cache,
+    touch_cache_entry,
     tree_digest,
     write_json_atomic,
     write_text_atomic,
@@ -492,8 +494,10 @@ def _cache_get(root: Path | None, name: str) -> dict | None:
         doc = json.loads((root / f"{name}.json").read_text())
     except (OSError, ValueError):
         return None          # absent, unreadable or damaged: render it again
-    return doc if isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1" \
-        else None
+    if not (isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1"):
+        return None
+    touch_cache_entry(root / f"{name}.json")         # used: the last to be pruned
+    return doc
 
 
 def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], None]) -> None:
@@ -503,6 +507,7 @@ def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], Non
     try:
         root.mkdir(parents=True, exist_ok=True)
         write_json_atomic(root / f"{name}.json", doc)
+        prune_cache(root, keep=root / f"{name}.json")
     except OSError as exc:
         log(f"rasc study: note: could not cache a dataset in {root} ({exc})")
 
