@@ -402,8 +402,8 @@ class Context:
                   "another rasc version or render options); rendering it afresh",
                   file=sys.stderr)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".dataset.", dir=path.parent))
         cache = dataset_cache(want)
+        tmp = Path(tempfile.mkdtemp(prefix=".dataset.", dir=path.parent))
         try:
             if cache is not None and _record(cache) == want:
                 shutil.copytree(cache, tmp / "dataset")

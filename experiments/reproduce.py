@@ -110,16 +110,12 @@ def main(argv: list[str] | None = None) -> int:
         with signals_as_interrupt():
             return _run(argv, state)
     except RascError as exc:
+        _remove_partials(state["ctx"])
         print(f"reproduce: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        from experiments._common import PARTIAL_PREFIX
         ctx = state["ctx"]
-        removed = []
-        if ctx is not None:
-            for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
-                shutil.rmtree(partial, ignore_errors=True)
-                removed.append(partial.name[len(PARTIAL_PREFIX):])
+        removed = _remove_partials(ctx)
         kept = ", ".join(state["done"]) or "none"
         where = f" in {ctx.out}" if ctx is not None else ""
         print(f"reproduce: interrupted: kept the finished experiments{where}: {kept}; "
@@ -127,6 +123,17 @@ def main(argv: list[str] | None = None) -> int:
               f"their partial folders ({', '.join(removed) or 'none'}); no REPORT.md "
               "written", file=sys.stderr)
         return 130
+
+
+def _remove_partials(ctx) -> list[str]:
+    """Remove the unfinished experiments' partial folders; their names."""
+    from experiments._common import PARTIAL_PREFIX
+    removed = []
+    if ctx is not None:
+        for partial in sorted(ctx.out.glob(PARTIAL_PREFIX + "*")):
+            shutil.rmtree(partial, ignore_errors=True)
+            removed.append(partial.name[len(PARTIAL_PREFIX):])
+    return removed
 
 
 #: experiments that need neither the default dataset nor its calibration (E7 renders or
@@ -295,6 +302,8 @@ class _ParallelRun:
 
 
 def _run(argv: list[str] | None, state: dict) -> int:
+    from rasc.io import cache_root
+    cache_root()               # a bad RASC_CACHE_MAX_MB is refused before anything starts
     if _requested_workers(argv) > 1:
         start_forkserver()
     from experiments._common import REPO, Context, md_table, stage

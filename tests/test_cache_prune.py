@@ -6,6 +6,7 @@ value is refused before any work; the reproduction's calibration cache prunes it
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -90,3 +91,21 @@ def test_the_calibration_cache_keeps_within_its_budget(monkeypatch, tmp_path):
     store_calibration(second, keys[1], cal)
     assert not first.exists() and second.exists()
     assert load_cached_calibration(second, keys[1]) is not None
+
+
+def test_a_bad_budget_stops_the_reproduction_and_a_study_before_anything_is_written(
+        monkeypatch, tmp_path, capsys):
+    from experiments import reproduce
+    from rasc.cli import main as rasc_main
+
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("RASC_CACHE_MAX_MB", "ten")
+    assert reproduce.main(["--quick", "--out", str(tmp_path / "out")]) == 2
+    spec = Path(__file__).resolve().parents[1] / "experiments" / "specs" / "e2_home_view.toml"
+    assert rasc_main(["study", str(spec), "--out", str(tmp_path / "study")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["reproduce: error: RASC_CACHE_MAX_MB: expected a number of MiB >= 0, "
+                   "got 'ten'",
+                   "rasc study: error: RASC_CACHE_MAX_MB: expected a number of MiB >= 0, "
+                   "got 'ten'"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
