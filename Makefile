@@ -26,12 +26,18 @@ reproduce: $(STAMP)
 # half of the other's pending ones, so no worker idles while a long batch waits elsewhere;
 # tests/conftest.py puts the slow tests first.
 DIST ?= worksteal
+# The suite starts well over a hundred Python processes (xdist workers, pool workers, the
+# CLI run as users run it). With PYTHONDONTWRITEBYTECODE set (as on the CI machines) each
+# would compile rasc's and the tests' sources again; unset, each module is compiled once
+# into __pycache__ (git-ignored) and read from there (measured: 10 % less CPU on the
+# subprocess-heavy tests, 69 -> 62 s on the first run, 58 s on the next).
+PYTEST := env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest
 test: $(STAMP)
-	$(PY) -m pytest -q -n $(JOBS) --dist $(DIST)
+	$(PYTEST) -q -n $(JOBS) --dist $(DIST)
 
 # The quick loop while developing: everything not marked slow.
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -n $(JOBS) --dist $(DIST) -m "not slow"
+	$(PYTEST) -q -n $(JOBS) --dist $(DIST) -m "not slow"
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check rasc tests experiments benchmarks examples
