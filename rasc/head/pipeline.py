@@ -25,6 +25,7 @@ import numpy as np
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PanTiltUnit, T_gaze_from_ptu, canonical_gauge
+from rasc.geometry.lens import validate_K
 from rasc.geometry.transforms import rotation_error_deg, validate_rigid_transform
 from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
 from rasc.head.base_to_ptu import (
@@ -476,18 +477,10 @@ def transform_error(T_est, T_true) -> dict[str, float]:
 
 def check_ground_truth(truth: Any, where: str = "ground truth") -> None:
     """Refuse a ground truth that :func:`errors_against_truth` could not compare with,
-    before any calibration work: every field it reads present, each matrix finite and of
-    its shape (``rasc render``'s layout). Raises :class:`InputError` naming ``where`` (the
-    file) and the field."""
-    def matrix(value: Any, shape: tuple[int, int], field: str) -> None:
-        try:
-            a = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            a = None
-        if a is None or a.shape != shape or not np.isfinite(a).all():
-            raise InputError(f"{where}: {field}: expected a {shape[0]}x{shape[1]} matrix of "
-                             "finite numbers")
-
+    before any calibration work: every field it reads present, each K a camera matrix
+    (:func:`rasc.geometry.lens.validate_K`) and each transform rigid
+    (:func:`validate_rigid_transform`), in ``rasc render``'s layout. Raises
+    :class:`InputError` naming ``where`` (the file) and the field."""
     if not isinstance(truth, dict):
         raise InputError(f"{where}: expected a JSON object")
     for eye in EYES:
@@ -495,23 +488,27 @@ def check_ground_truth(truth: Any, where: str = "ground truth") -> None:
         if not isinstance(t, dict):
             raise InputError(f"{where}: missing field {eye!r}" if t is None
                              else f"{where}: {eye}: expected an object")
-        for key, shape in (("K", (3, 3)), ("T_cam_from_gaze", (4, 4)),
-                           ("T_ptu_from_base", (4, 4))):
+        for key, check in (("K", validate_K), ("T_cam_from_gaze", _rigid),
+                           ("T_ptu_from_base", _rigid)):
             if key not in t:
                 raise InputError(f"{where}: missing field {eye}.{key}")
-            matrix(t[key], shape, f"{eye}.{key}")
+            check(t[key], f"{where}: {eye}.{key}")
         if "unit" in t:
             PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit")
     if "T_ptuL_from_ptuR" not in truth:
         raise InputError(f"{where}: missing field 'T_ptuL_from_ptuR'")
-    matrix(truth["T_ptuL_from_ptuR"], (4, 4), "T_ptuL_from_ptuR")
+    _rigid(truth["T_ptuL_from_ptuR"], f"{where}: T_ptuL_from_ptuR")
     views = truth.get("views", {})
     if not isinstance(views, dict):
         raise InputError(f"{where}: views: expected an object")
     for name, view in views.items():
         if not isinstance(view, dict) or "T_cam_from_world" not in view:
             raise InputError(f"{where}: missing field views.{name}.T_cam_from_world")
-        matrix(view["T_cam_from_world"], (4, 4), f"views.{name}.T_cam_from_world")
+        _rigid(view["T_cam_from_world"], f"{where}: views.{name}.T_cam_from_world")
+
+
+def _rigid(value: Any, name: str) -> np.ndarray:
+    return validate_rigid_transform(value, name=name)
 
 
 def errors_against_truth(cal: Calibration, truth: dict,
