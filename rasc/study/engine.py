@@ -533,17 +533,28 @@ def _scored(T: np.ndarray, quality: float, T_true: np.ndarray) -> tuple:
             float(quality), T)
 
 
-def _score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
-           literal: bool) -> tuple:
+def _score_result(res: Any, T_true: np.ndarray) -> tuple:
+    """A solve's result, or the exception it raised, scored against ``T_true``: a failure
+    (:data:`FAILURES`) is "failed: <error class>", a non-finite result "non-finite", both
+    without numbers; any other exception propagates."""
     nan = float("nan")
-    try:
-        res = _solve(method, T_cw, T_gp, literal)
-    except FAILURES as exc:
-        return f"failed: {type(exc).__name__}", nan, nan, nan, nan, None
+    if isinstance(res, Exception):
+        if not isinstance(res, FAILURES):
+            raise res
+        return f"failed: {type(res).__name__}", nan, nan, nan, nan, None
     T = np.asarray(res.T_cam_from_gaze, dtype=float)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
         return "non-finite", nan, nan, nan, nan, None
     return _scored(T, res.quality, T_true)
+
+
+def _score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
+           literal: bool) -> tuple:
+    try:
+        res = _solve(method, T_cw, T_gp, literal)
+    except FAILURES as exc:
+        res = exc
+    return _score_result(res, T_true)
 
 
 def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
@@ -562,24 +573,11 @@ def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.n
     do not depend on how many samples its cell has)."""
     from rasc.handeye.methods import solve_many
 
-    nan = float("nan")
     try:
         results = solve_many(method, T_cw, T_gp, **({"check_rigid": False} if literal else {}))
     except FAILURES as exc:                      # the method itself (e.g. its name) fails
         results = [exc] * len(T_cw)
-    scored = []
-    for res in results:
-        if isinstance(res, Exception):
-            if not isinstance(res, FAILURES):
-                raise res
-            scored.append((f"failed: {type(res).__name__}", nan, nan, nan, nan, None))
-            continue
-        T = np.asarray(res.T_cam_from_gaze, dtype=float)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            scored.append(("non-finite", nan, nan, nan, nan, None))
-            continue
-        scored.append(_scored(T, res.quality, T_true))
-    return scored
+    return [_score_result(res, T_true) for res in results]
 
 
 #: the estimate's columns of samples.csv with ``estimates=True`` (mm; R row-major)
