@@ -13,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import sys
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -76,10 +75,8 @@ def _exit_without_teardown() -> None:
     shares with reproduce.py: a caller reading that pipe to its end (a test, the
     benchmark, a CI log) waited for it. It has nothing to flush or write (its children,
     the pool's workers, end with os._exit as forkserver children always do)."""
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(OSError, ValueError):
-            stream.flush()
-    os._exit(0)
+    from rasc.interrupt import exit_process
+    exit_process(0, teardown=False)
 
 
 if os.environ.get(FORKSERVER_ENV) == "1":
