@@ -164,3 +164,143 @@ def test_chunked_batch_names_an_ill_conditioned_sample():
     with pytest.raises(solver.DegenerateDataError) as one:
         solve_rasc(T_cw[321], pan_only)
     assert str(exc.value).replace(" (sample 321)", "") == str(one.value)
+
+
+# ------------------------------------------------- the one-solve path (_solve_one)
+
+def general(T_cw, T_gp, **kw):
+    """solve_rasc by the general path alone (a batch of one through _solve)."""
+    saved = solver._one_case
+    solver._one_case = lambda *args: False
+    try:
+        return solve_rasc(T_cw, T_gp, **kw)
+    finally:
+        solver._one_case = saved
+
+
+def same_result(a, b) -> None:
+    """Bit for bit: the transform, eq. 10's quality and every diagnostic."""
+    np.testing.assert_array_equal(a.T_cam_from_gaze, b.T_cam_from_gaze)
+    assert a.quality == b.quality
+    assert a.diagnostics == b.diagnostics
+    assert a.method == b.method == "rasc"
+
+
+@pytest.mark.parametrize("kind", ["pan-tilt", "arm"])
+@pytest.mark.parametrize("n", [3, 5, 9, 17, solver._ONE_MAX_VIEWS])
+@pytest.mark.parametrize("pairs", ["all", "half"])
+def test_one_solve_path_has_the_general_paths_bits(kind, n, pairs):
+    """On rigid data (the common case) solve_rasc takes _solve_one, and its result is the
+    general path's to the bit: transform, quality, diagnostics. Five noise draws each,
+    with the default and with no minimum pair rotation."""
+    rng = np.random.default_rng(11 + n)
+    if kind == "pan-tilt":
+        X, Y = rig(rng)
+        T_gp = pan_tilt(rng.uniform(-10, 10, (n, 2)))
+    else:
+        X, Y = random_rigid(rng, 2)
+        T_gp = random_rigid(rng, n, max_angle=1.0)
+    for _ in range(5):
+        T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.002, rng, variant="exponential")
+        for kw in ({"pairs": pairs}, {"pairs": pairs, "min_rotation_rad": 0.0}):
+            taken = solver._solve_one(T_cw, T_gp, solver._pairs(n, pairs, None),
+                                      kw.get("min_rotation_rad", solver.MIN_PAIR_ROTATION_RAD))
+            assert taken is not None                 # the test covers the fast path
+            same_result(taken, general(T_cw, T_gp, **kw))
+            same_result(solve_rasc(T_cw, T_gp, **kw), taken)
+
+
+def _one_declines(T_cw, T_gp, **kw) -> bool:
+    pair = solver._pairs(len(T_cw), kw.get("pairs", "all"), None)
+    return solver._solve_one(np.asarray(T_cw, float), np.asarray(T_gp, float), pair,
+                             kw.get("min_rotation_rad", solver.MIN_PAIR_ROTATION_RAD)) is None
+
+
+def test_one_solve_path_leaves_the_uncommon_cases_to_the_general_path():
+    """Data that are not the common case make _solve_one decline (None), and solve_rasc
+    then returns the general path's result: literal (non-orthogonal) noise, a rotation
+    off by 2e-14 (rigid within RIGID_ATOL, not to round-off), a repeated pose (a pair
+    below min_rotation_rad), a half turn of the unit."""
+    rng = np.random.default_rng(12)
+    X, Y = rig(rng)
+    T_true = X @ PAPER @ Y
+    literal = perturb_T_cam_from_world(T_true, 0.01, 0.002, rng, variant="literal")
+    off = perturb_T_cam_from_world(T_true, 0.01, 0.002, rng, variant="exponential")
+    off[4, 0, 0] += 2e-14
+    T_gp_rep = PAPER.copy()
+    T_gp_rep[5] = T_gp_rep[2]
+    rep = perturb_T_cam_from_world(X @ T_gp_rep @ Y, 0.01, 0.002, rng, variant="exponential")
+    Xa, Ya = random_rigid(rng, 2)
+    T_arm = random_rigid(rng, 6, max_angle=1.0)
+    T_arm[3] = T_arm[0] @ make_half_turn()
+    arm = perturb_T_cam_from_world(Xa @ T_arm @ Ya, 0.01, 0.002, rng, variant="exponential")
+    cases = [(literal, PAPER, {"check_rigid": False}), (off, PAPER, {}),
+             (rep, T_gp_rep, {}), (arm, T_arm, {})]
+    for T_cw, T_gp, kw in cases:
+        assert _one_declines(T_cw, T_gp)
+        same_result(solve_rasc(T_cw, T_gp, **kw), general(T_cw, T_gp, **kw))
+    assert solve_rasc(rep, T_gp_rep).diagnostics.n_pairs_used == 70     # (2, 5), (5, 2) out
+
+
+def make_half_turn() -> np.ndarray:
+    """A half turn about a tilted axis (4, 4)."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(np.pi * np.array([0.6, 0.0, 0.8])).as_matrix()
+    return T
+
+
+@pytest.mark.parametrize("case", ["nan", "inf", "last row", "reflection", "pan only",
+                                  "too few", "not rigid"])
+def test_one_solve_path_refuses_as_the_general_path_does(case):
+    """Bad or degenerate input: _solve_one declines and solve_rasc raises the general
+    path's error, word for word."""
+    rng = np.random.default_rng(13)
+    X, Y = rig(rng)
+    T_gp = PAPER.copy()
+    T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.002, rng, variant="exponential")
+    if case == "nan":
+        T_cw[3, 1, 3] = np.nan
+    elif case == "inf":
+        T_gp[2, 0, 3] = np.inf
+    elif case == "last row":
+        T_cw[1, 3, 0] = 0.5
+    elif case == "reflection":
+        T_cw[6, :3, 2] *= -1.0
+    elif case == "pan only":
+        T_gp = pan_tilt([(a, 0.0) for a in np.linspace(-8, 8, 9)])
+        T_cw = X @ T_gp @ Y
+    elif case == "too few":
+        T_cw, T_gp = T_cw[:2], T_gp[:2]
+    else:
+        T_cw[0, :3, :3] *= 1.01
+    if len(T_cw) >= 3:
+        assert _one_declines(T_cw, T_gp)
+    with pytest.raises((solver.InputError, solver.DegenerateDataError)) as fast:
+        solve_rasc(T_cw, T_gp)
+    with pytest.raises(type(fast.value)) as slow:
+        general(T_cw, T_gp)
+    assert str(fast.value) == str(slow.value)
+
+
+def test_one_solve_path_only_for_its_arguments():
+    """Lists, float32, more than _ONE_MAX_VIEWS views, a bad pairs or min_rotation_rad:
+    the general path (which converts, or names the problem); lists give the same bits."""
+    rng = np.random.default_rng(14)
+    X, Y = rig(rng)
+    T_cw = perturb_T_cam_from_world(X @ PAPER @ Y, 0.01, 0.002, rng, variant="exponential")
+    assert solver._one_case(T_cw, PAPER, "all", 1e-3)
+    assert solver._one_case(T_cw, PAPER, "half", 0)
+    assert not solver._one_case(T_cw.tolist(), PAPER, "all", 1e-3)
+    assert not solver._one_case(T_cw.astype(np.float32), PAPER, "all", 1e-3)
+    assert not solver._one_case(T_cw, PAPER, "some", 1e-3)
+    assert not solver._one_case(T_cw, PAPER, np.array(["all", "half"]), 1e-3)
+    assert not solver._one_case(T_cw, PAPER, "all", -1.0)
+    assert not solver._one_case(T_cw, PAPER, "all", float("nan"))
+    assert not solver._one_case(T_cw, PAPER, "all", "1e-3")
+    many = np.repeat(T_cw, 4, axis=0)[: solver._ONE_MAX_VIEWS + 1]
+    assert not solver._one_case(many, many, "all", 1e-3)
+    same_result(solve_rasc(T_cw.tolist(), PAPER.tolist()), solve_rasc(T_cw, PAPER))
+    with pytest.raises(solver.InputError, match="pairs: expected one of"):
+        solve_rasc(T_cw, PAPER, pairs="some")
+    with pytest.raises(solver.InputError, match="min_rotation_rad"):
+        solve_rasc(T_cw, PAPER, min_rotation_rad=-1.0)

@@ -1092,6 +1092,126 @@ def _result(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeResult:
                          diagnostics=_diagnostics(out, n, pair, s))
 
 
+# ------------------------------------------------------------- the one-solve path
+
+#: :func:`_solve_one` takes data as rigid to round-off when max |RᵀR − I| computed by
+#: BLAS is below this. The general path decides by the same quantity computed
+#: elementwise (:func:`_gram`), below 1e-14; the two computations differ by at most
+#: ≈ 7e-16 (each entry a sum of three products of numbers ≤ 1, each rounded to ≤ 3.3e-16),
+#: so below 5e-15 both certainly decide "rigid to round-off" and near 1e-14 the general
+#: path decides alone.
+_ONE_EXACT = 5e-15
+#: :func:`_solve_one` serves up to this many views: there the count of numpy calls is
+#: what costs. Beyond, the general path, whose large temporaries live in scratch
+#: buffers, is as fast, and data with pairs left out (repeated poses) are common.
+_ONE_MAX_VIEWS = 32
+
+
+def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
+               min_rotation_rad: float) -> HandEyeResult | None:
+    """One solve in the common case, in fewer numpy calls: the same numbers, to the bit,
+    as :func:`_solve` on a batch of one (tests/test_solver_paths.py).
+
+    A = T_cam_from_world, B = T_gaze_from_ptu, float64 ndarrays (n, 4, 4), n ≤
+    ``_ONE_MAX_VIEWS``. The common case: finite, last rows exactly ``0 0 0 1``, every
+    rotation proper and orthogonal to round-off (``_ONE_EXACT``); every pair of the
+    method rotating at least ``min_rotation_rad`` (all weights 1), no half turn, axis
+    spread and cond(CᵀC) within bounds, det M > 0. Each operation below is the one
+    :func:`_solve_block` runs for a batch of one on such data, on the same operands in
+    the same shapes and layouts (products go to BLAS with the same sizes, reductions run
+    along the same axes), so every float is the same. Left out is what such data do not
+    need: per-view rigidity errors, the power steps and the non-rigid CᵀC, weights, half
+    turns, blocks and bookkeeping (for nine views about 80 numpy calls instead of about
+    110). Returns None when the data are not the common case: the general path then
+    decides, and raises where it must.
+    """
+    n = A.shape[0]
+    T_all = np.empty((2, n, 4, 4))
+    T_all[0] = A
+    T_all[1] = B
+    R_all = T_all[..., :3, :3]
+    if not (math.isfinite(_sum(T_all, None))                   # no NaN, no infinity
+            and np.logical_and.reduce(T_all[..., 3, :] == _LAST_ROW, axis=None)
+            and _max(np.abs(_swap(R_all) @ R_all - _EYE3), None) < _ONE_EXACT
+            and _min(_det(R_all), None) > 0):                  # rigid: det = +1
+        return None
+    # quaternions (_quaternions: Shepperd's row, no power steps)
+    K4 = (R_all.reshape(2, n, 9) @ _QMAT).reshape(2 * n, 16)
+    K4 += _QOFF
+    k = K4[:, ::5].argmax(axis=1)
+    k += _row_offsets(2 * n)
+    q = K4.reshape(8 * n, 4)[k].reshape(2, n, 4)
+    # pair logs, camera (row 0) and unit (row 1) (_pair_logs)
+    P = np.matmul((q @ _QLEFT).reshape(2, 4 * n, 4), _swap(q))
+    P = P.reshape(2, 4 * n * n).take(pair.take, axis=-1)          # (2, 4, K)
+    v, w = P[:, :3, :], P[:, 3, :]
+    s = np.sqrt(_sum(v * v, axis=-2))
+    angle = np.arctan2(s, np.abs(w))
+    angle *= 2.0
+    theta_min = float(_min(angle[1]))
+    cam_max, theta_max = _max(angle, axis=1).tolist()
+    if not (theta_min >= min_rotation_rad and cam_max <= np.pi - _HALF_TURN_TOL
+            and theta_max <= np.pi - _HALF_TURN_TOL):             # _weights, half turns
+        return None
+    v *= np.copysign(angle / np.maximum(s, 1e-300), w)[:, None, :]
+    alpha, beta = v[:1], v[1:]
+    W = pair.W_all
+    bw = beta * pair.wk_all[:, None, :]
+    # eq. 7's camera side (_pair_translations; _camera for rotations exact to round-off)
+    Rs_all = _stacked(R_all)
+    t = T_all[..., :3, 3]
+    tA = np.matmul(Rs_all, _swap((_swap(R_all) @ t[..., None])[..., 0])).reshape(2, 3, n, n)
+    np.subtract(_swap(t)[..., None], tA, out=tA)
+    Rs = Rs_all[:1]
+    V = (W[:, None] @ Rs.reshape(1, 3, n, 3)).reshape(1, 3, 3 * n)
+    sum_RA = Rs.reshape(1, 3, 3 * n) @ _swap(V)
+    CtC = (2.0 * pair.n_pairs) * _EYE3 - sum_RA - _swap(sum_RA)   # Σw = n_pairs exactly
+    # one eigen-decomposition for the axis spread and cond(CᵀC) (_check_rotation_axes,
+    # _check_cond_CtC); NaN fails the comparisons (the general path then raises)
+    lam, vec = _GU_EIGH(np.concatenate([bw @ _swap(beta), CtC]))
+    (_, l1, l2), (l0, _, l2c) = lam.tolist()
+    cond = l2c / l0 if l0 > 0 else math.inf
+    if not (l1 / l2 >= MIN_AXIS_SPREAD and cond <= MAX_COND_CTC):
+        return None
+    # eq. 9 (_polar_rotation)
+    U, sv, Vt = _GU_SVD(bw @ _swap(alpha))
+    s1, _, s3 = sv[0].tolist()
+    RX = _swap(U @ Vt)
+    (a, b, c), (d, e, f), (g, h, i) = rows = RX[0].tolist()
+    if not (a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) >= 0
+            and math.isfinite(s1 + s3)):
+        return None
+    # eq. 7 (_Ctd, _solve_spd) and eq. 10 (_quality)
+    t0, t1, t2 = _GU_SOLVE1(CtC, _Ctd(W, _Camera(None, Rs, tA[:1], CtC), tA[1:], RX))[0].tolist()
+    if not math.isfinite(t0 + t1 + t2):
+        return None
+    deg = 180.0 / math.pi
+    return HandEyeResult(
+        T_cam_from_gaze=np.array([rows[0] + [t0], rows[1] + [t1], rows[2] + [t2],
+                                  [0.0, 0.0, 0.0, 1.0]]),
+        quality=float(_quality(Rs, Rs_all[1:], RX)[0]), method="rasc",
+        diagnostics=HandEyeDiagnostics(
+            n_positions=n, n_pairs=pair.n_pairs, n_pairs_used=pair.n_pairs,
+            cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=cond,
+            min_rotation_deg=theta_min * deg, max_rotation_deg=theta_max * deg,
+            axis_spread=l1 / l2, dominant_axis=_unit_axis(vec[0, :, 2])))
+
+
+def _one_case(T_cam_from_world: Any, T_gaze_from_ptu: Any, pairs: Any,
+              min_rotation_rad: Any) -> bool:
+    """The arguments :func:`_solve_one` may take (anything else: the general path, whose
+    checks name the problem)."""
+    A, B = T_cam_from_world, T_gaze_from_ptu
+    return (_GU_EIGH is not None and type(A) is np.ndarray and type(B) is np.ndarray
+            and A.dtype == _F64 == B.dtype
+            and A.ndim == 3 and A.shape == B.shape and 3 <= A.shape[0] <= _ONE_MAX_VIEWS
+            and A.shape[1:] == (4, 4) and type(pairs) is str and pairs in PAIRS
+            and type(min_rotation_rad) in (float, int) and 0 <= min_rotation_rad < math.inf)
+
+
+_F64 = np.dtype(np.float64)
+
+
 # ------------------------------------------------------------------------ public
 
 def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
@@ -1119,6 +1239,11 @@ def solve_rasc(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
         ``T_cam_from_gaze`` (4, 4) (for a robot arm: ``T_cam_from_gripper``), method
         "rasc". Raises :class:`DegenerateDataError` when the data cannot determine it.
     """
+    if _one_case(T_cam_from_world, T_gaze_from_ptu, pairs, min_rotation_rad):
+        res = _solve_one(T_cam_from_world, T_gaze_from_ptu,
+                         _pairs(len(T_cam_from_world), pairs, None), min_rotation_rad)
+        if res is not None:
+            return res
     T_cw, T_gp, T_all, checked = _validate_inputs(T_cam_from_world, T_gaze_from_ptu,
                                                   batch=False, check_rigid=check_rigid)
     n = T_cw.shape[1]
