@@ -1169,10 +1169,13 @@ def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
     Rs = Rs_all[:1]
     V = (W[:, None] @ Rs.reshape(1, 3, n, 3)).reshape(1, 3, 3 * n)
     sum_RA = Rs.reshape(1, 3, 3 * n) @ _swap(V)
-    CtC = (2.0 * pair.n_pairs) * _EYE3 - sum_RA - _swap(sum_RA)   # Σw = n_pairs exactly
+    GC = np.empty((2, 3, 3))                                       # [Σ w β βᵀ, CᵀC]
+    np.matmul(bw, _swap(beta), out=GC[:1])
+    CtC = np.subtract((2.0 * pair.n_pairs) * _EYE3, sum_RA, out=GC[1:])   # Σw = n_pairs
+    CtC -= _swap(sum_RA)
     # one eigen-decomposition for the axis spread and cond(CᵀC) (_check_rotation_axes,
     # _check_cond_CtC); NaN fails the comparisons (the general path then raises)
-    lam, vec = _GU_EIGH(np.concatenate([bw @ _swap(beta), CtC]))
+    lam, vec = _GU_EIGH(GC)
     (_, l1, l2), (l0, _, l2c) = lam.tolist()
     cond = l2c / l0 if l0 > 0 else math.inf
     if not (l1 / l2 >= MIN_AXIS_SPREAD and cond <= MAX_COND_CTC):
