@@ -290,6 +290,8 @@ def test_one_solve_path_only_for_its_arguments():
     T_cw = perturb_T_cam_from_world(X @ PAPER @ Y, 0.01, 0.002, rng, variant="exponential")
     assert solver._one_case(T_cw, PAPER, "all", 1e-3)
     assert solver._one_case(T_cw, PAPER, "half", 0)
+    assert solver._one_case(T_cw, PAPER, "all", np.radians(0.1))       # np.float64
+    assert not solver._one_case(T_cw, PAPER, "all", True)
     assert not solver._one_case(T_cw.tolist(), PAPER, "all", 1e-3)
     assert not solver._one_case(T_cw.astype(np.float32), PAPER, "all", 1e-3)
     assert not solver._one_case(T_cw, PAPER, "some", 1e-3)

@@ -1176,17 +1176,18 @@ def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
     # one eigen-decomposition for the axis spread and cond(CᵀC) (_check_rotation_axes,
     # _check_cond_CtC); NaN fails the comparisons (the general path then raises)
     lam, vec = _GU_EIGH(GC)
-    (_, l1, l2), (l0, _, l2c) = lam.tolist()
+    (l0u, l1, l2), (l0, l1c, l2c) = lam.tolist()
     cond = l2c / l0 if l0 > 0 else math.inf
-    if not (l1 / l2 >= MIN_AXIS_SPREAD and cond <= MAX_COND_CTC):
+    if not (l1 / l2 >= MIN_AXIS_SPREAD and cond <= MAX_COND_CTC
+            and math.isfinite(l0u + l1 + l2 + l0 + l1c + l2c)):
         return None
     # eq. 9 (_polar_rotation)
     U, sv, Vt = _GU_SVD(bw @ _swap(alpha))
-    s1, _, s3 = sv[0].tolist()
+    s1, s2, s3 = sv[0].tolist()
     RX = _swap(U @ Vt)
     (a, b, c), (d, e, f), (g, h, i) = rows = RX[0].tolist()
     if not (a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) >= 0
-            and math.isfinite(s1 + s3)):
+            and math.isfinite(s1 + s2 + s3)):
         return None
     # eq. 7 (_Ctd, _solve_spd) and eq. 10 (_quality)
     t0, t1, t2 = _GU_SOLVE1(CtC, _Ctd(W, _Camera(None, Rs, tA[:1], CtC), tA[1:], RX))[0].tolist()
@@ -1213,7 +1214,8 @@ def _one_case(T_cam_from_world: Any, T_gaze_from_ptu: Any, pairs: Any,
             and A.dtype == _F64 == B.dtype
             and A.ndim == 3 and A.shape == B.shape and 3 <= A.shape[0] <= _ONE_MAX_VIEWS
             and A.shape[1:] == (4, 4) and type(pairs) is str and pairs in PAIRS
-            and type(min_rotation_rad) in (float, int) and 0 <= min_rotation_rad < math.inf)
+            and (isinstance(min_rotation_rad, float) or type(min_rotation_rad) is int)
+            and 0 <= min_rotation_rad < math.inf)
 
 
 _F64 = np.dtype(np.float64)
