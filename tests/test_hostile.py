@@ -812,15 +812,15 @@ def test_a_render_that_loses_the_race_removes_its_folder(ws, capsys, monkeypatch
 def test_numpy_warnings_never_print_beside_the_error_line(ws, capsys, monkeypatch):
     """A RuntimeWarning raised on the way to an error is dropped (the error speaks); on
     success it becomes one warning line."""
-    import rasc.commands.handeye as cmd
+    import rasc.handeye.document as document  # run() imports its reader from there
 
-    real = cmd.load_handeye_input
+    real = document.load_handeye_input
 
     def noisy(path):
         np.float64(1e308) * 10  # RuntimeWarning: overflow encountered
         return real(path)
 
-    monkeypatch.setattr(cmd, "load_handeye_input", noisy)
+    monkeypatch.setattr(document, "load_handeye_input", noisy)
     edit(ws / "poses.json", lambda d: d.__setitem__("positions", d["positions"][:2]))
     code, out, err = run_in_process(handeye(ws), capsys)
     assert code == 2 and len(err.splitlines()) == 1 and "error" in err, err
@@ -918,12 +918,12 @@ def test_an_opencv_assertion_no_validation_caught_is_one_line(ws, capsys, monkey
     is one error line, exit 2, no traceback, no output."""
     import cv2
 
-    import rasc.commands.handeye as cmd
+    import rasc.handeye.document as document  # run() imports its reader from there
 
     def fails(path):
         raise cv2.error("OpenCV(4.x) x.cpp:1: error: (-215:Assertion failed) fabs(sc) > 0")
 
-    monkeypatch.setattr(cmd, "load_handeye_input", fails)
+    monkeypatch.setattr(document, "load_handeye_input", fails)
     code, out, err = run_in_process(handeye(ws), capsys)
     assert code == 2 and out == "" and os.listdir(ws / "out") == []
     assert err.splitlines() == ["rasc handeye: error: OpenCV could not process the input "
