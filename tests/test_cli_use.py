@@ -478,7 +478,19 @@ def test_sigterm_during_look_at_leaves_no_file(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "rasc", "look-at", str(CAL), "--points",
                              str(f), "--angle-unit", "deg", "--out", str(out), "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
-    time.sleep(3.0)  # imports and the first points
+    # until the child has used 2 s of CPU: its imports take about 1 s (``rasc look-at``
+    # of one point: 1.0-1.1 s of CPU in all), so it is then solving points, whatever the
+    # machine's load (a fixed sleep of 3 s cost 3 s of CPU and, on a busy machine, could
+    # still land in the imports)
+    stat = Path(f"/proc/{proc.pid}/stat")
+    if not stat.is_file():
+        pytest.skip("needs /proc/PID/stat")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        utime, stime = stat.read_text().rsplit(")", 1)[1].split()[11:13]
+        if (int(utime) + int(stime)) / os.sysconf("SC_CLK_TCK") >= 2.0:
+            break
+        time.sleep(0.02)
     assert proc.poll() is None, proc.communicate()
     proc.send_signal(signal.SIGTERM)
     stdout, stderr = proc.communicate(timeout=60)
