@@ -13,6 +13,10 @@ Helpers (import them: ``from conftest import PAPER, rig``):
   tests' ``pip install``/``pip wheel`` of local folders then build without a fresh build
   environment (about 2 s of CPU less each, and no registry or pip cache needed).
 
+Fixture ``rasc_cli``: ``rasc_cli(*argv)`` runs ``rasc ARGV`` in this process
+(:func:`rasc.cli.main`) and returns ``(status, stdout, stderr)``; for tests whose claim is
+not about the process (see its docstring).
+
 Fixtures (session scope, built on first use):
 
 - ``default_dataset``: the default dataset (the default model, 20 intrinsics views and the
@@ -47,7 +51,7 @@ import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
@@ -132,6 +136,29 @@ def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     return subprocess.run([sys.executable, "-m", "rasc", *map(str, argv)], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=300, check=False)
+
+
+@pytest.fixture
+def rasc_cli(capsys) -> Callable[..., tuple[int, str, str]]:
+    """``rasc ARGV`` in this process: ``rasc_cli(*argv)`` runs :func:`rasc.cli.main` and
+    returns ``(status, stdout, stderr)`` (a usage error's SystemExit gives its status).
+
+    For a test whose claim is the status, the output or the files; one about the process
+    itself (signals, the exit status through ``exit_process``, the console script, no
+    traceback at start-up) runs ``python -m rasc`` (:func:`python_rasc`). main() restores
+    the signal handlers and warning filters it changes; give paths absolute, and set the
+    environment (``RASC_CACHE_DIR``, ...) with monkeypatch."""
+    from rasc.cli import main
+
+    def run(*argv) -> tuple[int, str, str]:
+        capsys.readouterr()
+        try:
+            status = main([str(a) for a in argv])
+        except SystemExit as exc:
+            status = exc.code
+        captured = capsys.readouterr()
+        return status, captured.out, captured.err
+    return run
 
 
 def pip_build_flags() -> list[str]:
