@@ -25,7 +25,8 @@ Fixtures (session scope, built on first use):
 - ``default_cli_run``: a folder holding exactly ``ds`` (that dataset) and ``cal.json``,
   its calibration by ``rasc calibrate`` in a subprocess.
 - ``default_calibration``: :func:`rasc.head.pipeline.calibrate_dataset` of the dataset
-  with the default options, in this process.
+  with the default options, in a test process (not the command line); once per run, the
+  xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
   that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
   file), so the dataset they all ask for is rendered once per run, not once per suite.
@@ -227,12 +228,26 @@ def default_dataset(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def default_calibration(default_dataset):
-    """:func:`rasc.head.pipeline.calibrate_dataset` of the default dataset, default options."""
-    from rasc.head.pipeline import calibrate_dataset
-    from rasc.vision.dataset import load_dataset
+def default_calibration(default_dataset, tmp_path_factory):
+    """:func:`rasc.head.pipeline.calibrate_dataset` of the default dataset, default options.
 
-    return calibrate_dataset(load_dataset(default_dataset))
+    Computed once per run: the first xdist worker to need it pickles it into the run's
+    shared folder under a file lock, the others load that (1.5 s of CPU each saved)."""
+    import pickle
+
+    shared = _shared_root(tmp_path_factory)
+    path = shared / "default_calibration.pickle"
+    with _locked(shared / "default_calibration.lock"):
+        if path.is_file():
+            return pickle.loads(path.read_bytes())
+        from rasc.head.pipeline import calibrate_dataset
+        from rasc.vision.dataset import load_dataset
+
+        cal = calibrate_dataset(load_dataset(default_dataset))
+        tmp = path.with_suffix(".tmp")
+        tmp.write_bytes(pickle.dumps(cal))
+        tmp.replace(path)
+        return cal
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,7 @@ The classes: ``data-loss`` (an output that would overwrite an input), ``wrong-nu
 misleads or drowns in noise), and ``reader`` (the one JSON reader, rasc.io, applied to
 each of the four input documents). In-process through :func:`rasc.cli.main` wherever
 possible; subprocesses only for signals, devices and standard output. One small dataset
-(6 intrinsics views per eye, the paper's nine positions) is rendered once for the module.
+(6 intrinsics views per eye, the paper's nine positions) is rendered once per run.
 Reading a FIFO blocks and reading /dev/zero never ends in a reader without limits, so
 those cases run under an alarm (in-process) or a memory limit (subprocess): a hang or a
 memory error is a failure like any other.
@@ -48,6 +48,8 @@ import numpy as np
 import pytest
 
 from rasc.cli import main
+
+from conftest import _locked, _shared_root
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
@@ -595,10 +597,16 @@ def snapshot(root: Path) -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> Path:
-    root = tmp_path_factory.mktemp("hostile")
-    assert main(["render", "--out", str(root / "ds"), "--intrinsics-views", "6",
-                 "--quiet"]) == 0
-    return root / "ds"
+    """The module's small dataset, rendered once per run (the xdist workers share it under
+    a file lock, as conftest's default dataset). Read-only: each case works on a copy."""
+    shared = _shared_root(tmp_path_factory)
+    ds = shared / "hostile" / "ds"
+    with _locked(shared / "hostile.lock"):
+        if not (ds / "manifest.json").is_file():     # rasc render renames it into place
+            ds.parent.mkdir(exist_ok=True)
+            assert main(["render", "--out", str(ds), "--intrinsics-views", "6",
+                         "--quiet"]) == 0
+    return ds
 
 
 @pytest.fixture
