@@ -18,7 +18,10 @@ One path for every way a command ends (README, "What rasc refuses and what it wa
 
 This module imports only the standard library and :mod:`rasc.errors` /
 :mod:`rasc.interrupt` at the top, so that the console script reaches :func:`main`
-(and its interrupt handling) before numpy, scipy or OpenCV load.
+(and its interrupt handling) before numpy, scipy or OpenCV load. The command modules
+load those only in their ``run()``, inside :func:`rasc.commands.loading` (which also
+raises an interrupt a library swallowed while it loaded): ``rasc --help``, ``--version``
+and a usage error cost a bare Python start-up.
 """
 
 from __future__ import annotations
@@ -68,11 +71,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with signals_as_interrupt(), warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
-            parser = build_parser()          # imports numpy, scipy, OpenCV: may be interrupted
+            parser = build_parser()          # the command modules: no numpy, scipy, OpenCV
             if received():
-                # a library swallowed the interrupt while it loaded (e.g. an optional
-                # import catching the ImportError numpy makes of it; seen as a command
-                # that ran to its end, status 0): the interrupt still counts
+                # a signal that arrived while they loaded and was swallowed: it still
+                # counts (the libraries load in each run(), checked the same way by
+                # rasc.commands.loading: an optional import may catch the ImportError
+                # numpy makes of an interrupt; seen as a command that ran to its end)
                 raise KeyboardInterrupt("interrupted while the libraries loaded")
             args = parser.parse_args(argv)
             prog = f"rasc {args.command}"

@@ -13,6 +13,10 @@ Helpers (import them: ``from conftest import PAPER, rig``):
   tests' ``pip install``/``pip wheel`` of local folders then build without a fresh build
   environment (about 2 s of CPU less each, and no registry or pip cache needed).
 
+Fixture ``rasc_cli``: ``rasc_cli(*argv)`` runs ``rasc ARGV`` in this process
+(:func:`rasc.cli.main`) and returns ``(status, stdout, stderr)``; for tests whose claim is
+not about the process (see its docstring).
+
 Fixtures (session scope, built on first use):
 
 - ``default_dataset``: the default dataset (the default model, 20 intrinsics views and the
@@ -21,7 +25,8 @@ Fixtures (session scope, built on first use):
 - ``default_cli_run``: a folder holding exactly ``ds`` (that dataset) and ``cal.json``,
   its calibration by ``rasc calibrate`` in a subprocess.
 - ``default_calibration``: :func:`rasc.head.pipeline.calibrate_dataset` of the dataset
-  with the default options, in this process.
+  with the default options, in a test process (not the command line); once per run, the
+  xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
   that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
   file), so the dataset they all ask for is rendered once per run, not once per suite.
@@ -47,7 +52,7 @@ import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
@@ -134,6 +139,29 @@ def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=300, check=False)
 
 
+@pytest.fixture
+def rasc_cli(capsys) -> Callable[..., tuple[int, str, str]]:
+    """``rasc ARGV`` in this process: ``rasc_cli(*argv)`` runs :func:`rasc.cli.main` and
+    returns ``(status, stdout, stderr)`` (a usage error's SystemExit gives its status).
+
+    For a test whose claim is the status, the output or the files; one about the process
+    itself (signals, the exit status through ``exit_process``, the console script, no
+    traceback at start-up) runs ``python -m rasc`` (:func:`python_rasc`). main() restores
+    the signal handlers and warning filters it changes; give paths absolute, and set the
+    environment (``RASC_CACHE_DIR``, ...) with monkeypatch."""
+    from rasc.cli import main
+
+    def run(*argv) -> tuple[int, str, str]:
+        capsys.readouterr()
+        try:
+            status = main([str(a) for a in argv])
+        except SystemExit as exc:
+            status = exc.code
+        captured = capsys.readouterr()
+        return status, captured.out, captured.err
+    return run
+
+
 def pip_build_flags() -> list[str]:
     """``["--no-build-isolation"]`` if setuptools >= 77 (pyproject's [build-system]
     requirement, also in the ``test`` extra) is importable here, else ``[]``."""
@@ -200,12 +228,26 @@ def default_dataset(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def default_calibration(default_dataset):
-    """:func:`rasc.head.pipeline.calibrate_dataset` of the default dataset, default options."""
-    from rasc.head.pipeline import calibrate_dataset
-    from rasc.vision.dataset import load_dataset
+def default_calibration(default_dataset, tmp_path_factory):
+    """:func:`rasc.head.pipeline.calibrate_dataset` of the default dataset, default options.
 
-    return calibrate_dataset(load_dataset(default_dataset))
+    Computed once per run: the first xdist worker to need it pickles it into the run's
+    shared folder under a file lock, the others load that (1.5 s of CPU each saved)."""
+    import pickle
+
+    shared = _shared_root(tmp_path_factory)
+    path = shared / "default_calibration.pickle"
+    with _locked(shared / "default_calibration.lock"):
+        if path.is_file():
+            return pickle.loads(path.read_bytes())
+        from rasc.head.pipeline import calibrate_dataset
+        from rasc.vision.dataset import load_dataset
+
+        cal = calibrate_dataset(load_dataset(default_dataset))
+        tmp = path.with_suffix(".tmp")
+        tmp.write_bytes(pickle.dumps(cal))
+        tmp.replace(path)
+        return cal
 
 
 @pytest.fixture(scope="session")

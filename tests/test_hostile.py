@@ -16,7 +16,7 @@ The classes: ``data-loss`` (an output that would overwrite an input), ``wrong-nu
 misleads or drowns in noise), and ``reader`` (the one JSON reader, rasc.io, applied to
 each of the four input documents). In-process through :func:`rasc.cli.main` wherever
 possible; subprocesses only for signals, devices and standard output. One small dataset
-(6 intrinsics views per eye, the paper's nine positions) is rendered once for the module.
+(6 intrinsics views per eye, the paper's nine positions) is rendered once per run.
 Reading a FIFO blocks and reading /dev/zero never ends in a reader without limits, so
 those cases run under an alarm (in-process) or a memory limit (subprocess): a hang or a
 memory error is a failure like any other.
@@ -48,6 +48,8 @@ import numpy as np
 import pytest
 
 from rasc.cli import main
+
+from conftest import _locked, _shared_root
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
@@ -595,10 +597,16 @@ def snapshot(root: Path) -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> Path:
-    root = tmp_path_factory.mktemp("hostile")
-    assert main(["render", "--out", str(root / "ds"), "--intrinsics-views", "6",
-                 "--quiet"]) == 0
-    return root / "ds"
+    """The module's small dataset, rendered once per run (the xdist workers share it under
+    a file lock, as conftest's default dataset). Read-only: each case works on a copy."""
+    shared = _shared_root(tmp_path_factory)
+    ds = shared / "hostile" / "ds"
+    with _locked(shared / "hostile.lock"):
+        if not (ds / "manifest.json").is_file():     # rasc render renames it into place
+            ds.parent.mkdir(exist_ok=True)
+            assert main(["render", "--out", str(ds), "--intrinsics-views", "6",
+                         "--quiet"]) == 0
+    return ds
 
 
 @pytest.fixture
@@ -812,15 +820,15 @@ def test_a_render_that_loses_the_race_removes_its_folder(ws, capsys, monkeypatch
 def test_numpy_warnings_never_print_beside_the_error_line(ws, capsys, monkeypatch):
     """A RuntimeWarning raised on the way to an error is dropped (the error speaks); on
     success it becomes one warning line."""
-    import rasc.commands.handeye as cmd
+    import rasc.handeye.document as document  # run() imports its reader from there
 
-    real = cmd.load_handeye_input
+    real = document.load_handeye_input
 
     def noisy(path):
         np.float64(1e308) * 10  # RuntimeWarning: overflow encountered
         return real(path)
 
-    monkeypatch.setattr(cmd, "load_handeye_input", noisy)
+    monkeypatch.setattr(document, "load_handeye_input", noisy)
     edit(ws / "poses.json", lambda d: d.__setitem__("positions", d["positions"][:2]))
     code, out, err = run_in_process(handeye(ws), capsys)
     assert code == 2 and len(err.splitlines()) == 1 and "error" in err, err
@@ -918,12 +926,12 @@ def test_an_opencv_assertion_no_validation_caught_is_one_line(ws, capsys, monkey
     is one error line, exit 2, no traceback, no output."""
     import cv2
 
-    import rasc.commands.handeye as cmd
+    import rasc.handeye.document as document  # run() imports its reader from there
 
     def fails(path):
         raise cv2.error("OpenCV(4.x) x.cpp:1: error: (-215:Assertion failed) fabs(sc) > 0")
 
-    monkeypatch.setattr(cmd, "load_handeye_input", fails)
+    monkeypatch.setattr(document, "load_handeye_input", fails)
     code, out, err = run_in_process(handeye(ws), capsys)
     assert code == 2 and out == "" and os.listdir(ws / "out") == []
     assert err.splitlines() == ["rasc handeye: error: OpenCV could not process the input "

@@ -10,8 +10,6 @@ plugin and what it did, exit 2 and no output file.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 import textwrap
 from pathlib import Path
@@ -272,22 +270,17 @@ def test_a_name_registered_twice_is_refused(plugins):
 # ------------------------------------------------------------ the command line
 
 @pytest.mark.slow
-def test_cli_runs_a_plugin_in_a_subprocess(plugins, tmp_path, capsys):
-    """``python -m rasc handeye --method my.module:function`` with the module on
-    PYTHONPATH, and the entry-point name: the written result names the method and holds
-    the wrapped quality and jackknife, and matches --method rasc (the plugin is RASC; the
-    reference runs in this process, the plugins in fresh ones)."""
-    env = dict(os.environ, PYTHONPATH=str(plugins))
+def test_cli_runs_a_plugin_by_module_and_by_entry_point(plugins, tmp_path, rasc_cli):
+    """``rasc handeye --method my.module:function`` with the module on the path, and the
+    entry-point name: the written result names the method and holds the wrapped quality
+    and jackknife, and matches --method rasc (the plugin is RASC). In this process (the
+    same in fresh processes with PYTHONPATH, as a user runs it: the README's console
+    example, tests/test_readme_plugins.py)."""
     docs = {}
     for name in ("userplug:good", "user-good", "rasc"):
         out = tmp_path / f"{name.replace(':', '_')}.json"
-        argv = ["handeye", str(EXAMPLE), "--method", name, "--out", str(out)]
-        if name == "rasc":
-            assert main(argv) == 0, capsys.readouterr().err
-        else:
-            proc = subprocess.run([sys.executable, "-m", "rasc", *argv],
-                                  capture_output=True, text=True, env=env, timeout=120)
-            assert proc.returncode == 0, proc.stderr
+        status, _, err = rasc_cli("handeye", EXAMPLE, "--method", name, "--out", out)
+        assert status == 0, err
         docs[name] = json.loads(out.read_text(encoding="utf-8"))
         assert docs[name]["method"] == name
     for name in ("userplug:good", "user-good"):

@@ -222,15 +222,15 @@ def test_pose_error_columns_zero_without_noise_and_the_noise_with_it(tmp_path):
 # ------------------------------------------------ pose sets rendered (MuJoCo)
 
 @pytest.fixture(scope="module")
-def default_doc(default_dataset):
-    """The default dataset calibrated by the pipeline, as the engine takes it."""
-    from rasc.head.pipeline import calibrate_dataset
+def default_doc(default_dataset, default_calibration):
+    """The default dataset calibrated by the pipeline (conftest's ``default_calibration``,
+    ``calibrate_dataset`` with the default options), as the engine takes it."""
     from rasc.study.engine import dataset_document
     from rasc.vision.dataset import load_dataset
 
     ds = load_dataset(default_dataset)
     truth = json.loads((default_dataset / "ground_truth.json").read_text())
-    return dataset_document(calibrate_dataset(ds), ds.board, truth)
+    return dataset_document(default_calibration, ds.board, truth)
 
 
 @pytest.mark.slow

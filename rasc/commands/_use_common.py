@@ -17,11 +17,12 @@ import io
 import math
 import sys
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from rasc.errors import InputError
-from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
+
+if TYPE_CHECKING:
+    import numpy as np
 
 ANGLE_UNITS = ("deg", "rad")
 #: largest |angle| in each unit: one full turn (rasc.head.model.MAX_ABS_ANGLE_RAD)
@@ -51,11 +52,15 @@ def add_out(parser: argparse.ArgumentParser) -> None:
 
 def check_out(out: str | None, inputs: list[str]) -> None:
     """Before any work: ``--out`` obeys the output rule (:func:`rasc.io.check_output`)."""
+    from rasc.io import check_output
+
     if out is not None:
         check_output(out, inputs=inputs)
 
 
 def write_result(doc: dict, out: str | None) -> None:
+    from rasc.io import dumps_json, write_json_atomic, write_stdout
+
     if out is None:
         write_stdout(dumps_json(doc))
     else:
@@ -90,6 +95,8 @@ class Table:
 def read_points_csv(path: str, required: tuple[str, ...],
                     optional: tuple[str, ...] = ()) -> Table:
     """Read a CSV points file (module docstring) with these numeric columns."""
+    import numpy as np
+
     from rasc.io import read_text_file
 
     text = read_text_file(path, "CSV points file", MAX_CSV_BYTES)
@@ -160,6 +167,8 @@ def _cell_number(cell: str, where: str) -> float:
 def angles_to_radians(values: np.ndarray, unit: str, name: str, where) -> np.ndarray:
     """Angles in ``unit`` → radians; refuse values beyond one turn, suggesting the other
     unit. ``where(i)`` names point i (file and line, or option)."""
+    import numpy as np
+
     limit = MAX_ABS_ANGLE[unit]
     big = np.abs(values) > limit
     if np.any(big):
@@ -172,11 +181,15 @@ def angles_to_radians(values: np.ndarray, unit: str, name: str, where) -> np.nda
 
 
 def angle_out(radians: float, unit: str) -> float:
+    import numpy as np
+
     return float(np.degrees(radians)) if unit == "deg" else float(radians)
 
 
 def parse_point_option(text: str) -> np.ndarray:
     """``--point X,Y,Z`` → (3,) floats."""
+    import numpy as np
+
     parts = text.split(",")
     if len(parts) != 3:
         raise InputError(f"--point {text}: expected X,Y,Z (three comma-separated numbers)")

@@ -11,12 +11,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
+from rasc.commands import loading
 from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
-from rasc.io import check_output, dumps_json, read_json_document, write_json_atomic, write_stdout
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
 #: right unit's frame in the left one, translation in the unit of board.square_size),
@@ -64,6 +66,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def _read_mounts(path: str) -> np.ndarray:
     from rasc.geometry.transforms import validate_rigid_transform
+    from rasc.io import read_json_document
 
     obj = read_json_document(path, "mounts file")
     if not isinstance(obj, dict) or "T_ptuL_from_ptuR" not in obj:
@@ -85,11 +88,13 @@ def _length(value: float, unit: str | None) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.geometry.kinematics import T_gaze_from_ptu
-    from rasc.handeye.advice import solution_warnings, translation_warnings
-    from rasc.handeye.methods import get_method
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.vision.dataset import load_dataset
+    with loading():  # here, not at module level: building the parser loads no library
+        from rasc.geometry.kinematics import T_gaze_from_ptu
+        from rasc.handeye.advice import solution_warnings, translation_warnings
+        from rasc.handeye.methods import get_method
+        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+        from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
+        from rasc.vision.dataset import load_dataset
 
     if args.out is not None:            # the output rule, before any long work
         check_output(args.out, inputs=[args.dataset, args.mounts])

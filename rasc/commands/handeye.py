@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
 
-import numpy as np
-
+from rasc.commands import loading
 from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
-from rasc.geometry.transforms import invert_transform
-from rasc.handeye.document import HandEyeInput, load_handeye_input
-from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
+
+if TYPE_CHECKING:
+    from rasc.handeye.document import HandEyeInput
 
 RESULT_FORMAT = "rasc-handeye-result/1"
 
@@ -73,6 +73,10 @@ def _solver(method: str):
 def result_document(data: HandEyeInput, result, *, source: str, method: str,
                     home: int | None = None) -> dict:
     """The output JSON object (``rasc-handeye-result/1``); ``home``: Li's home position."""
+    import numpy as np
+
+    from rasc.geometry.transforms import invert_transform
+
     T = np.asarray(result.T_cam_from_gaze, dtype=float)
     quality = float(result.quality)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)) or not np.isfinite(quality):
@@ -98,10 +102,12 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 
 def run(args: argparse.Namespace) -> int:
-    # imported here, not at module level: building the parser loads no solver
-    from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
-    from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
-    from rasc.handeye.methods import PluginError, jackknife_uncertainty
+    with loading():  # here, not at module level: building the parser loads no library
+        from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
+        from rasc.handeye.document import load_handeye_input
+        from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
+        from rasc.handeye.methods import PluginError, jackknife_uncertainty
+        from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
 
     source = args.poses
     if args.out is not None:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 
 from rasc.commands import _use_common as common
+from rasc.commands import loading
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 
@@ -52,9 +53,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
+    with loading():  # here, not at module level: building the parser loads no library
+        import numpy as np
 
-    from rasc.progress import progress
+        import rasc.head.use  # noqa: F401 (_fixate's look_at, loaded here)
+        from rasc.progress import progress
 
     if not args.point and args.points is None:
         raise InputError("no point: give --point X,Y,Z or --points FILE.csv")

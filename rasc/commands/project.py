@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 
 from rasc.commands import _use_common as common
+from rasc.commands import loading
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 
@@ -37,9 +38,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
+    with loading():  # here, not at module level: building the parser loads no library
+        import numpy as np
 
-    from rasc.head.use import project_eye
+        from rasc.head.use import project_eye
 
     common.check_out(args.out, [args.calibration, args.points])
     cal = common.read_calibration(args.calibration)

@@ -18,9 +18,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from rasc.commands import loading
 from rasc.errors import InputError
 from rasc.interrupt import Interrupted, shielded
-from rasc.io import check_output
 
 
 def _floats(text: str, flag: str) -> tuple[float, ...]:
@@ -110,6 +110,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def _check_out(out: str, model: str | None) -> Path:
     """The output rule for a dataset folder: new, or an existing empty folder."""
+    from rasc.io import check_output
+
     path = check_output(out, inputs=[model], kind="folder")
     if path.is_dir() and any(path.iterdir()):
         what = ("holds a dataset (manifest.json)" if (path / "manifest.json").exists()
@@ -120,7 +122,8 @@ def _check_out(out: str, model: str | None) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.sim.render import RenderOptions, parse_poses, render_dataset
+    with loading():  # here, not at module level: building the parser loads no library
+        from rasc.sim.render import RenderOptions, parse_poses, render_dataset
 
     out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():

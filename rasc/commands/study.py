@@ -8,6 +8,7 @@ import os
 import sys
 import time
 
+from rasc.commands import loading
 from rasc.errors import InputError
 
 
@@ -34,7 +35,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")     # before anything imports mujoco
-    from rasc.study import load_spec, run_study
+    with loading():  # here, not at module level: building the parser loads no library
+        from rasc.study import load_spec, run_study
 
     if args.workers < 1:
         raise InputError(f"--workers: expected an integer >= 1, got {args.workers}")

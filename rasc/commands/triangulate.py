@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from rasc.commands import _use_common as common
+from rasc.commands import loading
 from rasc.errors import DegenerateDataError, InputError
 
 RESULT_FORMAT = "rasc-triangulation/1"
@@ -50,7 +49,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rasc.head.use import triangulate
+    with loading():  # here, not at module level: building the parser loads no library
+        import numpy as np
+
+        from rasc.head.use import triangulate
 
     common.check_out(args.out, [args.calibration, args.points])
     cal = common.read_calibration(args.calibration)
