@@ -668,12 +668,22 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
 
 # ------------------------------------------------------------------ image output
 
+#: PNG written without row filters (OpenCV ≥ 4.11; older versions use libpng's adaptive
+#: choice): on rendered 1280×960 boards encoding takes 2.7 ms of CPU instead of 9.8 ms and
+#: decoding 1.4 ms instead of 2.9 ms, for files about 10 % larger (35 kB against 32 kB);
+#: the pixels are the same (measured on 12 renders, opencv-python-headless 4.14).
+_PNG_PARAMS = ([cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_NONE]
+               if hasattr(cv2, "IMWRITE_PNG_FILTER") else [])
+
+
 def encode_png(image: np.ndarray, compression: int = 1) -> bytes:
-    """PNG bytes of an 8-bit image (grey, or BGR); deterministic for the same pixels."""
+    """PNG bytes of an 8-bit image (grey, or BGR), without row filters (``_PNG_PARAMS``);
+    deterministic for the same pixels."""
     image = np.asarray(image)
     if image.dtype != np.uint8:
         raise InputError(f"image: expected uint8 pixels, got {image.dtype}")
-    ok, buf = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    ok, buf = cv2.imencode(".png", image,
+                           [cv2.IMWRITE_PNG_COMPRESSION, int(compression), *_PNG_PARAMS])
     if not ok:
         raise InputError(f"image: cannot encode shape {image.shape} as PNG")
     return buf.tobytes()
