@@ -1101,10 +1101,11 @@ def _result(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeResult:
 
 #: :func:`_solve_one` takes data as rigid to round-off when max |RᵀR − I| computed by
 #: BLAS is below this. The general path decides by the same quantity computed
-#: elementwise (:func:`_gram`), below 1e-14; the two computations differ by at most
-#: ≈ 7e-16 (each entry a sum of three products of numbers ≤ 1, each rounded to ≤ 3.3e-16),
-#: so below 5e-15 both certainly decide "rigid to round-off" and near 1e-14 the general
-#: path decides alone.
+#: elementwise (:func:`_gram`), below 1e-14. Each entry is a sum of three products of
+#: numbers ≤ 1, within about 5e-16 of its exact value by either computation (three
+#: roundings of products, two of sums, of at most 1.1e-16 each), so the two differ by at
+#: most about 1e-15: below 5e-15 both certainly decide "rigid to round-off", and near
+#: 1e-14 the general path decides alone.
 _ONE_EXACT = 5e-15
 #: :func:`_solve_one` serves up to this many views: there the count of numpy calls is
 #: what costs. Beyond, the general path, whose large temporaries live in scratch
