@@ -139,6 +139,22 @@ def python_rasc(*argv, cwd=None) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=300, check=False)
 
 
+def run_rasc(argv, capsys) -> tuple[int, str, str]:
+    """``rasc ARGV`` in this process (:func:`rasc.cli.main`, arguments as ``str``):
+    ``(status, stdout, stderr)``, a usage error's SystemExit giving its status; ``capsys``
+    is the test's fixture (emptied first). Behind the ``rasc_cli`` fixture and the CLI
+    test modules' ``run_cli``."""
+    from rasc.cli import main
+
+    capsys.readouterr()
+    try:
+        status = main([str(a) for a in argv])
+    except SystemExit as exc:
+        status = exc.code
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
 @pytest.fixture
 def rasc_cli(capsys) -> Callable[..., tuple[int, str, str]]:
     """``rasc ARGV`` in this process: ``rasc_cli(*argv)`` runs :func:`rasc.cli.main` and
@@ -149,17 +165,7 @@ def rasc_cli(capsys) -> Callable[..., tuple[int, str, str]]:
     traceback at start-up) runs ``python -m rasc`` (:func:`python_rasc`). main() restores
     the signal handlers and warning filters it changes; give paths absolute, and set the
     environment (``RASC_CACHE_DIR``, ...) with monkeypatch."""
-    from rasc.cli import main
-
-    def run(*argv) -> tuple[int, str, str]:
-        capsys.readouterr()
-        try:
-            status = main([str(a) for a in argv])
-        except SystemExit as exc:
-            status = exc.code
-        captured = capsys.readouterr()
-        return status, captured.out, captured.err
-    return run
+    return lambda *argv: run_rasc(argv, capsys)
 
 
 def pip_build_flags() -> list[str]:

@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rasc.cli import main
 from rasc.commands import handeye as handeye_command
 from rasc.errors import DegenerateDataError
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu
@@ -33,6 +32,8 @@ from rasc.geometry.transforms import (
     rotation_error_deg,
 )
 from rasc.handeye.document import check_angle_unit
+
+from conftest import run_rasc
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
@@ -59,9 +60,8 @@ gen = _load_generator()
 
 
 def run_cli(argv: list[str], capsys) -> tuple[int, str, str]:
-    rc = main(["handeye", *map(str, argv)])
-    captured = capsys.readouterr()
-    return rc, captured.out, captured.err
+    """``rasc handeye ARGV`` in this process: (status, stdout, stderr)."""
+    return run_rasc(["handeye", *argv], capsys)
 
 
 def write_doc(path: Path, doc) -> Path:

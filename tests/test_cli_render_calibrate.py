@@ -32,11 +32,12 @@ import cv2
 import numpy as np
 import pytest
 
-from rasc.cli import main
 from rasc.geometry.frames import EYES
 from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
 from rasc.sim.scene import HEAD_XML, scene_xml
 from rasc.vision.board import DEFAULT_BOARD
+
+from conftest import run_rasc
 
 #: Same bounds as tests/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
@@ -47,14 +48,7 @@ LOOP_TRANS_M = 3.0e-3
 K_PX = 0.25
 
 
-def run_cli(argv, capsys) -> tuple[int, str, str]:
-    capsys.readouterr()
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse
-        code = exc.code
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
+run_cli = run_rasc                 # rasc ARGV in this process: (status, stdout, stderr)
 
 
 def rotation_deg(R_a, R_b) -> float:

@@ -30,15 +30,14 @@ EXAMPLE = REPO / "examples" / "use"
 sys.path.insert(0, str(REPO / "examples"))
 import make_use_example as gen  # noqa: E402
 
+from conftest import run_rasc  # noqa: E402
+
 CAL = EXAMPLE / "calibration.json"
 PIXELS = EXAMPLE / "pixels.csv"
 POINTS = EXAMPLE / "points.csv"
 
 
-def run_cli(argv, capsys):
-    rc = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return rc, out.out, out.err
+run_cli = run_rasc                 # rasc ARGV in this process: (status, stdout, stderr)
 
 
 def readme_section() -> str:

@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rasc.cli import main
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import IDEAL, PanTiltUnit
@@ -30,20 +29,15 @@ from rasc.sim.scene import GROUND_TRUTH_TOL, HEAD_XML, StereoHeadSim, import_muj
 from rasc.sim.units import UnitBuild, read_unit_file
 from rasc.vision.board import DEFAULT_BOARD
 
+from conftest import run_rasc
+
 SMALL = RenderOptions(poses_deg=((0.0, 0.0), (8.0, 8.0), (-8.0, -6.0)), n_intrinsics=3)
 SKEW_DEG = 1.0
 IMPERFECT = UnitBuild(tilt_axis_offset_mm=(4.0, 30.0, -7.0), axis_skew_deg=SKEW_DEG,
                       pan_zero_deg=0.5, tilt_zero_deg=-0.5, pan_scale=1.003, tilt_scale=0.996)
 
 
-def run_cli(argv, capsys):
-    capsys.readouterr()
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = exc.code
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
+run_cli = run_rasc                 # rasc ARGV in this process: (status, stdout, stderr)
 
 
 def files_of(root: Path) -> dict[str, bytes]:
