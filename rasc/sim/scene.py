@@ -818,11 +818,7 @@ def _image(image: np.ndarray, name: str = "image") -> np.ndarray:
 
 
 def _to_uint8(a: np.ndarray) -> np.ndarray:
-    """Round and clip a float image to uint8; ``a`` (a temporary of the caller's) is
-    overwritten: in place, no 10 MB temporaries per 1280×960 frame."""
-    np.rint(a, out=a)
-    np.clip(a, 0, 255, out=a)
-    return a.astype(np.uint8)
+    return np.clip(np.rint(a), 0, 255).astype(np.uint8)
 
 
 def add_pixel_noise(image: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
@@ -830,9 +826,7 @@ def add_pixel_noise(image: np.ndarray, sigma: float, rng: np.random.Generator) -
     image = _image(image)
     if not (np.isfinite(sigma) and sigma >= 0):
         raise InputError(f"noise sigma must be >= 0 grey levels, got {sigma}")
-    noisy = rng.normal(0.0, sigma, image.shape)
-    noisy += image                                  # the same sums as image + noise
-    return _to_uint8(noisy)
+    return _to_uint8(image + rng.normal(0.0, sigma, image.shape))
 
 
 def blur(image: np.ndarray, sigma: float) -> np.ndarray:
