@@ -8,6 +8,10 @@ same numbers, so a later speed-up cannot silently change the answer.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import pickle
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -220,7 +224,7 @@ def test_one_solve_path_leaves_the_uncommon_cases_to_the_general_path():
     """Data that are not the common case make _solve_one decline (None), and solve_rasc
     then returns the general path's result: literal (non-orthogonal) noise, a rotation
     off by 2e-14 (rigid within RIGID_ATOL, not to round-off), a repeated pose (a pair
-    below min_rotation_rad), a half turn of the unit."""
+    below min_rotation_rad), a half turn of the unit, a last row holding −0.0."""
     rng = np.random.default_rng(12)
     X, Y = rig(rng)
     T_true = X @ PAPER @ Y
@@ -234,8 +238,10 @@ def test_one_solve_path_leaves_the_uncommon_cases_to_the_general_path():
     T_arm = random_rigid(rng, 6, max_angle=1.0)
     T_arm[3] = T_arm[0] @ make_half_turn()
     arm = perturb_T_cam_from_world(Xa @ T_arm @ Ya, 0.01, 0.002, rng, variant="exponential")
+    negzero = perturb_T_cam_from_world(T_true, 0.01, 0.002, rng, variant="exponential")
+    negzero[2, 3, 0] = -0.0            # equal to 0.0, but not its bits: the general path
     cases = [(literal, PAPER, {"check_rigid": False}), (off, PAPER, {}),
-             (rep, T_gp_rep, {}), (arm, T_arm, {})]
+             (rep, T_gp_rep, {}), (arm, T_arm, {}), (negzero, PAPER, {})]
     for T_cw, T_gp, kw in cases:
         assert _one_declines(T_cw, T_gp)
         same_result(solve_rasc(T_cw, T_gp, **kw), general(T_cw, T_gp, **kw))
@@ -306,3 +312,28 @@ def test_one_solve_path_only_for_its_arguments():
         solve_rasc(T_cw, PAPER, pairs="some")
     with pytest.raises(solver.InputError, match="min_rotation_rad"):
         solve_rasc(T_cw, PAPER, min_rotation_rad=-1.0)
+
+
+def test_deferred_quality_and_diagnostics_are_those_of_the_solve():
+    """The one-solve path leaves eq. 10's quality and the diagnostics to be computed when
+    first read. They are the general path's bits even when the caller has since
+    overwritten the input arrays (the solver keeps its own copies), and pickles, deep
+    copies and dataclasses.replace carry the values, not the deferral."""
+    rng = np.random.default_rng(15)
+    X, Y = rig(rng)
+    T_gp = PAPER.copy()
+    T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.002, rng, variant="exponential")
+    expected = general(T_cw.copy(), T_gp.copy())
+    results = [solve_rasc(T_cw, T_gp) for _ in range(4)]
+    T_cw[:] = np.eye(4)
+    T_gp[:, :3, :3] = T_gp[:, :3, :3][::-1]
+    blob = pickle.dumps(results[1])
+    assert b"_Deferred" not in blob
+    for result in (results[0], pickle.loads(blob), copy.deepcopy(results[2]),
+                   dataclasses.replace(results[3], method="rasc")):
+        same_result(result, expected)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        results[0].quality = 0.0
+    with pytest.raises(TypeError, match="quality"):           # still no default
+        solver.HandEyeResult(T_cam_from_gaze=np.eye(4), method="m",
+                             diagnostics=expected.diagnostics)
