@@ -29,7 +29,8 @@ Fixtures (session scope, built on first use):
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
   that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
-  file), so the dataset they all ask for is rendered once per run, not once per suite.
+  file) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
+  views) is rendered once per run, not once per suite.
 - ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
   ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
   dataset, one shared folder) and returns ``(ctx, section)``. Read-only.
