@@ -29,7 +29,11 @@ Fixtures (session scope, built on first use):
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
   that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
-  file), so the dataset they all ask for is rendered once per run, not once per suite.
+  file) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
+  views) is rendered once per run, not once per suite.
+- ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
+  ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
+  dataset, one shared folder) and returns ``(ctx, section)``. Read-only.
 - ``my_solver_site``: examples/my_solver installed once per run (``pip install --no-deps
   --target SITE`` of a copy, as a user's ``pip install ./examples/my_solver``); put SITE
   on PYTHONPATH. Read-only.
@@ -201,6 +205,21 @@ def _locked(path: Path) -> Iterator[None]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+@contextlib.contextmanager
+def _environ(**values: str) -> Iterator[None]:
+    """Environment variables set for the block, restored after it."""
+    saved = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _run_ok(*argv, quiet_stdout: bool = True) -> None:
     """Run ``python -m rasc ARGV``: exit status 0, nothing on stderr (nor on stdout)."""
     proc = python_rasc(*argv)
@@ -293,8 +312,66 @@ def my_solver_site(tmp_path_factory) -> Path:
     return site
 
 
+@pytest.fixture(scope="session")
+def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tuple]:
+    """The reproduction's experiments as its serial run does them (``--quick --seed 0
+    --workers 1``, one context), on the default dataset: ``quick_experiments(name)`` (a
+    module of ``experiments.reproduce.EXPERIMENTS``, e.g. ``"e4_triangulation"``) returns
+    ``(ctx, section)``, ``ctx.out/<NAME>`` holding its files. The default dataset's
+    calibration is computed afresh in each process that asks (never read from a cache).
+
+    Each experiment runs once per test run (``module.run(ctx)``), into one folder shared
+    by the xdist workers (a lock per experiment, as the dataset); its Section is pickled
+    beside it. E3 runs after E1 and reads E1's samples from its folder, as in the serial
+    reproduction. ``ctx.out/data/dataset`` (also ``quick_experiments.dataset``) is a copy
+    of :func:`default_dataset` with the render record ``ctx.dataset_dir()`` asks for, so
+    that it is used, not rendered again (link to it from another run's folder).
+    Read-only. Shared by the experiment modules and tests/test_reproduce.py (whose pool
+    run must give the same bytes)."""
+    import importlib
+    import pickle
+
+    repo = str(Path(__file__).resolve().parents[1])
+    if repo not in sys.path:
+        sys.path.insert(0, repo)                     # the experiments package
+    from experiments._common import DATASET_OPTIONS, Context
+    from rasc.io import write_json_atomic
+
+    shared = _shared_root(tmp_path_factory)
+    root = shared / "quick_w1"
+    dataset = root / "data" / "dataset"
+    ctx = Context.from_argv("quick experiments", ["--quick", "--seed", "0", "--workers", "1",
+                                                  "--out", str(root)])
+    with _locked(shared / "quick_w1.lock"):
+        if not (dataset / DATASET_OPTIONS).is_file():       # written last
+            shutil.rmtree(dataset, ignore_errors=True)
+            shutil.copytree(default_dataset, dataset)
+            write_json_atomic(dataset / DATASET_OPTIONS, ctx.dataset_options())
+
+    def run(name: str) -> tuple:
+        if ctx._calibration is None:
+            # calibrated in this process before ctx is used, never read from the
+            # reproduction's cache: the fresh side of tests/test_reproduce_cache.py
+            with _environ(RASC_CACHE_DIR="none"):
+                ctx.calibration()
+        if name == "e3_quality":
+            run("e1_noise")                          # E3 reuses E1's samples (ctx.reuse_e1)
+        record = shared / f"quick_w1.{name}.pickle"
+        with _locked(shared / f"quick_w1.{name}.lock"):
+            if not record.is_file():                 # written last: the run is complete
+                section = importlib.import_module(f"experiments.{name}").run(ctx)
+                tmp = record.with_suffix(".tmp")
+                tmp.write_bytes(pickle.dumps(section))
+                tmp.replace(record)
+        return ctx, pickle.loads(record.read_bytes())
+
+    run.dataset = dataset
+    return run
+
+
 #: A test using any of these needs the rendered default dataset: it is ``slow``.
-DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_calibration"})
+DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_calibration",
+                              "quick_experiments"})
 
 
 def pytest_collection_modifyitems(config, items):

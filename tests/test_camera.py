@@ -30,6 +30,7 @@ from rasc.vision.camera import (
 
 BOARD = Board((9, 6), 0.03)
 STEREO_LEFT01 = Path(__file__).parent / "data" / "opencv-stereo-samples" / "left01.jpg"
+STEREO_BOARD_9x6 = Board((9, 6), 1.0)        # the OpenCV sample's board (1 unit squares)
 K_TRUE = np.array([[800.0, 0.0, 330.0], [0.0, 805.0, 245.0], [0.0, 0.0, 1.0]])
 DIST_TRUE = np.array([-0.2, 0.1, 0.001, -0.0005, 0.0])
 
@@ -147,6 +148,66 @@ def test_detect_canonical_order_and_accuracy(method):
         # 0.1 px: the brief's bound; a wrong order or mirror is off by >= one square (~40 px)
         err = np.linalg.norm(c - tr, axis=1)
         assert err.max() < 0.1, (method, rotate, err.max())
+
+
+def _saddle_on_the_whole_image(grey, corners, board, iterations=4):
+    """refine_saddle's arithmetic with the whole image smoothed (as before the blur was
+    limited to the corners' rectangle): the reference the cropped blur must equal."""
+    from scipy.ndimage import map_coordinates
+
+    c0 = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
+    nx, ny = board.inner_corners
+    grid = c0.reshape(ny, nx, 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=1), axis=2).min(),
+                  np.linalg.norm(np.diff(grid, axis=0), axis=2).min())
+    r = int(np.clip(np.floor(spacing / 4), 2, 6))
+    sigma = float(np.clip(r / 3, 0.8, 2.0))
+    smooth = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), sigma)
+    o = np.arange(-r, r + 1, dtype=np.float64)
+    dy, dx = (g.ravel() for g in np.meshgrid(o, o, indexing="ij"))
+    A = np.stack([dx * dx, dx * dy, dy * dy, dx, dy, np.ones_like(dx)], axis=1)
+    w = np.exp(-(dx ** 2 + dy ** 2) / (2 * (r / 1.5) ** 2))
+    P = np.linalg.pinv(A * w[:, None]) * w[None, :]
+    c = c0.copy()
+    for _ in range(iterations):
+        xs, ys = c[:, 0, None] + dx[None], c[:, 1, None] + dy[None]
+        samples = map_coordinates(smooth, [ys.ravel(), xs.ravel()], order=1,
+                                  mode="nearest").reshape(len(c), -1)
+        a, b, cc, d, e, _ = (samples @ P.T).T
+        det = 4 * a * cc - b * b
+        if np.any(det >= 0):
+            return None
+        step = np.stack([(b * e - 2 * cc * d) / det, (b * d - 2 * a * e) / det], axis=1)
+        c += np.clip(step, -1.0, 1.0)
+        if np.max(np.abs(step)) < 1e-4:
+            break
+    return None if np.max(np.linalg.norm(c - c0, axis=1)) > r else c
+
+
+@pytest.mark.parametrize("shift", [(0.0, 0.0), (-0.08, -0.06), (0.0, -0.06)])
+def test_saddle_blurs_only_around_the_corners_with_the_same_bits(shift):
+    """refine_saddle smooths only the rectangle its samples can reach: the corners must be
+    the whole image's, bit for bit (a pixel's blur depends on its neighbourhood only),
+    with the board in the middle and pushed against the image's top edge, or top and left
+    (corners 15 px from it: the rectangle, 21 px beyond the corners here, is clipped)."""
+    from rasc.vision.camera import refine_saddle
+
+    img, _ = render_board(BOARD, K_TRUE, board_pose(25, [1, 1, 0], 0.5, shift))
+    found, corners = cv2.findChessboardCorners(img, BOARD.inner_corners)
+    assert found
+    corners = corners.reshape(-1, 2).astype(np.float64)
+    gap = min(corners.min(), img.shape[1] - corners[:, 0].max(),
+              img.shape[0] - corners[:, 1].max())
+    assert gap < 21 if shift != (0.0, 0.0) else gap > 50      # near an edge, or not
+    got = refine_saddle(img, corners, BOARD)
+    assert got is not None and np.abs(got - corners).max() > 0.01   # it moved them
+    assert np.array_equal(got, _saddle_on_the_whole_image(img, corners, BOARD))
+    grey = to_grey(read_image(STEREO_LEFT01))
+    found, corners = cv2.findChessboardCorners(grey, STEREO_BOARD_9x6.inner_corners)
+    assert found
+    corners = corners.reshape(-1, 2).astype(np.float64)
+    assert np.array_equal(refine_saddle(grey, corners, STEREO_BOARD_9x6),
+                          _saddle_on_the_whole_image(grey, corners, STEREO_BOARD_9x6))
 
 
 @pytest.mark.slow

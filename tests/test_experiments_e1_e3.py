@@ -1,14 +1,13 @@
 """Experiments E1 (Figs. 3–4), E2 (home-view noise) and E3 (quality measure), --quick,
 run through the study engine on the default dataset.
 
-The default dataset is rendered once per test run and shared (symlinked) by every run's
-output folder; each run calibrates it through the real pipeline. Quick runs: A of E1–E3
-and C of E3 alone (workers 1 each); their E3 files (CSV, JSON and figures) must be
-byte-identical. That a worker count changes no byte of any experiment's results is
-tests/test_reproduce.py's claim (every experiment's CSV and JSON, ``--workers 1`` in a
-process of its own against ``--workers 2``, the pool): a second E1–E3 run here with
-``--workers 2`` repeated it (with those of tests/test_experiments_e4_e5.py and
-tests/test_experiments_e6.py: 23 of the three modules' 52 s of CPU, pools included).
+Run A (E1, E2, E3 with workers 1, in one context, as the serial reproduction runs them)
+is conftest's ``quick_experiments``: made once per test run and shared with
+tests/test_reproduce.py, which checks that its pool run (``--workers 2``) writes the same
+bytes for every experiment; a second E1–E3 run here with ``--workers 2`` repeated that
+claim. Run C is E3 alone in a fresh folder (workers 1): its E3 files (CSV, JSON and
+figures) must be byte-identical to A's (which reused E1's samples). The default dataset
+is rendered once per test run and linked into every run's folder.
 """
 
 from __future__ import annotations
@@ -59,10 +58,11 @@ class _Args:
 
 
 @pytest.fixture(scope="module")
-def dataset(default_dataset) -> Path:
-    """The default dataset (seed 0, as ``Context.dataset_dir`` renders it): conftest's,
-    rendered once per test run."""
-    return default_dataset
+def dataset(quick_experiments) -> Path:
+    """The default dataset (seed 0) with the render record ``Context.dataset_dir`` asks
+    for, so that a run's folder linking to it uses it (conftest's, rendered once per test
+    run)."""
+    return quick_experiments.dataset
 
 
 def make_ctx(root: Path, dataset: Path, workers: int = 1, seed: int = 0) -> Context:
@@ -74,13 +74,12 @@ def make_ctx(root: Path, dataset: Path, workers: int = 1, seed: int = 0) -> Cont
 
 
 @pytest.fixture(scope="module")
-def runs(dataset, tmp_path_factory):
-    """Quick runs: A (workers 1) of E1–E3; C (workers 1) of E3 only."""
-    out = {}
-    for name, workers, order in (("A", 1, (e1, e2, e3)), ("C", 1, (e3,))):
-        ctx = make_ctx(tmp_path_factory.mktemp(f"run{name}"), dataset, workers)
-        out[name] = {"ctx": ctx, **{m.NAME: m.run(ctx) for m in order}}
-    return out
+def runs(dataset, quick_experiments, tmp_path_factory):
+    """Quick runs: A (workers 1) of E1–E3, conftest's (shared); C (workers 1) of E3 only."""
+    a = {m.NAME: quick_experiments(m.__name__.rsplit(".", 1)[-1]) for m in (e1, e2, e3)}
+    ctx = make_ctx(tmp_path_factory.mktemp("runC"), dataset, 1)
+    return {"A": {"ctx": a["e1"][0], **{k: sec for k, (_, sec) in a.items()}},
+            "C": {"ctx": ctx, e3.NAME: e3.run(ctx)}}
 
 
 def result_files(root: Path, names=("e1", "e2", "e3")) -> dict[str, bytes]:

@@ -1,11 +1,11 @@
 """Experiments E4 (Table 1, triangulation) and E5 (base-to-ptu), run in --quick mode.
 
-One quick run of both experiments (module-scoped fixture: the default dataset is rendered
-and calibrated once) is checked for structure and the sanity of its numbers. That the same
-seed gives byte-identical result files for any worker count is tests/test_reproduce.py's
-claim for every experiment (``--workers 1`` in a process of its own against ``--workers
-2``, the pool); a second run here with --workers 2 repeated it for E4 and E5 (see
-tests/test_experiments_e1_e3.py for what the repeats cost).
+One quick run of both experiments (workers 1, seed 0, on the default dataset rendered
+once per test run) is checked for structure and the sanity of its numbers: conftest's
+``quick_experiments``, made once per test run and shared with tests/test_reproduce.py,
+whose claim it is that the same seed gives byte-identical result files for any worker
+count (its pool run, ``--workers 2``, against these); a second run here with --workers 2
+repeated it for E4 and E5 (see tests/test_experiments_e1_e3.py).
 The exact-recovery tests use the true model built from the dataset's ground truth.
 """
 
@@ -25,7 +25,7 @@ sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
 from experiments import e4_triangulation as e4  # noqa: E402
 from experiments import e5_base_to_ptu as e5  # noqa: E402
-from experiments._common import Context, read_csv  # noqa: E402
+from experiments._common import read_csv  # noqa: E402
 from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import transform_points  # noqa: E402
@@ -38,17 +38,12 @@ pytestmark = pytest.mark.slow  # renders and whole experiment runs
 RESULT_SUFFIXES = (".csv", ".json")
 
 
-def _context(out: Path, workers: int) -> Context:
-    return Context.from_argv(e4.__doc__, ["--quick", "--out", str(out), "--workers",
-                                          str(workers)])
-
-
 @pytest.fixture(scope="module")
-def quick(tmp_path_factory):
-    """Both experiments, --quick, --workers 1, seed 0."""
-    out = tmp_path_factory.mktemp("e4e5_a")
-    ctx = _context(out, 1)
-    return ctx, e4.run(ctx), e5.run(ctx)
+def quick(quick_experiments):
+    """Both experiments, --quick, --workers 1, seed 0 (conftest's, shared)."""
+    ctx, sec4 = quick_experiments("e4_triangulation")
+    _, sec5 = quick_experiments("e5_base_to_ptu")
+    return ctx, sec4, sec5
 
 
 # ------------------------------------------------------------------------ E4

@@ -1,14 +1,15 @@
 """Experiment E6 (beyond the paper), --quick: E6a corner-noise sweep, E6b hand-eye shoot-out,
 both run by the study engine from their specs (experiments/specs/e6*.toml).
 
-The default dataset is rendered once per module and shared (symlinked) by every run's
+The default dataset is rendered once per test run and shared (symlinked) by every run's
 output folder; each run calibrates it through the real pipeline. E6a runs twice: A
 (--quick) and F (the full protocol), E6b once: A; all with workers 1 (a pool of 2 cost F
-about 3 s more CPU than one process). That the same seed gives byte-identical result
-files (CSV/JSON, the study's own files too) for any worker count is
-tests/test_reproduce.py's claim for every experiment (``--workers 1`` in a process of its
-own against ``--workers 2``, the pool); runs C here with ``--workers 2`` repeated it for
-E6a and E6b (see tests/test_experiments_e1_e3.py for what the repeats cost). Failure
+about 3 s more CPU than one process). The A runs are conftest's ``quick_experiments``
+(once per test run, shared with tests/test_reproduce.py). That the same seed gives
+byte-identical result files (CSV/JSON, the study's own files too) for any worker count is
+tests/test_reproduce.py's claim for every experiment (its pool run, ``--workers 2``,
+against these); runs C here with ``--workers 2`` repeated it for E6a and E6b (see
+tests/test_experiments_e1_e3.py for what the repeats cost). Failure
 counting is checked on the analysis functions with made-up study rows (the engine's
 classification itself: tests/test_study_pose_sets.py).
 """
@@ -37,10 +38,11 @@ pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
 
 @pytest.fixture(scope="module")
-def dataset(default_dataset) -> Path:
-    """The default dataset (seed 0, as ``Context.dataset_dir`` renders it): conftest's,
-    rendered once per test run."""
-    return default_dataset
+def dataset(quick_experiments) -> Path:
+    """The default dataset (seed 0) with the render record ``Context.dataset_dir`` asks
+    for, so that a run's folder linking to it uses it (conftest's, rendered once per test
+    run)."""
+    return quick_experiments.dataset
 
 
 def make_ctx(root: Path, dataset: Path, workers: int = 1, quick: bool = True) -> Context:
@@ -58,18 +60,14 @@ def result_files(folder: Path) -> dict[str, bytes]:
 
 
 @pytest.fixture(scope="module")
-def e6a_runs(dataset, tmp_path_factory):
-    out = {}
-    for name, workers, quick in (("A", 1, True), ("F", 1, False)):
-        ctx = make_ctx(tmp_path_factory.mktemp(f"e6a_{name}"), dataset, workers, quick)
-        out[name] = (ctx, e6a.run(ctx))
-    return out
+def e6a_runs(dataset, quick_experiments, tmp_path_factory):
+    ctx = make_ctx(tmp_path_factory.mktemp("e6a_F"), dataset, 1, quick=False)
+    return {"A": quick_experiments("e6a_pixel_noise"), "F": (ctx, e6a.run(ctx))}
 
 
 @pytest.fixture(scope="module")
-def e6b_runs(dataset, tmp_path_factory):
-    ctx = make_ctx(tmp_path_factory.mktemp("e6b_A"), dataset, 1)
-    return {"A": (ctx, e6b.run(ctx))}
+def e6b_runs(quick_experiments):
+    return {"A": quick_experiments("e6b_shootout")}
 
 
 def spec(name: str, quick: bool = True):

@@ -303,14 +303,16 @@ def test_calibrate_checks_the_method_before_reading_the_dataset(plugins, tmp_pat
 
 
 @pytest.mark.slow
-def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_path, capsys):
+def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_path, capsys,
+                                                                  rasc_testing_cache):
     """rasc calibrate --method package.module:function on a rendered dataset: the
     calibration names the method and equals RASC's (the plugin returns RASC's answer);
     a plugin that fails during the solve is one line naming the manifest, the eye and
-    the plugin, exit 2, no file."""
+    the plugin, exit 2, no file. The dataset is the README's and examples/my_solver's
+    (10 intrinsics views), rendered once per run into conftest's shared cache."""
     from rasc.testing import render_cached
 
-    data = render_cached(tmp_path / "cache", n_intrinsics=6)
+    data = render_cached(rasc_testing_cache, n_intrinsics=10)
     docs = {}
     for name in ("userplug:good", "rasc"):
         out = tmp_path / f"{name.replace(':', '_')}.json"

@@ -88,6 +88,31 @@ def test_analytic_columns_match_central_differences(problem, at):
     assert np.array_equal(Jm[:, fd], Jc[:, fd])
 
 
+def test_batched_difference_columns_are_the_one_call_numbers(problem):
+    """jacobian_lm evaluates the kinematic columns that move the same images together
+    (_residuals_batch, with unchanged rotations reused): every forward-difference column
+    must be bit for bit the one of its own residuals_of call, so that the refinement
+    gives the same bytes as one call per column did (central: the array_equal above)."""
+    rng = np.random.default_rng(11)
+    n = len(problem.names)
+    x = 0.02 * rng.standard_normal(n)
+    h = 1e-6
+    r0 = problem.residuals(x)
+    J = problem.jacobian_lm(x, r0, h=h).toarray()
+    rows_of, col_imgs = problem._rows_of_images(), problem.column_images()
+    fd = [j for j in range(problem.n_global) if not _analytic(problem.names[j])]
+    assert len(fd) >= 18
+    for j in fd:
+        rows = np.concatenate([rows_of[i] for i in col_imgs[j]])
+        dx = np.zeros(n)
+        dx[j] = h
+        one = (problem.residuals_of(x + dx, col_imgs[j]) - r0[rows]) / h
+        assert np.array_equal(J[rows, j], one), problem.names[j]
+        assert not J[np.setdiff1d(np.arange(len(r0)), rows), j].any()
+    # the reuse remembers nothing that changes the next Jacobian: the same again
+    assert np.array_equal(problem.jacobian_lm(x, r0, h=h).toarray(), J)
+
+
 def test_a_wrong_derivative_would_be_seen(problem):
     """The comparison above can fail: a board rotation taken with the wrong sign of its
     left Jacobian (the first-order exp(w) for w = 0 only) is off at the perturbed point."""

@@ -1,15 +1,16 @@
 """``python -m experiments.reproduce --quick`` end to end: the report, sane numbers,
 determinism, interrupts.
 
-Two quick runs with one seed: ``pooled`` (``--workers 2``, in this process: the pool of
-forkserver workers) and ``serial`` (``--workers 1``, a real ``python -m`` process, sent
-SIGTERM when the last experiment, E7, starts; the finished experiments E1–E6b are kept,
-and E7 is then run alone in this process, ``module.run(ctx)`` as the serial path runs
-it). Together they must write byte-identical result files (CSV, JSON and the rendered
-dataset) for every experiment; the pooled report must hold every section with its
-figures, and the headline numbers must be sane. (One serial run serves both the
-worker-count equality and the interrupt test: before, a whole in-process ``--workers 1``
-run and a separate interrupted run repeated the same work.)
+One pooled run (``--quick --seed 0 --workers 2``, in this process: the pool of forkserver
+workers) must write byte-identical result files (CSV and JSON) for every experiment to
+the serial ones (``--workers 1``, one context, the same experiments' ``run(ctx)`` as the
+serial path calls it: conftest's ``quick_experiments``, which the experiment modules'
+tests check too), and render the default dataset byte for byte as ``rasc render`` does
+(conftest's ``default_dataset``); its report must hold every section with its figures,
+and the headline numbers must be sane. A second, serial ``python -m`` process is sent
+SIGTERM when its third experiment (E3) starts: E1 and E2 are kept, E3's staging folder
+removed, no report. (Before, that process ran E1–E6b and E7 ran alone after it, to be
+the serial side of the byte comparison: the same experiments as the modules' runs.)
 """
 
 import csv
@@ -35,8 +36,8 @@ from experiments import reproduce  # noqa: E402
 
 pytestmark = pytest.mark.slow  # renders and whole experiment runs
 
-#: the experiment the serial run is interrupted in (the last one: every other finishes)
-INTERRUPTED = reproduce.EXPERIMENTS[-1][0]
+#: the experiment the serial run is interrupted in (the third: the two before it finish)
+INTERRUPTED = reproduce.EXPERIMENTS[2][0]
 #: every experiment's folder name (``module.NAME``), in report order
 KEYS = [importlib.import_module(f"experiments.{name}").NAME for name, _ in reproduce.EXPERIMENTS]
 
@@ -56,13 +57,12 @@ def pooled(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def serial(tmp_path_factory) -> dict:
+def serial(pooled, tmp_path_factory) -> dict:
     """``python -m experiments.reproduce --quick --workers 1`` (seed 0), SIGTERM as soon as
-    it announces the last experiment; then that experiment alone, in this process, into
-    the same folder. Returns the folder, the exit status, stderr after the signal and the
-    folder's names after the signal. Once per test run, as :func:`pooled`. Read-only."""
-    from experiments._common import Context
-
+    it announces :data:`INTERRUPTED`. Returns the folder, the exit status, stderr after the
+    signal and the folder's names after the signal. After :func:`pooled` (whose default
+    dataset and calibration the cache then holds, as on a second run); once per test run,
+    as :func:`pooled`. Read-only."""
     shared = _shared_root(tmp_path_factory)
     out, record = shared / "reproduce_w1", shared / "reproduce_w1.json"
     with _locked(shared / "reproduce_w1.lock"):
@@ -82,10 +82,6 @@ def serial(tmp_path_factory) -> dict:
             rest = proc.stderr.read()
             status = proc.wait(timeout=120)
             names = sorted(p.name for p in out.iterdir())
-            # the last experiment as the serial path runs it (module.run, --workers 1)
-            ctx = Context.from_argv(reproduce.__doc__, ["--quick", "--seed", "0", "--workers",
-                                                        "1", "--out", str(out)])
-            importlib.import_module(f"experiments.{INTERRUPTED}").run(ctx)
             record.write_text(json.dumps({"status": status, "stderr": rest,
                                           "names_after_sigterm": names}))
     info = json.loads(record.read_text())
@@ -99,10 +95,17 @@ def _results(folder: Path) -> dict[str, bytes]:
             if p.suffix in (".csv", ".json") or p.suffix == ".png" and "data" in p.parts}
 
 
-def test_same_seed_same_bytes_for_any_worker_count(pooled, serial):
-    a, b = _results(serial["out"]), _results(pooled)
+def test_same_seed_same_bytes_for_any_worker_count(pooled, quick_experiments):
+    """The pool (``--workers 2``) against the serial path (one context, ``--workers 1``)
+    for every experiment; the pool's rendering of the default dataset against ``rasc
+    render``'s (the serial side's dataset: conftest's, with the render record the
+    reproduction writes beside it)."""
+    for name, _ in reproduce.EXPERIMENTS:
+        ctx, _ = quick_experiments(name)
+    a, b = _results(ctx.out), _results(pooled)
     assert len(a) > 40  # every experiment's raw files plus the dataset's images
     assert {name.split("/")[0] for name in a} == {"data", *KEYS}
+    assert sum(name.endswith(".png") for name in a) == 2 * (20 + 9)   # the dataset's
     assert sorted(a) == sorted(b)
     differ = [name for name in a if a[name] != b[name]]
     assert differ == []
@@ -183,17 +186,20 @@ def test_dataset_is_reused_only_with_the_options_it_was_rendered_with(pooled, tm
 
 
 def test_sigterm_keeps_finished_experiments_and_removes_the_unfinished(serial):
-    """SIGTERM while the last experiment (E7) runs: every earlier one kept, E7's staging
-    folder removed, the earlier report removed and none written, status 130."""
+    """SIGTERM while the third experiment (E3) runs: the two before it kept, E3's staging
+    folder removed, none of the later ones started, the earlier report removed and none
+    written, status 130."""
     assert serial["status"] == 130
     rest = serial["stderr"]
     assert "Traceback" not in rest
     last = rest.strip().splitlines()[-1]
     assert last.startswith("reproduce: interrupted: kept the finished experiments"), last
-    assert f": {', '.join(KEYS[:-1])};" in last, last
-    assert f"stopped the unfinished: {KEYS[-1]} and removed" in last, last
+    k = KEYS.index(importlib.import_module(f"experiments.{INTERRUPTED}").NAME)
+    assert k == 2
+    assert f": {', '.join(KEYS[:k])};" in last, last
+    assert f"stopped the unfinished: {KEYS[k]} and removed" in last, last
     names = serial["names_after_sigterm"]
-    assert set(KEYS[:-1]) <= names and KEYS[-1] not in names and "REPORT.md" not in names
+    assert set(KEYS[:k]) <= names and not set(KEYS[k:]) & names and "REPORT.md" not in names
     assert not [n for n in names if n.startswith(".")]
     assert not [p for p in serial["out"].rglob("*.tmp")]
 
