@@ -229,3 +229,22 @@ def test_validate_dist_accepts_opencv_shapes():
     assert lens.validate_dist(None).shape == (0,)
     with pytest.raises(InputError, match="left.dist: expected 0, 4, 5 or 8"):
         lens.validate_dist([1.0, 2.0], name="left.dist")
+
+
+def test_undistortion_in_blocks_has_the_one_pass_bits(monkeypatch):
+    """_undistort iterates blocks of _UNDISTORT_BLOCK points; every point is its own Newton
+    iteration, so the blocks give one pass's bits, the points that fail to converge
+    (beyond the fold of a strong barrel lens) included."""
+    rng = np.random.default_rng(21)
+    xy = rng.uniform(-2.0, 2.0, (3 * lens._UNDISTORT_BLOCK + 17, 2))
+    for dist in ([-0.2, 0.05, 0.001, -0.002, 0.0], [-1.0, 0.0, 0.0, 0.0]):
+        d = lens._coefficients(dist)
+        blocks = lens._undistort(xy[:, 0], xy[:, 1], d, lens.UNDISTORT_TOL,
+                                 lens.UNDISTORT_MAX_ITER)
+        monkeypatch.setattr(lens, "_UNDISTORT_BLOCK", len(xy))
+        one = lens._undistort(xy[:, 0], xy[:, 1], d, lens.UNDISTORT_TOL,
+                              lens.UNDISTORT_MAX_ITER)
+        monkeypatch.undo()
+        assert one[2].sum() > 0 and (dist[0] > -1 or not one[2].all())
+        for a, b in zip(blocks, one, strict=True):
+            np.testing.assert_array_equal(a, b)
