@@ -155,13 +155,10 @@ def _saddle_on_the_whole_image(grey, corners, board, iterations=4):
     limited to the corners' rectangle): the reference the cropped blur must equal."""
     from scipy.ndimage import map_coordinates
 
+    from rasc.vision.camera import _saddle_window
+
     c0 = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
-    nx, ny = board.inner_corners
-    grid = c0.reshape(ny, nx, 2)
-    spacing = min(np.linalg.norm(np.diff(grid, axis=1), axis=2).min(),
-                  np.linalg.norm(np.diff(grid, axis=0), axis=2).min())
-    r = int(np.clip(np.floor(spacing / 4), 2, 6))
-    sigma = float(np.clip(r / 3, 0.8, 2.0))
+    r, sigma = _saddle_window(c0, board)
     smooth = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), sigma)
     o = np.arange(-r, r + 1, dtype=np.float64)
     dy, dx = (g.ravel() for g in np.meshgrid(o, o, indexing="ij"))

@@ -255,6 +255,17 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     return order_corners(corners, grey, board, order_by)
 
 
+def _saddle_window(corners: np.ndarray, board: Board) -> tuple[int, float]:
+    """:func:`refine_saddle`'s half-window r (a quarter of the smallest corner spacing, 2
+    to 6 px) and blur σ = r/3 (0.8 to 2 px), for corners (N, 2) in the board's order."""
+    nx, ny = board.inner_corners
+    grid = np.asarray(corners, dtype=np.float64).reshape(ny, nx, 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=1), axis=2).min(),
+                  np.linalg.norm(np.diff(grid, axis=0), axis=2).min())
+    r = int(np.clip(np.floor(spacing / 4), 2, 6))
+    return r, float(np.clip(r / 3, 0.8, 2.0))
+
+
 def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
                   iterations: int = 4) -> np.ndarray | None:
     """Sub-pixel corners as saddle points of the smoothed image.
@@ -278,12 +289,7 @@ def refine_saddle(grey: np.ndarray, corners: np.ndarray, board: Board, *,
     from scipy.ndimage import map_coordinates
 
     c0 = np.asarray(corners, dtype=np.float64).reshape(-1, 2)
-    nx, ny = board.inner_corners
-    grid = c0.reshape(ny, nx, 2)
-    spacing = min(np.linalg.norm(np.diff(grid, axis=1), axis=2).min(),
-                  np.linalg.norm(np.diff(grid, axis=0), axis=2).min())
-    r = int(np.clip(np.floor(spacing / 4), 2, 6))
-    sigma = float(np.clip(r / 3, 0.8, 2.0))
+    r, sigma = _saddle_window(c0, board)
     # Only the rectangle the samples can reach is smoothed: the corners, the window r,
     # ``iterations`` steps of at most 1 px, the bilinear neighbour, and the Gaussian's
     # reach (OpenCV's kernel for float images spans 4σ each side) plus a pixel. A pixel's
