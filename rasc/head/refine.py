@@ -488,13 +488,16 @@ class _Problem:
 
     def _cached(self, fn, *args: np.ndarray) -> Any:
         """``fn(*args)`` (arrays), computed once for the same argument bytes (exact: the
-        same input bits give the same output bits). Read-only: callers never change it."""
+        same input bits give the same output bits). Its arrays are made read-only: a
+        caller that wrote into one would change the next call's result."""
         key = (fn, *((a.shape, a.tobytes()) for a in args))
         hit = self._memo.get(key)
         if hit is None:
             if len(self._memo) >= 256:                # a few iterations' worth
                 self._memo.clear()
             hit = self._memo[key] = fn(*args)
+            for a in hit if isinstance(hit, tuple) else (hit,):
+                a.flags.writeable = False
         return hit
 
     # ---- parameters -----------------------------------------------------------------
