@@ -784,8 +784,10 @@ SUBPROCESS_CASES = {
 }
 
 
-#: cases that take seconds (two whole renders at once): marked slow, out of `make test-fast`
-_SLOW_PROCESS_CASES = {"traceback/two renders into one --out"}
+#: cases that take seconds (whole renders in a subprocess): marked slow, out of
+#: `make test-fast`
+_SLOW_PROCESS_CASES = {"traceback/two renders into one --out", "leftovers/render SIGTERM",
+                       "leftovers/render SIGINT"}
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)

@@ -228,6 +228,7 @@ def reference(tmp_path_factory):
     return spec, root / "pool"
 
 
+@pytest.mark.slow                                   # the reference run: a pool, ~6 s
 def test_study_writes_tidy_samples_summary_and_figures(reference):
     _, out = reference
     import csv
@@ -261,6 +262,7 @@ def test_process_pool_and_dask_localcluster_give_the_same_bytes(reference, tmp_p
     assert files(tmp_path / "dask") == files(pool)
 
 
+@pytest.mark.slow
 def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
         reference, tmp_path, capsys):
     spec_path, pool = reference
