@@ -1108,7 +1108,8 @@ def _solve_block(T_all: np.ndarray, G_all: np.ndarray | None, err: np.ndarray | 
 
 
 def _diagnostics(out: dict, n: int, pair: _Pairs, s: int = 0) -> HandEyeDiagnostics:
-    """Sample ``s``'s diagnostics from :func:`_solve`'s result."""
+    """Sample ``s``'s diagnostics from :func:`_solve`'s result (or, deferred, from the
+    same quantities of :func:`_solve_one`)."""
     u = s if len(out["theta"]) > 1 else 0                        # the sample's unit
     s1, _, s3 = out["sv"][s].tolist()
     theta = out["theta"][u]
@@ -1236,8 +1237,7 @@ def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
         T_cam_from_gaze=np.array([rows[0] + [t0], rows[1] + [t1], rows[2] + [t2],
                                   [0.0, 0.0, 0.0, 1.0]]),
         quality=_Deferred(_quality_one, Rs, Rs_all[1:], RX), method="rasc",
-        diagnostics=_Deferred(_diagnostics_one, n, pair.n_pairs, s1, s3, cond, theta_min,
-                              theta_max, l1 / l2, vec))
+        diagnostics=_Deferred(_diagnostics_one, n, pair, angle, sv, cond, l1 / l2, vec))
 
 
 def _quality_one(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> float:
@@ -1245,16 +1245,13 @@ def _quality_one(Rs: np.ndarray, Qs: np.ndarray, RX: np.ndarray) -> float:
     return float(_quality(Rs, Qs, RX)[0])
 
 
-def _diagnostics_one(n: int, n_pairs: int, s1: float, s3: float, cond: float,
-                     theta_min: float, theta_max: float, spread: float,
-                     vec: np.ndarray) -> HandEyeDiagnostics:
-    """The diagnostics of one solve (:func:`_diagnostics`), deferred by :func:`_solve_one`."""
-    deg = 180.0 / math.pi
-    return HandEyeDiagnostics(
-        n_positions=n, n_pairs=n_pairs, n_pairs_used=n_pairs,
-        cond_MtM=(s1 / s3) ** 2 if s3 > 0 else math.inf, cond_CtC=cond,
-        min_rotation_deg=theta_min * deg, max_rotation_deg=theta_max * deg,
-        axis_spread=spread, dominant_axis=_unit_axis(vec[0, :, 2]))
+def _diagnostics_one(n: int, pair: _Pairs, angle: np.ndarray, sv: np.ndarray, cond: float,
+                     spread: float, vec: np.ndarray) -> HandEyeDiagnostics:
+    """:func:`_diagnostics` of :func:`_solve_one`'s quantities (deferred by it: the
+    arguments are collected in the solve, the result's fields only when read)."""
+    return _diagnostics({"theta": angle[1:], "sv": sv, "wk": pair.wk_all,
+                         "cond_CtC": [cond], "axis_spread": [spread],
+                         "dominant_axis": vec[:1, :, 2]}, n, pair)
 
 
 def _one_case(T_cam_from_world: Any, T_gaze_from_ptu: Any, pairs: Any,
