@@ -205,21 +205,6 @@ def _locked(path: Path) -> Iterator[None]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-@contextlib.contextmanager
-def _environ(**values: str) -> Iterator[None]:
-    """Environment variables set for the block, restored after it."""
-    saved = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def _run_ok(*argv, quiet_stdout: bool = True) -> None:
     """Run ``python -m rasc ARGV``: exit status 0, nothing on stderr (nor on stdout)."""
     proc = python_rasc(*argv)
@@ -349,11 +334,11 @@ def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tupl
             write_json_atomic(dataset / DATASET_OPTIONS, ctx.dataset_options())
 
     def run(name: str) -> tuple:
-        if ctx._calibration is None:
-            # calibrated in this process before ctx is used, never read from the
-            # reproduction's cache: the fresh side of tests/test_reproduce_cache.py
-            with _environ(RASC_CACHE_DIR="none"):
-                ctx.calibration()
+        # calibrated in this process before ctx is used (Context keeps it), never read
+        # from the reproduction's cache: the fresh side of tests/test_reproduce_cache.py
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("RASC_CACHE_DIR", "none")
+            ctx.calibration()
         if name == "e3_quality":
             run("e1_noise")                          # E3 reuses E1's samples (ctx.reuse_e1)
         record = shared / f"quick_w1.{name}.pickle"
