@@ -149,12 +149,15 @@ PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
 
 
 def renderer_digest() -> str:
-    """sha256 over the renderer's code and models (rasc/sim, rasc/vision/board.py)."""
+    """sha256 over the code and models that make a rendered dataset's bytes: rasc/sim,
+    rasc/vision/board.py and rasc/vision/camera.py, whose ``encode_png`` writes the images
+    (without it, a dataset cached before a change of the PNG encoding was taken for a new
+    render: the same pixels, other bytes)."""
     import rasc
     root = Path(rasc.__file__).parent
     return tree_digest(root, [*(root / "sim").rglob("*.py"),
                               *(root / "sim" / "models").rglob("*"),
-                              root / "vision" / "board.py"])
+                              root / "vision" / "board.py", root / "vision" / "camera.py"])
 
 
 def dataset_cache(options: dict) -> Path | None:
