@@ -43,7 +43,7 @@ from rasc.handeye.solver import solve_rasc  # noqa: E402
 from rasc.head.pipeline import calibrate_dataset  # noqa: E402
 from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
 from rasc.vision.camera import estimate_extrinsics  # noqa: E402
-from rasc.vision.dataset import load_dataset  # noqa: E402
+from rasc.vision.dataset import forget_detections, load_dataset  # noqa: E402
 
 STAGES = ("detection", "intrinsics", "extrinsics", "hand-eye", "base-to-ptu")
 
@@ -60,6 +60,7 @@ def run_once(folder: Path, options: RenderOptions) -> dict:
     t0 = time.perf_counter()
     render_dataset(folder, options, quiet=True)
     t_render = time.perf_counter() - t0
+    forget_detections()   # time detection itself, not the detections kept from a run before
     t0 = time.perf_counter()
     dataset = load_dataset(folder)
     cal = calibrate_dataset(dataset)

@@ -34,6 +34,7 @@ os.environ["RASC_CACHE_DIR"] = "none"
 
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.executors import DaskExecutor, ProcessExecutor  # noqa: E402
+from rasc.vision.dataset import forget_detections  # noqa: E402
 
 SAMPLES_SPEC = """\
 name = "bench-samples"
@@ -73,6 +74,7 @@ def timed_run(spec, out: Path, make, seed_from: Path | None) -> tuple[float, flo
         shutil.copytree(seed_from / "datasets", out / "datasets")
         shutil.copy(seed_from / "study.json", out / "study.json")
         resume = True
+    forget_detections()   # this process detects afresh, as a pool's new processes do
     t0 = time.perf_counter()
     ex = make()
     if isinstance(ex, ProcessExecutor):   # start the pool's processes now

@@ -292,3 +292,122 @@ def test_write_manifest_rejects_non_json_values(folder):
     with pytest.raises(InputError, match="not JSON data"):
         write_manifest(folder, obj["board"], obj["images"])
     assert manifest(folder)["format"] == FORMAT  # the old manifest is untouched
+
+
+# ------------------------------------------------------------------ detections kept
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Counts the images rasc.vision.camera.detect_corners really looks at (by file
+    content), with the detections kept emptied before and after the test."""
+    import rasc.vision.camera as camera
+    from rasc.vision.dataset import forget_detections
+
+    seen = []
+    detect = camera.detect_corners
+
+    def spy(image, *args, **kwargs):
+        seen.append(image.tobytes())
+        return detect(image, *args, **kwargs)
+
+    forget_detections()
+    monkeypatch.setattr(camera, "detect_corners", spy)
+    yield seen
+    forget_detections()
+
+
+def test_the_same_bytes_are_detected_once(folder, tmp_path, counted):
+    first = load_dataset(folder).detect("left", "pose")
+    assert len(counted) == 4
+    # a copy of the dataset elsewhere: nothing detected again, the same corners
+    shutil.copytree(folder, tmp_path / "copy")
+    again = load_dataset(tmp_path / "copy").detect("left", "pose")
+    assert len(counted) == 4 and again.corners.keys() == first.corners.keys()
+    for name, c in first.corners.items():
+        assert c.tobytes() == again.corners[name].tobytes() and c is not again.corners[name]
+    # what the caller does to the corners it got changes nothing kept
+    for c in again.corners.values():
+        c += 100.0
+    third = load_dataset(folder).detect("left", "pose")
+    for name, c in first.corners.items():
+        assert c.tobytes() == third.corners[name].tobytes()
+    # the right eye's images hold the left's bytes (the template renders both alike)
+    load_dataset(folder).detect("right", "pose")
+    assert len(counted) == 4
+
+
+def test_other_bytes_detector_or_order_are_detected_afresh(folder, counted):
+    ds = load_dataset(folder)
+    before = ds.detect("left", "pose").corners["poses/left_02.png"]
+    # one image rewritten with other content (the board shifted 3 px): only it is detected
+    img = cv2.imread(str(folder / "poses" / "left_02.png"), cv2.IMREAD_GRAYSCALE)
+    cv2.imwrite(str(folder / "poses" / "left_02.png"), np.roll(img, 3, axis=1))
+    after = load_dataset(folder).detect("left", "pose").corners["poses/left_02.png"]
+    assert len(counted) == 5
+    np.testing.assert_allclose(after - before, [[3.0, 0.0]] * len(before), atol=0.05)
+    # another detector or order rule is another question
+    ds.detect("left", "pose", method="saddle")
+    assert len(counted) == 9
+    ds.detect("left", "pose", order_by="image")
+    assert len(counted) == 13
+    ds.detect("left", "pose", order_by="image")
+    assert len(counted) == 13
+
+
+def test_not_found_is_kept_too_and_errors_are_not(folder, counted):
+    blank = np.full((480, 640), 235, np.uint8)
+    cv2.imwrite(str(folder / "poses" / "left_01.png"), blank)
+    assert load_dataset(folder).detect("left", "pose").not_found == ["poses/left_01.png"]
+    assert load_dataset(folder).detect("left", "pose").not_found == ["poses/left_01.png"]
+    assert len(counted) == 4
+    # an unreadable image raises each time, naming it (a failure is never kept)
+    (folder / "poses" / "left_03.png").write_bytes(b"not an image")
+    for _ in range(2):
+        with pytest.raises(InputError,
+                           match=r"images\[7\] \(poses/left_03.png\): cannot read image"):
+            load_dataset(folder).detect("left", "pose")
+
+
+def test_a_file_changed_while_it_is_read_is_not_kept(folder, counted, monkeypatch):
+    import rasc.vision.camera as camera
+
+    spy = camera.detect_corners
+    target = folder / "poses" / "left_00.png"
+    original = target.read_bytes()
+
+    def changing(image, *args, **kwargs):
+        target.write_bytes(original + b"\0")      # another content after it was read
+        return spy(image, *args, **kwargs)
+
+    monkeypatch.setattr(camera, "detect_corners", changing)
+    load_dataset(folder).detect("left", "pose")
+    monkeypatch.setattr(camera, "detect_corners", spy)
+    target.write_bytes(original)
+    load_dataset(folder).detect("left", "pose")
+    # left_00 changed while it was detected, so it was not kept and is detected again;
+    # the other three were kept
+    assert len(counted) == 5 and counted[4] == counted[0]
+
+
+def test_detections_kept_are_bounded_and_can_be_forgotten(folder, counted, monkeypatch):
+    import rasc.vision.dataset as dataset
+
+    ds = load_dataset(folder)
+    monkeypatch.setattr(dataset, "DETECTIONS_KEPT", 2)
+    ds.detect("left", "intrinsics")                 # 4 images, the last two kept
+    assert len(counted) == 4 and len(dataset._kept) == 2
+    ds.detect("left", "intrinsics", min_found=1)
+    assert len(counted) == 8                      # each image pushed the next one out
+    monkeypatch.setattr(dataset, "DETECTIONS_KEPT", 4096)
+    ds.detect("left", "intrinsics")
+    ds.detect("left", "intrinsics")
+    assert len(counted) == 8 + 2                  # the two missing detected, then kept
+    dataset.forget_detections()
+    ds.detect("left", "intrinsics")
+    assert len(counted) == 14
+    # files larger than DETECTIONS_KEPT_MAX_BYTES are detected every time
+    monkeypatch.setattr(dataset, "DETECTIONS_KEPT_MAX_BYTES", 1000)
+    dataset.forget_detections()
+    ds.detect("left", "intrinsics")
+    ds.detect("left", "intrinsics")
+    assert len(counted) == 22 and len(dataset._kept) == 0

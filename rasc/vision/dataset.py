@@ -25,9 +25,13 @@ is first read): the manifest itself is parsed and written with the standard libr
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import stat
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
@@ -150,6 +154,10 @@ class Dataset:
         are the problem) or when fewer than ``min_found`` images show it (default:
         :data:`~rasc.vision.board.MIN_INTRINSICS_VIEWS` for intrinsics,
         :data:`MIN_POSE_VIEWS` for poses).
+
+        An image file whose bytes were detected before in this process, with the same
+        board, ``method`` and ``order_by``, is not detected again: see
+        :data:`DETECTIONS_KEPT`.
         """
         from rasc.vision.camera import detect_corners
 
@@ -167,7 +175,15 @@ class Dataset:
         corners: dict[str, np.ndarray] = {}
         not_found: list[str] = []
         for e in entries:
-            c = detect_corners(self.read(e), self.board, method=method, order_by=order_by)
+            digest = _content_digest(e.path)
+            key = (None if digest is None
+                   else (digest, self.board.inner_corners, method, order_by))
+            found, c = _remembered(key)
+            if not found:
+                c = detect_corners(self.read(e), self.board, method=method, order_by=order_by)
+                # kept only if the file still holds the bytes it held before it was read
+                if key is not None and _content_digest(e.path) == digest:
+                    _remember(key, c)
             if c is None:
                 not_found.append(e.file)
             else:
@@ -211,6 +227,68 @@ class Dataset:
                               None if self.ground_truth is None
                               else self.ground_truth.relative_to(self.root).as_posix(),
                               self.length_unit)
+
+
+# ------------------------------------------------------------------ detections kept
+
+#: :meth:`Dataset.detect` keeps, per process, what it found in each image file, keyed by
+#: the file's content (SHA-256 of its bytes), the board's inner corners, the detector and
+#: the order rule: detection is a deterministic function of these (rasc runs OpenCV's
+#: detection on one thread), so the same bytes give the same corners, wherever the file
+#: lies. Calibrating a
+#: dataset again (other options, a copy of it, the same images in another manifest)
+#: detects only the images it has not seen. A result is kept only when the file's bytes
+#: are the same after it was read as before; files of another kind (devices, pipes) or
+#: larger than :data:`DETECTIONS_KEPT_MAX_BYTES` are never kept. At most
+#: :data:`DETECTIONS_KEPT` results (least recently used dropped first, about 1 kB each for
+#: a 9x6 board). :func:`forget_detections` empties it.
+DETECTIONS_KEPT = 4096
+DETECTIONS_KEPT_MAX_BYTES = 64 << 20
+_kept: OrderedDict[tuple, np.ndarray | None] = OrderedDict()
+_kept_lock = threading.Lock()
+
+
+def forget_detections() -> None:
+    """Empty the detections :meth:`Dataset.detect` keeps (e.g. to time detection)."""
+    with _kept_lock:
+        _kept.clear()
+
+
+def _content_digest(path: Path) -> bytes | None:
+    """SHA-256 of a regular file of at most DETECTIONS_KEPT_MAX_BYTES; else None."""
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return None
+        with open(path, "rb") as f:
+            data = f.read(DETECTIONS_KEPT_MAX_BYTES + 1)
+    except OSError:
+        return None
+    if len(data) > DETECTIONS_KEPT_MAX_BYTES:
+        return None
+    return hashlib.sha256(data).digest()
+
+
+def _remembered(key: tuple | None) -> tuple[bool, np.ndarray | None]:
+    """(True, a copy of the corners or None) when ``key`` was detected before."""
+    if key is None:
+        return False, None
+    with _kept_lock:
+        if key not in _kept:
+            return False, None
+        _kept.move_to_end(key)
+        c = _kept[key]
+    return True, None if c is None else c.copy()
+
+
+def _remember(key: tuple, corners: np.ndarray | None) -> None:
+    if corners is not None:
+        corners = corners.copy()
+        corners.flags.writeable = False
+    with _kept_lock:
+        _kept[key] = corners
+        _kept.move_to_end(key)
+        while len(_kept) > DETECTIONS_KEPT:
+            _kept.popitem(last=False)
 
 
 # ------------------------------------------------------------------------- reading
