@@ -30,7 +30,8 @@ Fixtures
     The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> RenderedDataset``.
 
 Cache: a dataset is stored under a key that hashes every render option, the model
-files and the rasc version, so a changed option, model or release renders anew.
+files and rasc's code (:func:`dataset_key`), so a changed option, model, release or
+renderer renders anew.
 Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else the
 environment variable ``RASC_CACHE_DIR``, else pytest's cache (``.pytest_cache/d/rasc``),
 else (with ``-p no:cacheprovider``) a temporary folder of the session. A dataset is
@@ -251,15 +252,19 @@ def _file_digest(path: Path) -> str:
 
 def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
     """The cache key of a rendered dataset: sha256 over every render option, the model
-    files' contents and the rasc version (first 20 hex digits)."""
+    files' contents and rasc's code (first 20 hex digits). The code is
+    :func:`rasc.study.engine.code_digest`, the study cache's: the rasc version, every file
+    of the package and the versions of the libraries that render and detect, so a
+    development install whose renderer changed within one version renders afresh."""
     from rasc import __version__
+    from rasc.study.engine import code_digest
 
     models = Path(__file__).resolve().parent / "sim" / "models"
     files = {p.name: _file_digest(p) for p in sorted(models.glob("*.xml"))}
     if model_path is not None:
         files["model_path"] = _file_digest(Path(model_path))
-    blob = json.dumps({"rasc": __version__, "options": asdict(options), "models": files},
-                      sort_keys=True, default=list)
+    blob = json.dumps({"rasc": __version__, "code": code_digest(), "options": asdict(options),
+                       "models": files}, sort_keys=True, default=list)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 

@@ -125,9 +125,18 @@ def test_rendered_dataset_is_cached_by_its_parameters(tmp_path):
         assert_handeye_close(result, first.T_cam_from_gaze(eye), rotation_deg=1e-9,
                              translation=1e-9)
     assert len(first.load().images) == 2 * (4 + 4)
-    # the key covers every option, the model files and the version
+    # the key covers every option, the model files and rasc's code
     assert dataset_key(first.options) == first.key
     assert dataset_key(other.options) != first.key
+    import rasc.study.engine as engine
+
+    code = engine.code_digest()
+    try:
+        engine._CODE_DIGEST[:] = ["0" * 64]          # another renderer, the same version
+        assert dataset_key(first.options) != first.key
+    finally:
+        engine._CODE_DIGEST[:] = [code]
+    assert dataset_key(first.options) == first.key
 
 
 def test_loading_the_plugin_imports_no_heavy_module():
