@@ -359,9 +359,9 @@ DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_cal
                               "quick_experiments"})
 
 
-#: The longest tests, longest first (wall seconds each in one `make test` run of
-#: 2026-11-23, with the per-test times of ``pytest --durations=30``): they run before the
-#: other slow tests. Only the order depends on this list; a test missing from it, or
+#: The longest tests, longest first (wall seconds each, measured in one whole run on
+#: 2026-11-23; ``pytest --durations=30`` lists them): they run before the other slow
+#: tests. Only the order depends on this list; a test missing from it, or
 #: listed and gone, changes nothing else.
 LONGEST_FIRST = (
     "test_reproduce.py::test_same_seed_same_bytes_for_any_worker_count",                # 12.6

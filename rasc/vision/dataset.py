@@ -235,13 +235,12 @@ class Dataset:
 #: the file's content (SHA-256 of its bytes), the board's inner corners, the detector and
 #: the order rule: detection is a deterministic function of these (rasc runs OpenCV's
 #: detection on one thread), so the same bytes give the same corners, wherever the file
-#: lies. Calibrating a
-#: dataset again (other options, a copy of it, the same images in another manifest)
-#: detects only the images it has not seen. A result is kept only when the file's bytes
-#: are the same after it was read as before; files of another kind (devices, pipes) or
-#: larger than :data:`DETECTIONS_KEPT_MAX_BYTES` are never kept. At most
-#: :data:`DETECTIONS_KEPT` results (least recently used dropped first, about 1 kB each for
-#: a 9x6 board). :func:`forget_detections` empties it.
+#: lies. Calibrating a dataset again (other options, a copy of it, the same images in
+#: another manifest) detects only the images it has not seen. A result is kept only when
+#: the file's bytes are the same after it was read as before; files of another kind
+#: (devices, pipes) or larger than :data:`DETECTIONS_KEPT_MAX_BYTES` are never kept. At
+#: most :data:`DETECTIONS_KEPT` results (least recently used dropped first, about 1 kB
+#: each for a 9x6 board). :func:`forget_detections` empties it.
 DETECTIONS_KEPT = 4096
 DETECTIONS_KEPT_MAX_BYTES = 64 << 20
 _kept: OrderedDict[tuple, np.ndarray | None] = OrderedDict()
