@@ -777,7 +777,7 @@ class _Problem:
         by_images: dict[bytes, list[int]] = {}
         for j in kinematic:
             by_images.setdefault(col_imgs[j].tobytes(), []).append(j)
-        columns = {}
+        columns = {}                              # j -> (the rows it moves, its values)
         for cols in by_images.values():
             imgs = col_imgs[cols[0]]
             rows = np.concatenate([rows_of[i] for i in imgs])
@@ -788,13 +788,13 @@ class _Problem:
                 xs += [x + dx, x - dx] if central else [x + dx]
             res = self._residuals_batch(xs, imgs)
             for k, j in enumerate(cols):
-                columns[j] = (res[2 * k] - res[2 * k + 1]) / (2 * h) if central \
-                    else (res[k] - r0[rows]) / h
+                columns[j] = (rows, (res[2 * k] - res[2 * k + 1]) / (2 * h) if central
+                              else (res[k] - r0[rows]) / h)
         for j in kinematic:                       # in column order, as before
-            rows = np.concatenate([rows_of[i] for i in col_imgs[j]])
+            rows, values = columns[j]
             data_r.append(rows)
             data_c.append(np.full(len(rows), j))
-            data_v.append(columns[j])
+            data_v.append(values)
         m = int(mask.sum()) * 2
         return sp.csr_matrix((np.concatenate(data_v),
                               (np.concatenate(data_r), np.concatenate(data_c))), shape=(m, n))
