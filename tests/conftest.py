@@ -251,12 +251,11 @@ def default_calibration(default_dataset, tmp_path_factory):
         if path.is_file():
             return pickle.loads(path.read_bytes())
         from rasc.head.pipeline import calibrate_dataset
+        from rasc.io import write_bytes_atomic
         from rasc.vision.dataset import load_dataset
 
         cal = calibrate_dataset(load_dataset(default_dataset))
-        tmp = path.with_suffix(".tmp")
-        tmp.write_bytes(pickle.dumps(cal))
-        tmp.replace(path)
+        write_bytes_atomic(path, pickle.dumps(cal))
         return cal
 
 
@@ -320,7 +319,7 @@ def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tupl
     if repo not in sys.path:
         sys.path.insert(0, repo)                     # the experiments package
     from experiments._common import DATASET_OPTIONS, Context
-    from rasc.io import write_json_atomic
+    from rasc.io import write_bytes_atomic, write_json_atomic
 
     shared = _shared_root(tmp_path_factory)
     root = shared / "quick_w1"
@@ -345,9 +344,7 @@ def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tupl
         with _locked(shared / f"quick_w1.{name}.lock"):
             if not record.is_file():                 # written last: the run is complete
                 section = importlib.import_module(f"experiments.{name}").run(ctx)
-                tmp = record.with_suffix(".tmp")
-                tmp.write_bytes(pickle.dumps(section))
-                tmp.replace(record)
+                write_bytes_atomic(record, pickle.dumps(section))
         return ctx, pickle.loads(record.read_bytes())
 
     run.dataset = dataset
