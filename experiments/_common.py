@@ -28,6 +28,7 @@ from rasc.errors import InputError
 from rasc.io import (
     cache_root,
     dumps_json,
+    module_files,
     prune_cache,
     read_json_document,
     touch_cache_entry,
@@ -148,16 +149,24 @@ def stage(label: str):
 PAPER_LEVELS = tuple((0.005 * k, 1.0 * k) for k in range(1, 9))
 
 
-def renderer_digest() -> str:
-    """sha256 over the code and models that make a rendered dataset's bytes: rasc/sim,
-    rasc/vision/board.py and rasc/vision/camera.py, whose ``encode_png`` writes the images
-    (without it, a dataset cached before a change of the PNG encoding was taken for a new
-    render: the same pixels, other bytes)."""
-    import rasc
-    root = Path(rasc.__file__).parent
-    return tree_digest(root, [*(root / "sim").rglob("*.py"),
-                              *(root / "sim" / "models").rglob("*"),
-                              root / "vision" / "board.py", root / "vision" / "camera.py"])
+#: the modules that render a dataset (with every rasc module they import: see
+#: :func:`renderer_digest`)
+RENDERER_MODULES = ("rasc.sim.render", "rasc.sim.scene", "rasc.sim.synthetic", "rasc.sim.units",
+                    "rasc.vision.board", "rasc.vision.camera")
+
+
+def renderer_digest(root: Path | None = None) -> str:
+    """sha256 over the code and models that make a rendered dataset's bytes: the modules
+    of :data:`RENDERER_MODULES` and every rasc module they import, transitively
+    (:func:`rasc.io.module_files`: the kinematics that pose the units, the lens model
+    that distorts, the manifest's writer, ...), and the MJCF models, of the package folder
+    ``root`` (default: the imported rasc's). A list of files kept by hand missed
+    ``camera.py``'s PNG encoder once, and later every module outside ``rasc/sim``."""
+    if root is None:
+        import rasc
+        root = Path(rasc.__file__).parent
+    return tree_digest(root, [*module_files(root, RENDERER_MODULES),
+                              *(root / "sim" / "models").rglob("*")])
 
 
 def dataset_cache(options: dict) -> Path | None:

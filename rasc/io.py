@@ -147,6 +147,58 @@ def tree_digest(root: str | os.PathLike, files) -> str:
     return h.hexdigest()
 
 
+def module_files(root: str | os.PathLike, modules) -> list[Path]:
+    """The source files of the ``modules`` (dotted names of the package whose folder is
+    ``root``, e.g. ``rasc.sim.render``) and of every module of that package they import,
+    transitively, with the ``__init__.py`` of each package on the way: the code a cache
+    entry built by those modules depends on, for :func:`tree_digest`.
+
+    Read from the sources, not from ``sys.modules``: every ``import`` statement counts,
+    including those inside functions (they run when the function does). ``from p import
+    name`` counts ``p.name`` when that is a module of the package. Sorted, without
+    repeats; a name that is no module of the package is left out (it is not its code)."""
+    import ast
+
+    root = Path(root)
+    top = root.name
+
+    def source(name: str) -> Path | None:
+        parts = name.split(".")
+        if parts[0] != top:
+            return None
+        base = root.joinpath(*parts[1:])
+        for p in (base / "__init__.py", base.with_suffix(".py")):
+            if p.is_file():
+                return p
+        return None
+
+    seen: dict[str, Path] = {}
+    todo = list(modules)
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        path = source(name)
+        if path is None:
+            continue
+        seen[name] = path
+        parts = name.split(".")
+        todo += [".".join(parts[:k]) for k in range(1, len(parts))]   # the packages
+        package = name if path.name == "__init__.py" else ".".join(parts[:-1])
+        for node in ast.walk(ast.parse(path.read_bytes(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                todo += [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:                     # relative: from the module's package
+                    up = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    base = ".".join(up + ([node.module] if node.module else []))
+                else:
+                    base = node.module or ""
+                todo.append(base)
+                todo += [f"{base}.{a.name}" for a in node.names if a.name != "*"]
+    return sorted(set(seen.values()))
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)

@@ -146,3 +146,31 @@ def test_write_stdout_on_a_full_device_is_one_error(monkeypatch):
     monkeypatch.setattr("sys.stdout", Full())
     with pytest.raises(InputError, match="^standard output: cannot write: No space left"):
         write_stdout("{}\n")
+
+
+def test_module_files_follows_every_import_of_the_package(tmp_path):
+    """module_files: absolute, relative and in-function imports, ``from p import module``,
+    the packages on the way; not other packages, not names that are no module, and a
+    circle ends."""
+    from rasc.io import module_files
+
+    pkg = tmp_path / "pkg"
+    files = {
+        "__init__.py": "",
+        "a/__init__.py": "from . import b\n",
+        "a/b.py": "import os\nfrom ..c import name\n",
+        "a/unused.py": "",
+        "c/__init__.py": "",
+        "c/name.py": "def f():\n    import pkg.d.e\n",
+        "d/__init__.py": "from pkg.a import b  # a circle\n",
+        "d/e.py": "from pkg.c import not_a_module, name as n\nimport numpy\n",
+        "f.py": "import pkg.a.b\n",
+    }
+    for rel, text in files.items():
+        (pkg / rel).parent.mkdir(parents=True, exist_ok=True)
+        (pkg / rel).write_text(text)
+    got = [p.relative_to(pkg).as_posix() for p in module_files(pkg, ["pkg.a"])]
+    assert got == ["__init__.py", "a/__init__.py", "a/b.py", "c/__init__.py", "c/name.py",
+                   "d/__init__.py", "d/e.py"]
+    assert [p.name for p in module_files(pkg, ["pkg.f"])][-1] == "f.py"
+    assert module_files(pkg, ["other.a", "pkg.missing"]) == []

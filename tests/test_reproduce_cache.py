@@ -29,6 +29,7 @@ from experiments._common import (  # noqa: E402
     calibration_code_digest,
     calibration_key,
     load_cached_calibration,
+    renderer_digest,
     store_calibration,
 )
 from rasc.io import dumps_json  # noqa: E402
@@ -116,6 +117,32 @@ def test_the_key_follows_the_calibration_code_only(tmp_path):
         assert calibration_code_digest(root) != d0, pkg
         src.write_text(text)
     assert calibration_code_digest(root) == d0
+
+
+def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
+    """The default dataset's cache key (renderer_sha256) covers every module the renderer
+    imports, not only rasc/sim: the unit's kinematics, the lens model, the manifest's
+    writer (each missed by the earlier hand-kept list), and nothing else."""
+    import rasc
+    root = tmp_path / "rasc"
+    shutil.copytree(Path(rasc.__file__).parent, root,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    d0 = renderer_digest(root)
+    assert d0 == renderer_digest()
+    # code no render runs: the same key
+    for other in ("handeye/solver.py", "head/refine.py", "study/engine.py", "commands/render.py"):
+        path = root / other
+        path.write_text(path.read_text() + "\n# changed\n")
+    assert renderer_digest(root) == d0
+    # one character in the renderer or in what it imports: another key
+    for part in ("sim/scene.py", "sim/models/stereo_head.xml", "vision/camera.py",
+                 "geometry/kinematics.py", "geometry/lens.py", "vision/dataset.py", "io.py"):
+        path = root / part
+        text = path.read_text()
+        path.write_text(text + " ")
+        assert renderer_digest(root) != d0, part
+        path.write_text(text)
+    assert renderer_digest(root) == d0
 
 
 def test_cache_off_and_where_it_lives(monkeypatch, tmp_path):
