@@ -192,14 +192,15 @@ CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/1"
 def calibration_code_digest(root: Path | None = None) -> str:
     """sha256 over the source of the code that computes a calibration: rasc's top-level
     modules and the packages of :data:`CALIBRATION_CODE` (every ``.py`` file) of the
-    package folder ``root`` (default: the imported rasc's)."""
+    package folder ``root`` (default: the imported rasc's), and any other rasc module
+    those packages import (:func:`rasc.io.module_files`; none today, so that an import
+    added later cannot leave the key behind)."""
     if root is None:
         import rasc
         root = Path(rasc.__file__).parent
-    files = [*root.glob("*.py")]
-    for pkg in CALIBRATION_CODE:
-        files += (root / pkg).rglob("*.py")
-    return tree_digest(root, files)
+    code = {p for pkg in CALIBRATION_CODE for p in (root / pkg).rglob("*.py")}
+    names = [".".join((root.name, *p.relative_to(root).with_suffix("").parts)) for p in code]
+    return tree_digest(root, {*root.glob("*.py"), *code, *module_files(root, names)})
 
 
 def calibration_key(dataset: Path) -> dict:

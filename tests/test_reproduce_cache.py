@@ -117,6 +117,15 @@ def test_the_key_follows_the_calibration_code_only(tmp_path):
         assert calibration_code_digest(root) != d0, pkg
         src.write_text(text)
     assert calibration_code_digest(root) == d0
+    # a module outside those packages that one of them imports is part of it too
+    (root / "sim" / "helper.py").write_text("X = 1\n")
+    assert calibration_code_digest(root) == d0
+    pipeline = root / "head" / "pipeline.py"
+    pipeline.write_text(pipeline.read_text() + "\ndef _f():\n    from rasc.sim import helper\n")
+    d1 = calibration_code_digest(root)
+    assert d1 != d0
+    (root / "sim" / "helper.py").write_text("X = 2\n")
+    assert calibration_code_digest(root) != d1
 
 
 def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
