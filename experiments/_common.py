@@ -199,7 +199,8 @@ def calibration_code_digest(root: Path | None = None) -> str:
         import rasc
         root = Path(rasc.__file__).parent
     code = {p for pkg in CALIBRATION_CODE for p in (root / pkg).rglob("*.py")}
-    names = [".".join((root.name, *p.relative_to(root).with_suffix("").parts)) for p in code]
+    names = [".".join((root.name, *p.relative_to(root).parent.parts,
+                       *([] if p.stem == "__init__" else [p.stem]))) for p in code]
     return tree_digest(root, {*root.glob("*.py"), *code, *module_files(root, names)})
 
 
