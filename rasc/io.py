@@ -153,50 +153,24 @@ def module_files(root: str | os.PathLike, modules) -> list[Path]:
     transitively, with the ``__init__.py`` of each package on the way: the code a cache
     entry built by those modules depends on, for :func:`tree_digest`.
 
-    Read from the sources, not from ``sys.modules``: every ``import`` statement counts,
-    including those inside functions (they run when the function does). ``from p import
-    name`` counts ``p.name`` when that is a module of the package. Sorted, without
-    repeats; a name that is no module of the package is left out (it is not its code)."""
-    import ast
+    Found by the standard library's :class:`modulefinder.ModuleFinder`, which reads the
+    compiled sources without running them: every ``import`` counts, including those
+    inside functions (they run when the function does), relative ones and ``from p import
+    module``. It searches only the folder that holds ``root``, so other packages and the
+    standard library are not followed. Sorted; a name that is no module of the package is
+    left out (it is not its code)."""
+    import modulefinder
 
     root = Path(root)
-    top = root.name
-
-    def source(name: str) -> Path | None:
-        parts = name.split(".")
-        if parts[0] != top:
-            return None
-        base = root.joinpath(*parts[1:])
-        for p in (base / "__init__.py", base.with_suffix(".py")):
-            if p.is_file():
-                return p
-        return None
-
-    seen: dict[str, Path] = {}
-    todo = list(modules)
-    while todo:
-        name = todo.pop()
-        if name in seen:
-            continue
-        path = source(name)
-        if path is None:
-            continue
-        seen[name] = path
-        parts = name.split(".")
-        todo += [".".join(parts[:k]) for k in range(1, len(parts))]   # the packages
-        package = name if path.name == "__init__.py" else ".".join(parts[:-1])
-        for node in ast.walk(ast.parse(path.read_bytes(), filename=str(path))):
-            if isinstance(node, ast.Import):
-                todo += [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom):
-                if node.level:                     # relative: from the module's package
-                    up = package.split(".")[:len(package.split(".")) - node.level + 1]
-                    base = ".".join(up + ([node.module] if node.module else []))
-                else:
-                    base = node.module or ""
-                todo.append(base)
-                todo += [f"{base}.{a.name}" for a in node.names if a.name != "*"]
-    return sorted(set(seen.values()))
+    finder = modulefinder.ModuleFinder(path=[str(root.parent)])
+    for name in modules:
+        top, *rest = name.split(".")
+        base = root.joinpath(*rest)
+        if top == root.name and ((base / "__init__.py").is_file()
+                                 or base.with_suffix(".py").is_file()):
+            finder.import_hook(name)
+    files = {Path(m.__file__) for m in finder.modules.values() if m.__file__}
+    return sorted(p for p in files if p.is_relative_to(root))
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
