@@ -172,6 +172,28 @@ def rasc_cli(capsys) -> Callable[..., tuple[int, str, str]]:
     return lambda *argv: run_rasc(argv, capsys)
 
 
+@pytest.fixture
+def detections_counted(monkeypatch) -> Iterator[list[bytes]]:
+    """The images ``rasc.vision.camera.detect_corners`` really looks at (their pixels'
+    bytes, in order; images whose detections were kept are not there), with the
+    detections kept (``rasc.vision.dataset.forget_detections``) emptied before and after
+    the test."""
+    import rasc.vision.camera as camera
+    from rasc.vision.dataset import forget_detections
+
+    seen: list[bytes] = []
+    detect = camera.detect_corners
+
+    def spy(image, *args, **kwargs):
+        seen.append(image.tobytes())
+        return detect(image, *args, **kwargs)
+
+    forget_detections()
+    monkeypatch.setattr(camera, "detect_corners", spy)
+    yield seen
+    forget_detections()
+
+
 def pip_build_flags() -> list[str]:
     """``["--no-build-isolation"]`` if setuptools >= 77 (pyproject's [build-system]
     requirement, also in the ``test`` extra) is importable here, else ``[]``."""

@@ -245,7 +245,7 @@ def test_mixed_sizes_within_one_eye(folder):
 
 def test_wrong_board_size_says_check_inner_corners(folder):
     obj = manifest(folder)
-    obj["board"]["inner_corners"] = [10, 7]  # squares counted instead of inner corners
+    obj["board"]["inner_corners"] = [10, 7]  # squares detections_counted instead of inner corners
     rewrite(folder, obj)
     ds = load_dataset(folder)
     with pytest.raises(InputError, match=r"board 10x7 not found in 4 of 4 \(first: "
@@ -296,33 +296,13 @@ def test_write_manifest_rejects_non_json_values(folder):
 
 # ------------------------------------------------------------------ detections kept
 
-@pytest.fixture
-def counted(monkeypatch):
-    """Counts the images rasc.vision.camera.detect_corners really looks at (by file
-    content), with the detections kept emptied before and after the test."""
-    import rasc.vision.camera as camera
-    from rasc.vision.dataset import forget_detections
-
-    seen = []
-    detect = camera.detect_corners
-
-    def spy(image, *args, **kwargs):
-        seen.append(image.tobytes())
-        return detect(image, *args, **kwargs)
-
-    forget_detections()
-    monkeypatch.setattr(camera, "detect_corners", spy)
-    yield seen
-    forget_detections()
-
-
-def test_the_same_bytes_are_detected_once(folder, tmp_path, counted):
+def test_the_same_bytes_are_detected_once(folder, tmp_path, detections_counted):
     first = load_dataset(folder).detect("left", "pose")
-    assert len(counted) == 4
+    assert len(detections_counted) == 4
     # a copy of the dataset elsewhere: nothing detected again, the same corners
     shutil.copytree(folder, tmp_path / "copy")
     again = load_dataset(tmp_path / "copy").detect("left", "pose")
-    assert len(counted) == 4 and again.corners.keys() == first.corners.keys()
+    assert len(detections_counted) == 4 and again.corners.keys() == first.corners.keys()
     for name, c in first.corners.items():
         assert c.tobytes() == again.corners[name].tobytes() and c is not again.corners[name]
     # what the caller does to the corners it got changes nothing kept
@@ -333,33 +313,33 @@ def test_the_same_bytes_are_detected_once(folder, tmp_path, counted):
         assert c.tobytes() == third.corners[name].tobytes()
     # the right eye's images hold the left's bytes (the template renders both alike)
     load_dataset(folder).detect("right", "pose")
-    assert len(counted) == 4
+    assert len(detections_counted) == 4
 
 
-def test_other_bytes_detector_or_order_are_detected_afresh(folder, counted):
+def test_other_bytes_detector_or_order_are_detected_afresh(folder, detections_counted):
     ds = load_dataset(folder)
     before = ds.detect("left", "pose").corners["poses/left_02.png"]
     # one image rewritten with other content (the board shifted 3 px): only it is detected
     img = cv2.imread(str(folder / "poses" / "left_02.png"), cv2.IMREAD_GRAYSCALE)
     cv2.imwrite(str(folder / "poses" / "left_02.png"), np.roll(img, 3, axis=1))
     after = load_dataset(folder).detect("left", "pose").corners["poses/left_02.png"]
-    assert len(counted) == 5
+    assert len(detections_counted) == 5
     np.testing.assert_allclose(after - before, [[3.0, 0.0]] * len(before), atol=0.05)
     # another detector or order rule is another question
     ds.detect("left", "pose", method="saddle")
-    assert len(counted) == 9
+    assert len(detections_counted) == 9
     ds.detect("left", "pose", order_by="image")
-    assert len(counted) == 13
+    assert len(detections_counted) == 13
     ds.detect("left", "pose", order_by="image")
-    assert len(counted) == 13
+    assert len(detections_counted) == 13
 
 
-def test_not_found_is_kept_too_and_errors_are_not(folder, counted):
+def test_not_found_is_kept_too_and_errors_are_not(folder, detections_counted):
     blank = np.full((480, 640), 235, np.uint8)
     cv2.imwrite(str(folder / "poses" / "left_01.png"), blank)
     assert load_dataset(folder).detect("left", "pose").not_found == ["poses/left_01.png"]
     assert load_dataset(folder).detect("left", "pose").not_found == ["poses/left_01.png"]
-    assert len(counted) == 4
+    assert len(detections_counted) == 4
     # an unreadable image raises each time, naming it (a failure is never kept)
     (folder / "poses" / "left_03.png").write_bytes(b"not an image")
     for _ in range(2):
@@ -368,7 +348,7 @@ def test_not_found_is_kept_too_and_errors_are_not(folder, counted):
             load_dataset(folder).detect("left", "pose")
 
 
-def test_a_file_changed_while_it_is_read_is_not_kept(folder, counted, monkeypatch):
+def test_a_file_changed_while_it_is_read_is_not_kept(folder, detections_counted, monkeypatch):
     import rasc.vision.camera as camera
 
     spy = camera.detect_corners
@@ -386,28 +366,28 @@ def test_a_file_changed_while_it_is_read_is_not_kept(folder, counted, monkeypatc
     load_dataset(folder).detect("left", "pose")
     # left_00 changed while it was detected, so it was not kept and is detected again;
     # the other three were kept
-    assert len(counted) == 5 and counted[4] == counted[0]
+    assert len(detections_counted) == 5 and detections_counted[4] == detections_counted[0]
 
 
-def test_detections_kept_are_bounded_and_can_be_forgotten(folder, counted, monkeypatch):
+def test_detections_kept_are_bounded_and_can_be_forgotten(folder, detections_counted, monkeypatch):
     import rasc.vision.dataset as dataset
 
     ds = load_dataset(folder)
     monkeypatch.setattr(dataset, "DETECTIONS_KEPT", 2)
     ds.detect("left", "intrinsics")                 # 4 images, the last two kept
-    assert len(counted) == 4 and len(dataset._kept) == 2
+    assert len(detections_counted) == 4 and len(dataset._kept) == 2
     ds.detect("left", "intrinsics", min_found=1)
-    assert len(counted) == 8                      # each image pushed the next one out
+    assert len(detections_counted) == 8                      # each image pushed the next one out
     monkeypatch.setattr(dataset, "DETECTIONS_KEPT", 4096)
     ds.detect("left", "intrinsics")
     ds.detect("left", "intrinsics")
-    assert len(counted) == 8 + 2                  # the two missing detected, then kept
+    assert len(detections_counted) == 8 + 2                  # the two missing detected, then kept
     dataset.forget_detections()
     ds.detect("left", "intrinsics")
-    assert len(counted) == 14
+    assert len(detections_counted) == 14
     # files larger than DETECTIONS_KEPT_MAX_BYTES are detected every time
     monkeypatch.setattr(dataset, "DETECTIONS_KEPT_MAX_BYTES", 1000)
     dataset.forget_detections()
     ds.detect("left", "intrinsics")
     ds.detect("left", "intrinsics")
-    assert len(counted) == 22 and len(dataset._kept) == 0
+    assert len(detections_counted) == 22 and len(dataset._kept) == 0

@@ -243,33 +243,24 @@ def test_readme_conftest_example(default_dataset, default_calibration):
     assert default_calibration.eyes["left"].handeye.quality < 0.01
 
 
-def test_readme_detections_kept_example(default_dataset, tmp_path, monkeypatch):
+def test_readme_detections_kept_example(default_dataset, tmp_path, monkeypatch,
+                                        detections_counted):
     """The README's example of calibrating one dataset twice (`rasc calibrate` section),
     verbatim: the first calibration detects the 58 images, the second none, and
     forget_detections empties what was kept."""
     import re
 
-    import rasc.vision.camera as camera
     import rasc.vision.dataset as dataset_module
 
     text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     start = text.index("In one Python process, `rasc.head.pipeline.calibrate_dataset`")
     (block,) = re.findall(r"```python\n(.*?)```", text[start:text.index("\n### ", start)],
                           re.S)
-    detected = []
-    detect = camera.detect_corners
-
-    def spy(image, *args, **kwargs):
-        detected.append(len(detected))
-        return detect(image, *args, **kwargs)
-
-    dataset_module.forget_detections()             # what earlier tests kept in this worker
-    monkeypatch.setattr(camera, "detect_corners", spy)
     os.symlink(default_dataset, tmp_path / "ds")
     monkeypatch.chdir(tmp_path)
     names = {}
     exec(compile(block, "README.md", "exec"), names)
-    assert len(detected) == 58 == 2 * (20 + 9)      # the first calibration only
+    assert len(detections_counted) == 58 == 2 * (20 + 9)   # the first calibration only
     assert names["paper"].options.model == "paper" and len(dataset_module._kept) == 0
     for eye in EYES:                                # the same detections, the same hand-eye
         np.testing.assert_array_equal(names["paper"].eyes[eye].handeye.T_cam_from_gaze,
