@@ -388,7 +388,7 @@ LONGEST_FIRST = (
     "test_study.py::test_process_pool_and_dask_localcluster_give_the_same_bytes",        # 9.0
     "test_cli_render_calibrate.py::test_noise_and_blur_still_calibrate",                 # 8.1
     "test_study_pose_sets.py::test_a_study_run_twice_renders_once",                      # 7.2
-    "test_hostile.py::test_readme_refusal_examples_are_true",                            # 7.1
+    "test_hostile.py::test_refusal_session_is_true",                            # 7.1
     "test_refine.py::test_predicted_std_matches_the_spread_of_20_renoised_refinements",  # 6.9
     "test_packaging.py::test_wheel_installs_renders_and_calibrates_away_from_the_checkout",
     "test_experiments_e1_e3.py::test_e1_files_rows_and_report",                          # 5.9

@@ -135,9 +135,9 @@ def file_regions(document):
 def parse_page(path: Path):
     """The sybil Document of a page: python (and doctest) blocks, console blocks, skips."""
     from sybil import Document
+    from sybil.parsers.abstract import AbstractCodeBlockParser
     from sybil.parsers.markdown.lexers import FencedCodeBlockLexer
     from sybil.parsers.myst import PythonCodeBlockParser, SkipParser
-    from sybil.parsers.abstract import AbstractCodeBlockParser
 
     python = PythonCodeBlockParser()
     run_python = python.codeblock_parser._evaluator
