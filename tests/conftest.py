@@ -28,8 +28,8 @@ Fixtures (session scope, built on first use):
   with the default options, in a test process (not the command line); once per run, the
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
-  that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
-  file) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
+  that run a user's suite in a subprocess (examples/my_solver's tests, the guide's test
+  file of docs/guide/solver.md) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
   views) is rendered once per run, not once per suite.
 - ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
   ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
@@ -291,7 +291,7 @@ def rasc_testing_cache(tmp_path_factory) -> Path:
     return path
 
 
-#: the user's solver package of the README ("Bring your own solver") and of rasc.testing
+#: the user's solver package (docs/guide/solver.md, "Bring your own solver") and of rasc.testing
 MY_SOLVER = Path(__file__).resolve().parents[1] / "examples" / "my_solver"
 
 
@@ -395,7 +395,6 @@ LONGEST_FIRST = (
     "test_refine_readme.py::test_readme_refinement_example",                             # 5.9
     "test_sim_render.py::test_corners_match_projection_at_the_nine_paper_poses",         # 5.3
     "test_e7.py::test_offset_breaks_the_paper_model_and_the_refinement_recovers",        # 4.9
-    "test_readme_plugins.py::test_bring_your_own_solver_console",                        # 4.9
     "test_sim_render.py::test_head_geometry_stays_out_of_the_cameras_views",             # 4.8
     "test_study_keys.py::test_error_against_tilt_axis_offset_grows_for_the_paper_model",  # 4.5
     "test_study_pose_sets.py::test_readme_small_motions_example_runs",                   # 4.0
