@@ -28,9 +28,9 @@ Fixtures (session scope, built on first use):
   with the default options, in a test process (not the command line); once per run, the
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
-  that run a user's suite in a subprocess (examples/my_solver's tests, the guide's test
-  file of docs/guide/solver.md) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
-  views) is rendered once per run, not once per suite.
+  that run a user's suite in a subprocess (examples/my_solver's tests, the test file of
+  docs/guide/solver.md, the documentation's examples) and by tests/test_plugins.py, so
+  the dataset they all ask for (10 intrinsics views) is rendered once per run.
 - ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
   ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
   dataset, one shared folder) and returns ``(ctx, section)``. Read-only.
