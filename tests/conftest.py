@@ -392,7 +392,6 @@ LONGEST_FIRST = (
     "test_refine.py::test_predicted_std_matches_the_spread_of_20_renoised_refinements",  # 6.9
     "test_packaging.py::test_wheel_installs_renders_and_calibrates_away_from_the_checkout",
     "test_experiments_e1_e3.py::test_e1_files_rows_and_report",                          # 5.9
-    "test_refine_readme.py::test_readme_refinement_example",                             # 5.9
     "test_sim_render.py::test_corners_match_projection_at_the_nine_paper_poses",         # 5.3
     "test_e7.py::test_offset_breaks_the_paper_model_and_the_refinement_recovers",        # 4.9
     "test_sim_render.py::test_head_geometry_stays_out_of_the_cameras_views",             # 4.8
