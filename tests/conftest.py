@@ -396,8 +396,6 @@ LONGEST_FIRST = (
     "test_e7.py::test_offset_breaks_the_paper_model_and_the_refinement_recovers",        # 4.9
     "test_sim_render.py::test_head_geometry_stays_out_of_the_cameras_views",             # 4.8
     "test_study_keys.py::test_error_against_tilt_axis_offset_grows_for_the_paper_model",  # 4.5
-    "test_study_pose_sets.py::test_readme_small_motions_example_runs",                   # 4.0
-    "test_study.py::test_readme_study_example_runs",                                     # 3.4
     "test_study.py::test_study_writes_tidy_samples_summary_and_figures",                 # 3.4
     "test_study.py::test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes",
 )
