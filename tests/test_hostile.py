@@ -1,7 +1,7 @@
 """The hostile-input sweep of issue 7: mistakes a user makes, plus a few malicious inputs.
 
-Every case belongs to one class of the issue and asserts the README's promise
-("What rasc refuses and what it warns"):
+Every case belongs to one class of the issue and asserts the documented promise
+(docs/guide/refusals.md, "What rasc refuses and what it warns"):
 
 * ``refused``: exit status 2, exactly one line on stderr (``rasc <cmd>: error: ...``,
   containing the case's fragment), nothing on stdout, and NO file created, changed or
