@@ -383,6 +383,7 @@ DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_cal
 #: tests. Only the order depends on this list; a test missing from it, or
 #: listed and gone, changes nothing else.
 LONGEST_FIRST = (
+    "docs/test_doc_examples.py::test_page_examples_run",   # the pages: 2-25 s each (renders)
     "test_reproduce.py::test_same_seed_same_bytes_for_any_worker_count",                # 12.6
     "test_cli_render_calibrate.py::test_distortion_is_rendered_and_recovered",           # 9.1
     "test_study.py::test_process_pool_and_dask_localcluster_give_the_same_bytes",        # 9.0

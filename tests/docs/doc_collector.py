@@ -185,34 +185,10 @@ def page_params() -> Iterator:
         yield pytest.param(path, id=rel, marks=[pytest.mark.slow] if slow else [])
 
 
-def pytest_generate_tests(metafunc):
-    """``doc_page``: one case per page (README.md, docs/**/*.md)."""
-    if "doc_page" in metafunc.fixturenames:
-        metafunc.parametrize("doc_page", list(page_params()))
-
-
-@pytest.fixture
-def doc_collector():
-    """This module's helpers, for the collector's own tests."""
-    return sys.modules[__name__]
-
-
-@pytest.fixture
-def page_folder(tmp_path, monkeypatch, rasc_testing_cache) -> Path:
-    """A fresh folder per page with a copy of examples/, as the cwd; the cache set."""
-    shutil.copytree(REPO / "examples", tmp_path / "examples", ignore=shutil.ignore_patterns(
+def copy_examples(folder: Path) -> None:
+    """The repository's examples/ folder into a page's folder."""
+    shutil.copytree(REPO / "examples", folder / "examples", ignore=shutil.ignore_patterns(
         "__pycache__", "build", "*.egg-info"))
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("RASC_CACHE_DIR", str(rasc_testing_cache))
-    monkeypatch.setenv("MUJOCO_GL", os.environ.get("MUJOCO_GL") or "egl")
-    monkeypatch.syspath_prepend(str(REPO))
-    return tmp_path
-
-
-@pytest.fixture
-def run_doc_page(page_folder, rasc_testing_cache):
-    """``run_doc_page(path)``: the page's examples in ``page_folder``; how many ran."""
-    return lambda path: run_page(path, rasc_testing_cache)
 
 
 def run_page(path: Path, cache: Path) -> int:
