@@ -10,7 +10,7 @@ The mathematics (``transforms``, ``kinematics``, ``handeye``, ``li``, ``base_to_
 imported on first use, so ``import rasc`` stays cheap.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = ["__version__", "load_calibration"]
 

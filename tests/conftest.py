@@ -28,9 +28,9 @@ Fixtures (session scope, built on first use):
   with the default options, in a test process (not the command line); once per run, the
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
-  that run a user's suite in a subprocess (examples/my_solver's tests, the README's test
-  file) and by tests/test_plugins.py, so the dataset they all ask for (10 intrinsics
-  views) is rendered once per run, not once per suite.
+  that run a user's suite in a subprocess (examples/my_solver's tests, the test file of
+  docs/guide/solver.md, the documentation's examples) and by tests/test_plugins.py, so
+  the dataset they all ask for (10 intrinsics views) is rendered once per run.
 - ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
   ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
   dataset, one shared folder) and returns ``(ctx, section)``. Read-only.
@@ -291,7 +291,7 @@ def rasc_testing_cache(tmp_path_factory) -> Path:
     return path
 
 
-#: the user's solver package of the README ("Bring your own solver") and of rasc.testing
+#: the user's solver package (docs/guide/solver.md, "Bring your own solver") and of rasc.testing
 MY_SOLVER = Path(__file__).resolve().parents[1] / "examples" / "my_solver"
 
 
@@ -383,23 +383,20 @@ DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_cal
 #: tests. Only the order depends on this list; a test missing from it, or
 #: listed and gone, changes nothing else.
 LONGEST_FIRST = (
+    "docs/test_doc_examples.py::test_page_examples_run",   # the pages: 2-25 s each (renders)
     "test_reproduce.py::test_same_seed_same_bytes_for_any_worker_count",                # 12.6
     "test_cli_render_calibrate.py::test_distortion_is_rendered_and_recovered",           # 9.1
     "test_study.py::test_process_pool_and_dask_localcluster_give_the_same_bytes",        # 9.0
     "test_cli_render_calibrate.py::test_noise_and_blur_still_calibrate",                 # 8.1
     "test_study_pose_sets.py::test_a_study_run_twice_renders_once",                      # 7.2
-    "test_hostile.py::test_readme_refusal_examples_are_true",                            # 7.1
+    "test_hostile.py::test_refusal_session_is_true",                            # 7.1
     "test_refine.py::test_predicted_std_matches_the_spread_of_20_renoised_refinements",  # 6.9
     "test_packaging.py::test_wheel_installs_renders_and_calibrates_away_from_the_checkout",
     "test_experiments_e1_e3.py::test_e1_files_rows_and_report",                          # 5.9
-    "test_refine_readme.py::test_readme_refinement_example",                             # 5.9
     "test_sim_render.py::test_corners_match_projection_at_the_nine_paper_poses",         # 5.3
     "test_e7.py::test_offset_breaks_the_paper_model_and_the_refinement_recovers",        # 4.9
-    "test_readme_plugins.py::test_bring_your_own_solver_console",                        # 4.9
     "test_sim_render.py::test_head_geometry_stays_out_of_the_cameras_views",             # 4.8
     "test_study_keys.py::test_error_against_tilt_axis_offset_grows_for_the_paper_model",  # 4.5
-    "test_study_pose_sets.py::test_readme_small_motions_example_runs",                   # 4.0
-    "test_study.py::test_readme_study_example_runs",                                     # 3.4
     "test_study.py::test_study_writes_tidy_samples_summary_and_figures",                 # 3.4
     "test_study.py::test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes",
 )

@@ -90,7 +90,7 @@ def test_example_file_is_what_the_generator_writes():
 
 @pytest.mark.slow
 def test_example_subprocess_recovers_the_truth_and_the_script_writes_the_same_file(tmp_path):
-    """The README's command, as a user types it (``python -m rasc handeye EXAMPLE``):
+    """The guide's command (``python -m rasc handeye EXAMPLE``, docs/guide/calibrate.md):
     stdout is the result, stderr is empty, the truth is recovered. The installed ``rasc``
     script with --out writes the same bytes as that stdout. (One ``python -m rasc`` run
     serves both claims: they were two tests, each starting its own.)"""

@@ -4,7 +4,7 @@ rasc.testing. CI runs those tests as a user would (``pytest -p rasc.testing``), 
 ``rasc.methods`` makes ``--method my-solver`` work). The install (conftest's
 ``my_solver_site``) and the dataset cache the example's rendered-images test fills
 (conftest's ``rasc_testing_cache``) are made once per run and shared with
-tests/test_readme_plugins.py."""
+the examples of docs/guide/solver.md (tests/docs)."""
 
 from __future__ import annotations
 

@@ -468,7 +468,7 @@ def _pan_with_small_tilt(tilt_deg):
 
 def test_near_single_axis_sweep_justifies_the_thresholds():
     """The numbers in MIN_AXIS_SPREAD's comment: the error grows as the other joint's
-    motion shrinks, about as 1/√spread. Noise as the README example's (0.03°, 0.5 mm,
+    motion shrinks, about as 1/√spread. Noise as the handeye example's (0.03°, 0.5 mm,
     exponential eq. 13-14), 30 seeded samples per tilt range, one rig."""
     X, Y = rig(np.random.default_rng(3))
     spread, rot, trans = {}, {}, {}

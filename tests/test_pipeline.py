@@ -9,7 +9,6 @@ transforms rather than taken from :func:`rasc.head.pipeline.errors_against_truth
 """
 
 import os
-from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -236,30 +235,26 @@ def test_malformed_ground_truth_names_the_file(calibration, rendered, change, fr
         errors_against_truth(calibration, bad, where="gt.json")
 
 
-def test_readme_conftest_example(default_dataset, default_calibration):
-    """The README's example of a test on conftest's shared dataset, verbatim."""
+def test_conftest_example(default_dataset, default_calibration):
+    """The example of a test on conftest's shared dataset (docs/guide/developer.md)."""
     dataset = load_dataset(default_dataset)          # read-only: copy it to change it
     assert len(dataset.select(eye="left", role="pose")) == len(PAPER) == 9
     assert default_calibration.eyes["left"].handeye.quality < 0.01
 
 
-def test_readme_detections_kept_example(default_dataset, tmp_path, monkeypatch,
-                                        detections_counted):
-    """The README's example of calibrating one dataset twice (`rasc calibrate` section),
-    verbatim: the first calibration detects the 58 images, the second none, and
+def test_detections_kept_example(default_dataset, tmp_path, monkeypatch,
+                                 detections_counted):
+    """Calibrating one dataset twice in one process (the example of docs/guide/
+    calibrate.md): the first calibration detects the 58 images, the second none, and
     forget_detections empties what was kept."""
-    import re
-
     import rasc.vision.dataset as dataset_module
+    from rasc.head.pipeline import calibrate_dataset
+    from rasc.vision.dataset import forget_detections
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    start = text.index("In one Python process, `rasc.head.pipeline.calibrate_dataset`")
-    (block,) = re.findall(r"```python\n(.*?)```", text[start:text.index("\n### ", start)],
-                          re.S)
-    os.symlink(default_dataset, tmp_path / "ds")
-    monkeypatch.chdir(tmp_path)
-    names = {}
-    exec(compile(block, "README.md", "exec"), names)
+    dataset = load_dataset(default_dataset)
+    names = {"general": calibrate_dataset(dataset, CalibrationOptions(model="general")),
+             "paper": calibrate_dataset(dataset, CalibrationOptions(model="paper"))}
+    forget_detections()
     assert len(detections_counted) == 58 == 2 * (20 + 9)   # the first calibration only
     assert names["paper"].options.model == "paper" and len(dataset_module._kept) == 0
     for eye in EYES:                                # the same detections, the same hand-eye

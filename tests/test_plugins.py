@@ -274,8 +274,8 @@ def test_cli_runs_a_plugin_by_module_and_by_entry_point(plugins, tmp_path, rasc_
     """``rasc handeye --method my.module:function`` with the module on the path, and the
     entry-point name: the written result names the method and holds the wrapped quality
     and jackknife, and matches --method rasc (the plugin is RASC). In this process (the
-    same in fresh processes with PYTHONPATH, as a user runs it: the README's console
-    example, tests/test_readme_plugins.py)."""
+    same in fresh processes with PYTHONPATH, as a user runs it: the console examples of
+    docs/guide/solver.md)."""
     docs = {}
     for name in ("userplug:good", "user-good", "rasc"):
         out = tmp_path / f"{name.replace(':', '_')}.json"
@@ -308,7 +308,7 @@ def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_pa
     """rasc calibrate --method package.module:function on a rendered dataset: the
     calibration names the method and equals RASC's (the plugin returns RASC's answer);
     a plugin that fails during the solve is one line naming the manifest, the eye and
-    the plugin, exit 2, no file. The dataset is the README's and examples/my_solver's
+    the plugin, exit 2, no file. The dataset is docs/guide/solver.md's and examples/my_solver's
     (10 intrinsics views), rendered once per run into conftest's shared cache."""
     from rasc.testing import render_cached
 

@@ -361,18 +361,29 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
         assert not (tmp_path / "c").exists()
 
 
-def test_readme_unit_file_example(tmp_path, capsys, monkeypatch):
-    """The README's parameter file and command, as a user types them."""
-    import re
-    import shlex
+#: the parameter file of docs/guide/calibrate.md ("Imperfect units")
+GUIDE_UNIT_FILE = """\
+[both]
+tilt_axis_offset_mm = [0, 30, 0]
+axis_skew_deg = 1.0
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = readme[readme.index("### `rasc render"):]
-    toml = re.search(r"```toml\n(.*?)```", block, flags=re.S).group(1)
-    command = re.search(r"^    (rasc render --unit unit\.toml .*)$", block, flags=re.M).group(1)
+[left]
+pan_zero_deg = 0.5
+tilt_zero_deg = -0.5
+pan_scale = 1.002
+tilt_scale = 0.998
+camera_position_mm = [48, 36, 21]
+camera_euler_deg = [1.3, -2.1, 0.8]
+"""
+
+
+def test_unit_file_example(tmp_path, capsys, monkeypatch):
+    """The guide's parameter file and command: both units built as the file says."""
+    toml = GUIDE_UNIT_FILE
+    argv = ["render", "--unit", "unit.toml", "--out", "real_head", "--intrinsics-views", "3",
+            "--poses", "0,0;8,8;-8,-8"]
     (tmp_path / "unit.toml").write_text(toml)
     monkeypatch.chdir(tmp_path)
-    argv = shlex.split(command)[1:]
     code, out, err = run_cli(argv + ["--quiet"], capsys)
     assert code == 0 and out == "" and err == "", err
     gt = json.loads((tmp_path / "real_head" / "ground_truth.json").read_text())

@@ -288,7 +288,8 @@ def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
     assert "different spec" in capsys.readouterr().err
 
 
-# ------------------------------------------------------ README and shipped specs
+# --------------------------------------------------------------- shipped specs
+# (the guide's study examples run in docs/guide/studies.md, by tests/docs)
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -312,24 +313,3 @@ def test_shipped_specs_of_the_papers_experiments_load():
     # E1's set k is the paper's (0.005k rad, k mm)
     k8 = [c for c in cells["e1_noise"] if c.params["noise_level"] == 8][0]
     assert (k8.params["sigma_r"], k8.params["sigma_t_mm"]) == (0.04, 8.0)
-
-
-@pytest.mark.slow
-def test_readme_study_example_runs(tmp_path):
-    text = (REPO / "README.md").read_text()
-    section = text[text.index("## Studies"):]
-    spec_text = section[section.index("```toml\n") + 8:section.index("```\n", 8)]
-    spec = write(tmp_path, spec_text, "corner_noise.toml")
-    out = tmp_path / "corner_noise"
-    assert cli(["study", str(spec), "--out", str(out), "--workers", "2", "--quiet"]) == 0
-    import csv
-    with open(out / "summary.csv") as f:
-        summary = list(csv.DictReader(f))
-    assert len(summary) == 3 * 2 * 3
-    by = {(r["corner_noise_px"], r["eye"], r["method"]): float(r["rotation_deg_mean"])
-          for r in summary}
-    for eye in ("left", "right"):
-        # 1 px of corner noise moves the hand-eye rotation far more than none does
-        # (E6a: about 0.6 deg/px against a 0.02 deg floor)
-        assert by[("1.0", eye, "rasc")] > 3 * by[("0.0", eye, "rasc")]
-    assert (out / "figures" / "corner_noise_px.svg").is_file()

@@ -317,25 +317,6 @@ def test_pose_sets_in_the_scene_the_study_renders(tmp_path):
     assert max(float(r["pose_t_z_mm"]) for r in rows) < 1.0   # 6 views: coarser K
 
 
-@pytest.mark.slow
-def test_readme_small_motions_example_runs(tmp_path):
-    """The README's intrinsics_from example: two renders (the base, then the ±2° pose
-    views), and RASC's mean translation error at ±2° above that at ±8° (E6b: about 3x
-    in the medians; 5 samples' means have ~25 % standard error)."""
-    text = (REPO / "README.md").read_text()
-    start = text.index('  name = "small-motions"')
-    block = text[start:text.index("```", start)]
-    spec = write(tmp_path, "\n".join(line[2:] for line in block.splitlines()))
-    out = tmp_path / "small"
-    assert cli(["study", str(spec), "--out", str(out), "--quiet"]) == 0
-    assert len(list((out / "datasets").glob("*.json"))) == 2
-    with open(out / "summary.csv") as f:
-        t = {(r["motion_deg"], r["method"]): r for r in csv.DictReader(f)}
-    for m in ("rasc", "li"):
-        assert t[("2.0", m)]["n"] == "5" and t[("8.0", m)]["n"] == "5"
-    assert float(t[("2.0", "rasc")]["translation_mm_mean"]) > float(
-        t[("8.0", "rasc")]["translation_mm_mean"])
-
 
 # ------------------------------------------------------------------ the cache
 
