@@ -88,9 +88,7 @@ def table(headers: list[str], rows: list[list], widths: list[int] | None = None
 def section(directive: SphinxDirective, title: str, ident: str) -> nodes.section:
     sec = nodes.section(ids=[nodes.make_id(ident)],
                         names=[nodes.fully_normalize_name(ident)])
-    title_node = nodes.title()
-    title_node += nodes.literal(text=title)
-    sec += title_node
+    sec += nodes.title(text=title)
     directive.state.document.note_implicit_target(sec, sec)
     return sec
 
