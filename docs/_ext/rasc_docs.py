@@ -19,8 +19,9 @@ on every build, so a page cannot drift from the program.
 ``rasc-messages``
     The refusals (``raise InputError(...)`` and the other :class:`rasc.errors.RascError`
     subclasses) or the warnings (strings appended to a list of warnings, or passed to a
-    ``warn`` function) that the package words, found by parsing the sources; the parts
-    of a message filled in at run time are shown as ``{expression}``.
+    ``warn`` function, or returned in a list by a function named ``*warn*``) that the
+    package words, found by parsing the sources; a part of a message filled in at run
+    time is shown as ``{name}`` (``{…}`` for a longer expression).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from __future__ import annotations
 import argparse
 import ast
 import dataclasses
+import functools
 import importlib
 import re
 from collections import defaultdict
@@ -218,7 +220,10 @@ class StudyParamsDirective(SphinxDirective):
 
 # ------------------------------------------------------------------ source scanning
 
-def _sources() -> list[tuple[str, Path, ast.Module]]:
+@functools.lru_cache(maxsize=1)
+def _sources() -> tuple[tuple[str, Path, ast.Module], ...]:
+    """(module name, path, parsed tree) of every module of the package (parsed once per
+    build: a Sphinx build is one process)."""
     out = []
     for path in sorted(PACKAGE.rglob("*.py")):
         rel = path.relative_to(ROOT).with_suffix("")
@@ -226,7 +231,7 @@ def _sources() -> list[tuple[str, Path, ast.Module]]:
         if parts[-1] == "__init__":
             parts.pop()
         out.append((".".join(parts), path, ast.parse(path.read_text(encoding="utf-8"))))
-    return out
+    return tuple(out)
 
 
 def _with_parents(tree: ast.AST):
@@ -245,8 +250,14 @@ def _with_parents(tree: ast.AST):
             stack.append((child, inner, node))
 
 
+def _placeholder(node: ast.AST) -> str:
+    """``{name}`` for a name or attribute (what a reader can guess), else ``{…}``."""
+    text = ast.unparse(node)
+    return "{" + (text if re.fullmatch(r"[A-Za-z_][\w.]*", text) else "…") + "}"
+
+
 def message_text(node: ast.AST) -> str | None:
-    """The literal text of a message expression, run-time parts as ``{expression}``."""
+    """The literal text of a message expression, run-time parts as ``{name}``."""
     if isinstance(node, ast.Constant) and isinstance(node.value, str):
         return node.value
     if isinstance(node, ast.JoinedStr):
@@ -255,15 +266,14 @@ def message_text(node: ast.AST) -> str | None:
             if isinstance(v, ast.Constant):
                 parts.append(str(v.value))
             elif isinstance(v, ast.FormattedValue):
-                parts.append("{" + ast.unparse(v.value) + "}")
+                parts.append(_placeholder(v.value))
         return "".join(parts)
     if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add | ast.Mod):
         left, right = message_text(node.left), message_text(node.right)
         if left is not None and isinstance(node.op, ast.Mod):
             return left
         if left is not None or right is not None:
-            return (left or "{" + ast.unparse(node.left) + "}") + \
-                   (right or "{" + ast.unparse(node.right) + "}")
+            return (left or _placeholder(node.left)) + (right or _placeholder(node.right))
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and \
             node.func.attr == "format":
         return message_text(node.func.value)
@@ -304,8 +314,14 @@ def collect_messages(kind: str) -> dict[str, list[tuple[int, str, str, str]]]:
                 args = node.exc.args
                 text = message_text(args[0]) if args else None
                 if text is None:
-                    text = "{" + ast.unparse(args[0]) + "}" if args else ""
+                    text = _placeholder(args[0]) if args else ""
                 found[module].append((node.lineno, func, _call_name(node.exc), text))
+            elif kind == "warnings" and isinstance(node, ast.Return) and \
+                    isinstance(node.value, ast.List) and "warn" in func.lower():
+                for elt in node.value.elts:         # a function returning its warnings
+                    text = message_text(elt)
+                    if text is not None:
+                        found[module].append((node.lineno, func, "", text))
             elif kind == "warnings" and isinstance(node, ast.Call):
                 name = _call_name(node)
                 receiver = ast.unparse(node.func.value) if isinstance(
@@ -499,7 +515,14 @@ def _drop_empty_globs(app, docname, source):
     source[0] = "".join(kept)
 
 
+def _hide_object_base(app, name, obj, options, bases):
+    """"Bases: object" says nothing: list a class's bases only when it has others."""
+    if object in bases:
+        bases.remove(object)
+
+
 def setup(app):
+    app.connect("autodoc-process-bases", _hide_object_base)
     app.connect("autodoc-process-docstring", _tidy_docstring, priority=400)
     app.connect("source-read", _drop_empty_globs)
     app.add_directive("rasc-cli", CliDirective)
