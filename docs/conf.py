@@ -84,7 +84,8 @@ sphinx_gallery_conf = {
 # ---- HTML
 html_theme = "pydata_sphinx_theme"
 html_title = f"rasc {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["rasc.css"]
 html_show_sourcelink = False
 html_theme_options = {
     "navigation_with_keys": False,

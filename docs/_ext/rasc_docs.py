@@ -428,10 +428,12 @@ class FormatsDirective(SphinxDirective):
         rows = []
         for fmt, where in collect_formats().items():
             def cell(key, where=where):
-                return [("code", w) for w in sorted(where.get(key, ()))] or "—"
+                return [("code", w.removeprefix("rasc."))
+                        for w in sorted(where.get(key, ()))] or "—"
             rows.append([("code", fmt), cell("declared"), cell("written"), cell("read")])
+        note = nodes.paragraph(text="Names are relative to the package rasc.")
         return [table(["format", "declared as", "written by", "checked by (reader)"],
-                      rows, [2, 3, 3, 3])]
+                      rows, [2, 3, 3, 3]), note]
 
 
 # ------------------------------------------------------------------ docstrings
