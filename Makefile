@@ -10,7 +10,7 @@ OUT ?= out
 JOBS ?= auto
 export MUJOCO_GL ?= egl
 
-.PHONY: reproduce test test-fast lint bench docs lock check-latest clean
+.PHONY: reproduce test test-fast lint bench results docs lock check-latest clean
 
 # --no-compile: pip would compile every module of every package (33 s of CPU for the
 # install, 13 s without); only the few hundred modules a run imports are compiled, on
@@ -61,6 +61,12 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_refine.py
 	$(PY) benchmarks/bench_study.py
 	$(PY) benchmarks/bench_reproduce.py
+
+# The site's Results pages (docs/results/*.md), written by the quick benchmarks themselves
+# (every script in benchmarks/ takes --markdown FILE); run on a quiet machine, commit.
+results: $(STAMP)
+	$(PY) benchmarks/bench_handeye.py --markdown docs/results/handeye_speed.md
+	$(PY) benchmarks/bench_plugins.py --markdown docs/results/plugin_overhead.md
 
 # The documentation site, warnings as errors (docs/conf.py; the gallery's examples run).
 # Open docs/_build/html/index.html.

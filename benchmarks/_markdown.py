@@ -152,3 +152,22 @@ def markdown_page(path: str | None, title: str, script: str, argv: list[str] | N
              *machine_lines(load_before, os.getloadavg()[0]), "",
              to_markdown(tee.buffer_.getvalue())]
     write_text_atomic(path, "\n".join(page))
+
+
+def run_main(main, title: str, script: str) -> int:
+    """Run a benchmark's ``main()`` with ``--markdown FILE`` taken off the command line
+    first (for scripts whose own parser does not declare it): ``sys.exit(run_main(main,
+    "Title", __file__))``."""
+    import argparse
+
+    pre = argparse.ArgumentParser(add_help=False)
+    add_markdown_option(pre)
+    known, rest = pre.parse_known_args(sys.argv[1:])
+    sys.argv[1:] = rest
+    summary = ""
+    module = sys.modules.get("__main__")
+    if module is not None and module.__doc__:
+        summary = " ".join(module.__doc__.split("\n\n")[0].split())
+    with markdown_page(known.markdown, title, script, rest, summary=summary):
+        status = main()
+    return int(status or 0)

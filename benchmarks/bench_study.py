@@ -32,6 +32,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 # otherwise serve the later runs what the first one rendered
 os.environ["RASC_CACHE_DIR"] = "none"
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.executors import DaskExecutor, ProcessExecutor  # noqa: E402
 from rasc.vision.dataset import forget_detections  # noqa: E402
@@ -129,4 +131,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Study throughput: process pool and dask", __file__))
