@@ -104,7 +104,7 @@ def to_markdown(text: str) -> str:
         if in_table:
             out.append("")
             in_table = False
-        if line.startswith("## "):        # a heading the script prints (under the title)
+        if re.match(r"#{2,6} ", line):    # a heading the script prints (under the title)
             flush()
             out.extend(["", line, ""])
             continue

@@ -501,17 +501,18 @@ def _tidy_docstring(app, what, name, obj, options, lines):
 
 
 def _drop_empty_globs(app, docname, source):
-    """A globbed toctree entry ``folder/*`` whose folder holds no page yet is left out
-    (Sphinx would warn, and ``make docs`` treats warnings as errors): the guide and topic
-    pages are written by several hands, and the site builds before and after each."""
+    """A globbed toctree entry of the front page (``guide/*``, ``METHOD*``) that matches no
+    page yet is left out (Sphinx would warn, and ``make docs`` treats warnings as errors):
+    the guide and topic pages are written by several hands, and pages move between
+    folders; the site builds before and after each change."""
     if docname != app.config.root_doc:
         return
     srcdir = Path(app.srcdir)
     kept = []
     for line in source[0].splitlines(keepends=True):
         entry = line.strip()
-        if entry.endswith("/*") and " " not in entry and not any(
-                p.suffix in (".md", ".rst") for p in (srcdir / entry[:-2]).glob("*")):
+        if "*" in entry and " " not in entry and not any(
+                next(srcdir.glob(entry + suffix), None) for suffix in (".md", ".rst")):
             continue
         kept.append(line)
     source[0] = "".join(kept)

@@ -68,3 +68,20 @@ def test_bars_are_escaped_outside_literals_only():
     assert out[0] == "the norm \\|t\\| and ``|x|`` stay"
     assert out[3] == "    |a| = 1"
     assert out[5] == "back \\|b\\|"
+
+
+def test_front_page_globs_that_match_nothing_are_dropped(tmp_path):
+    from types import SimpleNamespace
+
+    (tmp_path / "guide").mkdir()
+    (tmp_path / "guide" / "install.md").write_text("# Install\n")
+    (tmp_path / "topics").mkdir()                     # no page yet
+    (tmp_path / "METHOD.md").write_text("# Method\n")
+    app = SimpleNamespace(srcdir=str(tmp_path), config=SimpleNamespace(root_doc="index"))
+    text = "```{toctree}\n:glob:\n\nguide/*\ntopics/*\nMETHOD*\nNOTES*\nchangelog\n```\n"
+    source = [text]
+    rasc_docs._drop_empty_globs(app, "index", source)
+    assert source[0] == "```{toctree}\n:glob:\n\nguide/*\nMETHOD*\nchangelog\n```\n"
+    other = [text]
+    rasc_docs._drop_empty_globs(app, "guide/install", other)    # only the front page
+    assert other == [text]
