@@ -52,5 +52,5 @@ ax_t.set(xlabel="noise level k", ylabel="median translation error (mm)",
 ax_r.set(xlabel="noise level k", ylabel="median rotation error (deg)", title="rotation")
 for ax in (ax_t, ax_r):
     ax.grid(alpha=0.3)
-    ax.legend(title="method")
+    _ = ax.legend(title="method")
 plt.show()

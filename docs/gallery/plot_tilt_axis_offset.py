@@ -39,7 +39,7 @@ def camera_centres(unit: PanTiltUnit, pan_deg: float) -> np.ndarray:
 # Camera centre positions in the ptu frame (x up along the pan axis, y forward, z left),
 # seen from the side (y–x plane) for three pan readings.
 
-fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
+fig, ax = plt.subplots(figsize=(7.5, 4.2), layout="constrained")
 for pan_deg, colour in zip((-8, 0, 8), ("C0", "C1", "C2"), strict=True):
     for unit, style, name in ((ideal, "-", "ideal"), (offset, "--", "d = 20 mm")):
         c = camera_centres(unit, pan_deg) * 1000
@@ -48,7 +48,7 @@ for pan_deg, colour in zip((-8, 0, 8), ("C0", "C1", "C2"), strict=True):
 ax.set(xlabel="forward y (mm)", ylabel="up x (mm)",
        title="camera centre over tilt −8° … +8°")
 ax.grid(alpha=0.3)
-ax.legend(fontsize="small", ncols=2)
+_ = fig.legend(loc="outside right upper", fontsize="small")
 
 # %%
 # The largest displacement between the two units over the sweep:
