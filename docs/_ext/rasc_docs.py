@@ -19,7 +19,8 @@ on every build, so a page cannot drift from the program.
 ``rasc-messages``
     The refusals (``raise InputError(...)`` and the other :class:`rasc.errors.RascError`
     subclasses) or the warnings (strings appended to a list of warnings, or passed to a
-    ``warn`` function, or returned in a list by a function named ``*warn*``) that the
+    ``warn`` function, returned in a list by a function named ``*warn*``, or printed as a
+    ``rasc COMMAND: warning: ...`` line with words of its own) that the
     package words, found by parsing the sources; a part of a message filled in at run
     time is shown as ``{name}`` (``{…}`` for a longer expression).
 """
@@ -32,6 +33,7 @@ import dataclasses
 import functools
 import importlib
 import re
+import zlib
 from collections import defaultdict
 from pathlib import Path
 
@@ -49,7 +51,8 @@ FORMAT_RE = re.compile(r"^rasc-[a-z0-9-]+/\d+$")
 def _text(value) -> nodes.Node:
     """A cell's content: ``("code", s)`` is an inline literal, anything else plain text."""
     if isinstance(value, tuple) and value and value[0] == "code":
-        return nodes.literal(text=str(value[1]))
+        # a long dotted name may wrap after a dot (a zero-width space), not mid-word
+        return nodes.literal(text=str(value[1]).replace(".", ".\u200b"))
     if isinstance(value, list):   # several pieces in one paragraph
         para = nodes.paragraph()
         for i, v in enumerate(value):
@@ -297,6 +300,25 @@ def error_classes(sources) -> set[str]:
     return names
 
 
+#: the start of a warning line a command prints (what follows is the message)
+_WARNING_LINE = re.compile(r"^rasc [a-z-]+: warning: ")
+
+
+def collect_exceptions() -> list[tuple[str, str, list[str], str]]:
+    """(module, class, bases, first paragraph of its docstring) of RascError and every
+    exception class derived from it in the package."""
+    sources = _sources()
+    names = error_classes(sources)
+    out = []
+    for module, _, tree in sources:
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ClassDef) and node.name in names:
+                doc = (ast.get_docstring(node) or "").split("\n\n")[0]
+                out.append((module, node.name, [ast.unparse(b) for b in node.bases],
+                            " ".join(doc.split())))
+    return sorted(out, key=lambda row: (row[0] != "rasc.errors", row[0], row[1]))
+
+
 def _call_name(node: ast.Call) -> str:
     f = node.func
     return f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else ""
@@ -328,6 +350,14 @@ def collect_messages(kind: str) -> dict[str, list[tuple[int, str, str, str]]]:
                     node.func, ast.Attribute) else ""
                 if name == "append" and ("warn" in receiver or "warn" in func.lower()):
                     arg = node.args[0] if node.args else None
+                elif name == "print" and node.args:
+                    # a warning line printed directly: "rasc CMD: warning: <words>"
+                    text = message_text(node.args[0]) or ""
+                    words = _WARNING_LINE.sub("", text, count=1)
+                    own = re.findall(r"[A-Za-z]{2,}", re.sub(r"\{[^}]*\}", "", words))
+                    if words != text and len(own) >= 2:     # not just "{eye} eye: {w}"
+                        found[module].append((node.lineno, func, "", words))
+                    continue
                 elif name == "warn" and node.args:
                     arg = node.args[-1] if receiver != "warnings" else node.args[0]
                 else:
@@ -350,10 +380,15 @@ class MessagesDirective(SphinxDirective):
 
     def run(self):
         kind = self.arguments[0]
-        if kind not in ("refusals", "warnings"):
-            raise self.error(f"rasc-messages: expected refusals or warnings, got {kind!r}")
+        if kind not in ("refusals", "warnings", "exceptions"):
+            raise self.error("rasc-messages: expected refusals, warnings or exceptions, got "
+                             f"{kind!r}")
         for path in PACKAGE.rglob("*.py"):
             self.env.note_dependency(str(path))
+        if kind == "exceptions":
+            return [table(["exception", "bases", "meaning"], [
+                [("code", f"{module}.{name}"), [("code", b) for b in bases], doc]
+                for module, name, bases, doc in collect_exceptions()], [3, 3, 6])]
         found = collect_messages(kind)
         out: list[nodes.Node] = []
         total = sum(len(v) for v in found.values())
@@ -533,4 +568,7 @@ def setup(app):
     app.add_directive("rasc-study-params", StudyParamsDirective)
     app.add_directive("rasc-messages", MessagesDirective)
     app.add_directive("rasc-formats", FormatsDirective)
-    return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
+    # a change to this file re-reads every page (Sphinx compares env_version)
+    env_version = zlib.crc32(Path(__file__).read_bytes())
+    return {"version": "1", "env_version": env_version, "parallel_read_safe": True,
+            "parallel_write_safe": True}

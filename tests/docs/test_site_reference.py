@@ -85,3 +85,13 @@ def test_front_page_globs_that_match_nothing_are_dropped(tmp_path):
     other = [text]
     rasc_docs._drop_empty_globs(app, "guide/install", other)    # only the front page
     assert other == [text]
+
+
+@pytest.mark.slow   # parses every module of the package
+def test_exceptions_of_the_package():
+    found = {(module, name): bases for module, name, bases, _ in rasc_docs.collect_exceptions()}
+    assert found[("rasc.errors", "RascError")] == ["Exception"]
+    assert ("rasc.errors", "InputError") in found
+    # every class listed derives from RascError through the listed names
+    names = {name for _, name in found}
+    assert all(set(bases) & (names | {"Exception"}) for bases in found.values())
