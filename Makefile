@@ -10,7 +10,7 @@ OUT ?= out
 JOBS ?= auto
 export MUJOCO_GL ?= egl
 
-.PHONY: reproduce test test-fast lint bench lock check-latest clean
+.PHONY: reproduce test test-fast lint bench results docs lock check-latest clean
 
 # --no-compile: pip would compile every module of every package (33 s of CPU for the
 # install, 13 s without); only the few hundred modules a run imports are compiled, on
@@ -21,6 +21,12 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet --no-compile -c constraints.txt -e '.[test,dask]'
 	touch $(STAMP)
+
+# The documentation site's tools (pyproject's docs extra), on top of the test install.
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP) pyproject.toml constraints.txt
+	$(PY) -m pip install --quiet --no-compile -c constraints.txt -e '.[test,dask,docs]'
+	touch $(DOCS_STAMP)
 
 reproduce: $(STAMP)
 	env -u PYTHONDONTWRITEBYTECODE $(PY) -m experiments.reproduce --out $(OUT)
@@ -56,12 +62,23 @@ bench: $(STAMP)
 	$(PY) benchmarks/bench_study.py
 	$(PY) benchmarks/bench_reproduce.py
 
+# The site's Results pages (docs/results/*.md), written by the quick benchmarks themselves
+# (every script in benchmarks/ takes --markdown FILE); run on a quiet machine, commit.
+results: $(STAMP)
+	$(PY) benchmarks/bench_handeye.py --markdown docs/results/handeye_speed.md
+	$(PY) benchmarks/bench_plugins.py --markdown docs/results/plugin_overhead.md
+
+# The documentation site, warnings as errors (docs/conf.py; the gallery's examples run).
+# Open docs/_build/html/index.html.
+docs: $(DOCS_STAMP)
+	$(VENV)/bin/sphinx-build -W --keep-going -q -b html docs docs/_build/html
+
 # Rewrite constraints.txt from a fresh resolve of pyproject.toml's ranges.
 lock:
 	rm -rf .venv-lock
 	$(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install --quiet --upgrade pip
-	.venv-lock/bin/python -m pip install --quiet '.[test,dask]'
+	.venv-lock/bin/python -m pip install --quiet '.[test,dask,docs]'
 	{ grep "^#" constraints.txt; \
 	  .venv-lock/bin/python -m pip freeze --all --exclude rasc --exclude pip; } > constraints.txt.new
 	mv constraints.txt.new constraints.txt

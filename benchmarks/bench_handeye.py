@@ -37,6 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 import cv2  # noqa: E402
+from _markdown import add_markdown_option, markdown_page  # noqa: E402
 
 from rasc.geometry.kinematics import PAPER_POSES_DEG, T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import (
@@ -132,7 +133,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=50, help="timed runs per solver (median)")
     ap.add_argument("--batch", type=int, default=10000, help="samples S for the batched form")
+    add_markdown_option(ap)
     args = ap.parse_args(argv)
+    with markdown_page(args.markdown, "Hand-eye solver speed: RASC against OpenCV", __file__,
+                       argv, summary=__doc__.split("\n\n")[2].replace("\n", " ")):
+        return run(args)
+
+
+def run(args) -> int:
     print(f"numpy {np.__version__}, OpenCV {cv2.__version__}, cv2 threads "
           f"{cv2.getNumThreads()}, {os.cpu_count()} CPUs, repeat {args.repeat}")
 
@@ -144,14 +152,15 @@ def main(argv=None) -> int:
     T_cw9, T_gp9, *_ = paper_nine()
     compare("paper, 9 pan-tilt poses", T_cw9, T_gp9, args.repeat, rows)
 
-    print("\nRASC vs cv2.calibrateHandEye(PARK); times are medians, ms")
-    print(f"{'data':26s} {'n':>3s} {'OpenCV':>8s} {'RASC=':>8s} {'ratio':>6s} "
-          f"{'max|diff|':>10s} {'RASC':>8s} {'ratio':>6s} {'ΔR nat':>8s} {'Δt nat':>9s} "
-          f"{'RASC+q':>8s} {'ratio':>6s}")
+    print("\nRASC vs cv2.calibrateHandEye(PARK); times are medians, ms\n")
+    print("| data | n | OpenCV | RASC= | ratio | max abs diff | RASC | ratio | ΔR nat | "
+          "Δt nat | RASC+q | ratio |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for (name, n, t_cv, t_same, r_same, diff, t_def, r_def, dR, dt, t_read, r_read) in rows:
-        print(f"{name:26s} {n:3d} {1e3 * t_cv:8.3f} {1e3 * t_same:8.3f} {r_same:6.1f} "
-              f"{diff:10.1e} {1e3 * t_def:8.3f} {r_def:6.1f} {dR:8.1e} {dt:9.2e} "
-              f"{1e3 * t_read:8.3f} {r_read:6.1f}")
+        print(f"| {name} | {n} | {1e3 * t_cv:.3f} | {1e3 * t_same:.3f} | {r_same:.1f} | "
+              f"{diff:.1e} | {1e3 * t_def:.3f} | {r_def:.1f} | {dR:.1e} | {dt:.2e} | "
+              f"{1e3 * t_read:.3f} | {r_read:.1f} |")
+    print()
     print("RASC= : OpenCV's roles and pairs (same equations); max|diff| over the 4x4 result")
     print("RASC  : default call (natural orientation, all ordered pairs); ΔR, Δt against the")
     print("        inverse of OpenCV's result (rotation identical, translation differs by the")

@@ -36,6 +36,8 @@ import numpy as np  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
@@ -202,4 +204,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Pipeline: render and calibrate the default dataset", __file__))

@@ -29,6 +29,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "examples" / "my_solver"))
 
 import my_solver.solver  # noqa: E402
+from _markdown import add_markdown_option, markdown_page  # noqa: E402
 
 from rasc.handeye.methods import solve  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
@@ -59,10 +60,17 @@ def best_us(fn, repeat: int, block: int = 10) -> float:
     return 1e6 * min(times)
 
 
-def main() -> None:
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=300)
-    args = ap.parse_args()
+    add_markdown_option(ap)
+    args = ap.parse_args(argv)
+    with markdown_page(args.markdown, "Plugin overhead: a solver called through rasc",
+                       __file__, argv, summary=" ".join(__doc__.split("\n\n")[2].split())):
+        run(args)
+
+
+def run(args) -> None:
     s = make_pose_set(2, seed=0)
     T_cw, T_gp = s.T_cam_from_world, s.T_gaze_from_ptu
     yard0 = best_us(lambda: solve_rasc(T_cw, T_gp), args.repeat)

@@ -39,6 +39,8 @@ import numpy as np  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.head.pipeline import calibrate_dataset, refine_calibration  # noqa: E402
 from rasc.head.refine import observations_from_calibration, refine_head  # noqa: E402
 from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
@@ -204,4 +206,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Whole-head refinement: time and accuracy", __file__))

@@ -41,6 +41,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+from _markdown import run_main  # noqa: E402
+
 GOALS_S = {"full": 60.0, "quick": 10.0}
 #: the yardstick's median on the machine where the goals were met (README: 0.96-0.99 ms)
 YARDSTICK_REFERENCE_MS = 0.975
@@ -178,4 +180,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Reproduction: wall time per stage", __file__))

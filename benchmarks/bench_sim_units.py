@@ -26,6 +26,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
 from rasc.sim.scene import StereoHeadSim  # noqa: E402
 from rasc.sim.units import UnitBuild  # noqa: E402
@@ -77,4 +79,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Imperfect simulated units: ground-truth check and render time",
+                      __file__))

@@ -32,6 +32,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 # otherwise serve the later runs what the first one rendered
 os.environ["RASC_CACHE_DIR"] = "none"
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.executors import DaskExecutor, ProcessExecutor  # noqa: E402
 from rasc.vision.dataset import forget_detections  # noqa: E402
@@ -120,13 +122,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{os.cpu_count()} CPUs; samples study: {n_cells} cells x {s_spec.samples} samples x "
           f"{len(s_spec.methods)} methods ({', '.join(s_spec.methods)}); renders study: "
           f"{n_r} datasets (8 intrinsics views + 9 poses per eye, 1280x960)\n")
-    print(f"{'executor':<20}{'workers':>8}{'start-up s':>12}{'cells/s':>10}"
-          f"{'samples/s':>11}{'datasets/s':>12}")
+    print("| executor | workers | start-up s | cells/s | samples/s | datasets/s |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: |")
     for name, w, su, cps, sps, dps in rows:
-        print(f"{name:<20}{w:>8}{su:>12.2f}{cps:>10.2f}{sps:>11.1f}{dps:>12.3f}")
+        print(f"| {name} | {w} | {su:.2f} | {cps:.2f} | {sps:.1f} | {dps:.3f} |")
     print(f"\nsame bytes on every executor: {'yes' if same else 'NO'}")
     return 0 if same else 1
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_main(main, "Study throughput: process pool and dask", __file__))

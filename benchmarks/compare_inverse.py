@@ -36,6 +36,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from _markdown import run_main  # noqa: E402
+
 from rasc.errors import RascError  # noqa: E402
 from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
@@ -162,4 +164,4 @@ def corner_noise(data, n_samples: int, sigmas_px: list[float]) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_main(main, "Hand-eye methods under the paper's noise", __file__))

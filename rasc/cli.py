@@ -50,6 +50,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``rasc`` parser, with every sub-command of :data:`COMMANDS` (each module's
+    ``add_parser``)."""
     parser = _Parser(
         prog="rasc", description="Robust Active Stereo Calibration (Neubert & Ferrier 2002).")
     parser.add_argument("--version", action="version", version=f"rasc {__version__}")
@@ -66,6 +68,8 @@ def _command_name(argv: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``) and return the exit status:
+    0 on success, 2 for a refusal (one error line), 130 when interrupted."""
     argv = sys.argv[1:] if argv is None else list(argv)
     prog = f"rasc {_command_name(argv)}".rstrip()
     try:

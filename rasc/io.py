@@ -199,6 +199,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write ``text`` as UTF-8 to ``path`` atomically (:func:`write_bytes_atomic`)."""
     write_bytes_atomic(path, text.encode("utf-8"))
 
 
@@ -231,6 +232,7 @@ def dumps_json(obj: Any) -> str:
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
+    """Write ``obj`` as deterministic JSON (:func:`dumps_json`) to ``path`` atomically."""
     write_text_atomic(path, dumps_json(obj))
 
 

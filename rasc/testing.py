@@ -89,6 +89,7 @@ class PoseSet:
 
     @property
     def truth(self) -> np.ndarray:
+        """The true ``T_cam_from_gaze`` (4, 4), for :func:`assert_handeye_close`."""
         return self.T_cam_from_gaze
 
     @property
@@ -297,6 +298,7 @@ def render_cached(cache_dir: str | os.PathLike, model_path: str | os.PathLike | 
 # ---------------------------------------------------------------- pytest plugin
 
 def pytest_addoption(parser: pytest.Parser) -> None:
+    """pytest hook: the ``--rasc-cache-dir`` option and the ``rasc_cache_dir`` ini setting."""
     group = parser.getgroup("rasc", "rasc.testing (rendered datasets, pose sets)")
     group.addoption("--rasc-cache-dir", metavar="DIR", default=None,
                     help="where rasc.testing caches rendered datasets (default: pytest's "

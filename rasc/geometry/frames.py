@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Frame:
+    """A coordinate frame of the head: its name in code, the paper's symbol and its meaning."""
     name: str
     symbol: str
     meaning: str
@@ -27,6 +28,7 @@ class Frame:
 
 @dataclass(frozen=True)
 class Transform:
+    """A transform between two frames, ``T_a_from_b``: the paper's symbol and its meaning."""
     name: str
     symbol: str
     meaning: str

@@ -85,6 +85,7 @@ def transform_points(T_a_from_b: np.ndarray, p_b: np.ndarray) -> np.ndarray:
 
 
 def transform_from_rotvec_translation(rotvec: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The 4×4 transform of a rotation vector (radians) and a translation."""
     return make_transform(matrix_from_rotvec(rotvec), t)
 
 
@@ -96,6 +97,8 @@ def rotation_error_deg(R_est: np.ndarray, R_true: np.ndarray) -> np.ndarray:
 
 
 def is_rigid_transform(T: np.ndarray, atol: float = RIGID_ATOL) -> bool:
+    """True when ``T`` passes :func:`validate_rigid_transform` (a proper rotation within
+    ``atol``, last row ``0 0 0 1``), else False."""
     try:
         validate_rigid_transform(T, atol=atol)
     except InputError:

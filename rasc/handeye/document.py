@@ -101,6 +101,7 @@ class HandEyeInput:
 
     @property
     def n_positions(self) -> int:
+        """The number of pan-tilt positions (views) in the document."""
         return int(self.T_cam_from_world.shape[0])
 
 

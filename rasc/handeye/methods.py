@@ -96,6 +96,7 @@ class Method:
 
     @property
     def builtin(self) -> bool:
+        """True for a method shipped with rasc, False for a plugin."""
         return self.origin == "built-in"
 
     def __call__(self, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,

@@ -62,9 +62,11 @@ class LoopClosureSpread:
 
     @property
     def n_views(self) -> int:
+        """The number of views the loop closure averaged."""
         return int(self.rotation_deg.size)
 
     def to_dict(self) -> dict:
+        """JSON-ready dict: each view's disagreement and their largest and RMS values."""
         return {
             "n_views": self.n_views,
             "rotation_deg": self.rotation_deg.tolist(),
@@ -255,6 +257,7 @@ class MountError:
     baseline_length: float
 
     def to_dict(self) -> dict:
+        """JSON-ready dict: rotation (deg), translation and baseline length."""
         return {"rotation_deg": self.rotation_deg, "translation": self.translation,
                 "baseline_length": self.baseline_length}
 

@@ -59,6 +59,8 @@ class EyeFit:
     views: int
 
     def to_dict(self) -> dict:
+        """JSON-ready dict: the misfit F, the model's and the free fit's RMS (px), the views and
+        the F above which a warning is given."""
         return {"F": self.F, "rms_model_px": self.rms_model, "rms_free_px": self.rms_free,
                 "views": self.views, "threshold_F": MISFIT_F_WARN}
 

@@ -6,7 +6,8 @@ One eye (docs/METHOD.md §1, eq. 1–2)::
 
 ``unit`` is the eye's :class:`rasc.geometry.kinematics.PanTiltUnit` (docs/METHOD.md §10):
 the paper's eq. 3 unless the calibration estimated a general one (``rasc calibrate
---model general``).
+--model general``). The eye's projection matrix::
+
     P(pan, tilt) = K [I|0] T_cam_from_base(pan, tilt)
 
 The head triangulates (docs/METHOD.md §6): undistort both eyes' pixels

@@ -765,6 +765,7 @@ class StereoHeadSim:
         return self._renderer.render().copy()
 
     def close(self) -> None:
+        """Release the offscreen renderer (its GL context); rendering again opens a new one."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

@@ -47,10 +47,12 @@ class SyntheticHead:
     unit: dict[str, PanTiltUnit]
 
     def T_cam_from_base(self, eye: str, pan: float, tilt: float) -> np.ndarray:
+        """The camera's pose in the base frame at readings (pan, tilt), radians (eq. 1–2)."""
         return (self.T_cam_from_gaze[eye] @ self.unit[eye].T_gaze_from_ptu(pan, tilt)
                 @ self.T_ptu_from_base[eye])
 
     def T_ptuL_from_ptuR(self) -> np.ndarray:
+        """The right unit's frame in the left unit's frame (the true mounts)."""
         return self.T_ptu_from_base["left"] @ invert_transform(self.T_ptu_from_base["right"])
 
 
@@ -89,13 +91,19 @@ class CornerDataset:
     views_T_base_from_world: dict[str, np.ndarray] = field(default_factory=dict)
 
     def validate(self, decode: bool = False) -> dict[str, tuple[int, int]]:
+        """Each eye's image size, as :meth:`rasc.vision.dataset.Dataset.validate` returns it
+        (there are no image files to check)."""
         return dict(self.sizes)
 
     def image_size(self, eye: str) -> tuple[int, int]:
+        """The eye's image size (width, height) in pixels."""
         return self.sizes[eye]
 
     def detect(self, eye: str, role: str, method: str = "classic", order_by=None,
                min_found=None, board_seen: bool = False) -> Detections:
+        """The projected (noisy) corners of the eye's ``role`` views, as
+        :meth:`rasc.vision.dataset.Dataset.detect` returns detections; the options are accepted
+        and ignored (nothing is detected)."""
         return self.detections[(eye, role)]
 
 

@@ -57,10 +57,13 @@ class Executor:
 
     def map_unordered(self, fn: Callable[[Any], Any], tasks: Sequence[Any]
                       ) -> Iterator[tuple[int, Any]]:
+        """Run ``fn`` on every task; yield ``(index, result)`` pairs as they finish (here: in
+        order, in this process)."""
         for k, task in enumerate(tasks):
             yield k, fn(task)
 
     def close(self) -> None:
+        """Release the executor's workers (nothing to release in this process)."""
         pass
 
     def __enter__(self) -> Executor:
@@ -97,6 +100,7 @@ class ProcessExecutor(Executor):
                 fut.cancel()
 
     def close(self) -> None:
+        """Shut the process pool down, cancelling tasks not yet started."""
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
@@ -146,6 +150,7 @@ class DaskExecutor(Executor):
             self.client.cancel([f for f in futures if not f.done()])
 
     def close(self) -> None:
+        """Close the dask client (and the local cluster, if this executor started one)."""
         self.client.close()
         if self._cluster is not None:
             self._cluster.close()

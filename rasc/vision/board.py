@@ -69,14 +69,17 @@ class Board:
 
     @property
     def nx(self) -> int:
+        """Inner corners along the board's x (first) direction."""
         return self.inner_corners[0]
 
     @property
     def ny(self) -> int:
+        """Inner corners along the board's y (second) direction."""
         return self.inner_corners[1]
 
     @property
     def n_corners(self) -> int:
+        """The number of inner corners, ``nx * ny``."""
         return self.nx * self.ny
 
     def object_points(self) -> np.ndarray:
@@ -88,6 +91,7 @@ class Board:
         return P
 
     def to_dict(self) -> dict:
+        """JSON-ready dict: ``inner_corners`` [nx, ny] and ``square_size``."""
         return {"inner_corners": [self.nx, self.ny], "square_size": self.square_size}
 
 

@@ -496,6 +496,8 @@ class IntrinsicsResult:
     initial: IntrinsicsResult | None = None
 
     def to_dict(self) -> dict:
+        """JSON-ready dict of the intrinsics, their RMS per view, the outliers and the per-view
+        extrinsics."""
         d = {"K": self.K.tolist(), "dist": self.dist.tolist(), "rms": self.rms,
              "per_view_rms": dict(self.per_view_rms), "outliers": list(self.outliers),
              "outlier_threshold": self.outlier_threshold, "image_size": list(self.image_size),

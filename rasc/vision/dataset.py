@@ -79,6 +79,8 @@ class Detections:
 
 @dataclass
 class Dataset:
+    """A dataset folder read by :func:`load_dataset`: the board, the angle unit and the
+    images with their pan/tilt readings (the format in the module docstring)."""
     root: Path
     manifest_path: Path
     board: Board
