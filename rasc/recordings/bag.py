@@ -72,8 +72,12 @@ def _corrupt(path: Path, exc: BaseException) -> InputError:
 @contextlib.contextmanager
 def open_bag(path: Path) -> Iterator:
     """rosbags' AnyReader, opened; its errors (and a truncated file's) as one line."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
+    try:
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        raise InputError(f"{path}: reading bags needs the rosbags library: pip install "
+                         "'rasc[ros]'") from None
 
     bag_format(path)
     store = get_typestore(Stores.ROS2_HUMBLE)

@@ -119,7 +119,7 @@ def image_message(w: _BagWriter, grey: np.ndarray, encoding: str, stamp_ns: int,
         data, step = np.repeat(grey[:, :, None], 3, axis=2), 3 * grey.shape[1]
     elif encoding == "mono16":
         # 8-bit values in the high byte: what OpenCV reads back as 8-bit grey
-        data, step = grey.astype(">u2") * 256, 2 * grey.shape[1]
+        data, step = (grey.astype(np.uint16) * 256).astype(">u2"), 2 * grey.shape[1]
     else:
         raise InputError(f"encoding: expected one of {', '.join(ENCODINGS)}, got {encoding!r}")
     h, wd = grey.shape
