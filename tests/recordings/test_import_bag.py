@@ -17,9 +17,17 @@ import pytest
 from rasc.errors import InputError
 from rasc.recordings import ImportConfig, JointSource, import_bag, import_image_folder
 from rasc.recordings.bag import decode_image
-from rasc.recordings.synth import (JOINT_NAMES, JOINT_TOPIC, TOPICS, UNIT_TOPICS, _BagWriter,
-                                   image_message, joint_message, write_intrinsics_recording,
-                                   write_recording)
+from rasc.recordings.synth import (
+    JOINT_NAMES,
+    JOINT_TOPIC,
+    TOPICS,
+    UNIT_TOPICS,
+    _BagWriter,
+    image_message,
+    joint_message,
+    write_intrinsics_recording,
+    write_recording,
+)
 
 BOARD = {"inner_corners": [9, 6], "square_size": 0.05}
 
