@@ -150,14 +150,15 @@ def write_recording(dataset, path: str | os.PathLike, *, kind: str = "ros1",
                     encoding: str = "mono8", joint_rate_hz: float = 100.0,
                     image_rate_hz: float = 5.0, still_s: float = 1.0, move_s: float = 0.6,
                     per_unit: bool = False, angle_unit: str = "rad",
-                    repeat: int = 1) -> Played:
+                    positions: int | None = None) -> Played:
     """Play the pose views of ``dataset`` (a :class:`rasc.vision.dataset.Dataset`) into a
     new bag at ``path`` (a ``.bag`` file for ROS 1, a folder for ROS 2).
 
     ``per_unit``: each unit's readings on its own topic (:data:`UNIT_TOPICS`, joints
     ``pan``, ``tilt``), else all four on :data:`JOINT_TOPIC` (:data:`JOINT_NAMES`).
-    ``angle_unit``: the unit of the readings written. ``repeat``: play the views this
-    many times (a larger bag for benchmarks; the views are named by pass and view)."""
+    ``angle_unit``: the unit of the readings written. ``positions``: how many positions
+    to play, the views in turn (default: each view once; more make a larger bag for
+    benchmarks, the played names then count the positions)."""
     import cv2
 
     path = Path(path)
@@ -174,8 +175,9 @@ def write_recording(dataset, path: str | os.PathLike, *, kind: str = "ros1",
     prev = None
     played: dict[str, tuple[float, float, float, float]] = {}
     try:
-        for p in range(repeat):
-            for name, d in views.items():
+        names = list(views)
+        for p in range(positions or len(names)):
+            for name, d in ((names[p % len(names)], views[names[p % len(names)]]),):
                 q = np.array([d["left"][1], d["left"][2], d["right"][1], d["right"][2]])
                 segments = [(prev if prev is not None else q, q, move_s, None),
                             (q, q, still_s, name)]
@@ -197,7 +199,7 @@ def write_recording(dataset, path: str | os.PathLike, *, kind: str = "ros1",
                     for time_ns, _, topic, mt, msg in sorted(out, key=lambda m: m[:2]):
                         w.write(topic, mt, msg, time_ns)
                     t += n_j * dt_j
-                played[f"{p}:{name}" if repeat > 1 else name] = tuple(q)
+                played[f"{p:03d}:{name}" if positions else name] = tuple(float(x) for x in q)
                 prev = q
     finally:
         w.close()
