@@ -37,7 +37,7 @@ from rasc.interrupt import Interrupted, exit_process, received, signals_as_inter
 
 #: sub-command modules, in the order ``rasc --help`` lists them
 COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study",
-            "import_recording")
+            "import_recording", "report")
 
 
 class _Parser(argparse.ArgumentParser):
