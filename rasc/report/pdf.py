@@ -242,6 +242,10 @@ def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
                          f"dist {np.round(e.get('dist', []), 6).tolist()}",
                          f"hand-eye jackknife σ: {_fmt(hu.get('rotation_deg'), 'deg')}, "
                          f"{_length(hu.get('translation'), unit)}"]
+        T = np.array((doc.get("base_to_ptu") or {}).get("T_ptuL_from_ptuR", np.eye(4)))
+        t = ", ".join(_length(x, unit) for x in T[:3, 3])
+        rows["head"] = [f"T_ptuL_from_ptuR translation {t} (no σ: model paper; source: "
+                        f"{(doc.get('base_to_ptu') or {}).get('source', '?')})"]
         undetermined.append("no whole-head refinement (model paper): calibrate with "
                             "--model general for every parameter's σ")
     return rows, undetermined
