@@ -164,8 +164,9 @@ def _connections(reader, path: Path, topic: str, types: tuple[str, ...], what: s
 
 
 def scan(path: str | os.PathLike, cfg: ImportConfig, *, joints: bool = True,
-         progress=None) -> BagScan:
-    """Pass 1 (module docstring): stamps of the images, the joints' readings, clock checks."""
+         bar=None) -> BagScan:
+    """Pass 1 (module docstring): stamps of the images, the joints' readings, clock checks.
+    ``bar``: a progress bar (:func:`rasc.progress.progress`), counting the messages."""
     import time
 
     path = Path(path)
@@ -200,6 +201,9 @@ def scan(path: str | os.PathLike, cfg: ImportConfig, *, joints: bool = True,
             (t, n): ([], []) for t, names in wanted.items() for n in names}
         names_seen: dict[str, set[str]] = {t: set() for t in wanted}
         topic_of_image = {tt.topic: tt for tt in image_times.values()}
+        if bar is not None:
+            bar.total = sum(getattr(c, "msgcount", 0) for c in conns) or None
+            bar.refresh()
         for conn, received, raw in messages(reader, path, conns):
             kind, topic = conn_of[id(conn)]
             if kind == "image":
@@ -235,8 +239,8 @@ def scan(path: str | os.PathLike, cfg: ImportConfig, *, joints: bool = True,
                                              f"joint {n!r} has no position")
                         readings[(topic, n)][0].append(t)
                         readings[(topic, n)][1].append(float(pos[k]))
-            if progress is not None:
-                progress(len(raw))
+            if bar is not None:
+                bar.update(1)
     for tt in [*image_times.values(), *joint_times.values()]:
         check_clock(path, tt, cfg.stamp)
     if cfg.stamp == "header":

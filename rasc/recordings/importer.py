@@ -199,11 +199,8 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
     scans = []
     for path, role in ((bag, "pose"), *(((Path(intrinsics), "intrinsics"),)
                                         if intrinsics is not None else ())):
-        size = sum(f.stat().st_size for f in ([path] if path.is_file() else path.rglob("*"))
-                   if f.is_file()) if path.exists() else 0
-        with progress(total=size or None, desc=f"scan {path.name}", quiet=quiet,
-                      unit="B") as bar:
-            sc = scan(path, cfg, joints=role == "pose", progress=bar.update)
+        with progress(desc=f"scan {path.name}", quiet=quiet, unit="msg") as bar:
+            sc = scan(path, cfg, joints=role == "pose", bar=bar)
         scans.append(sc)
         wanted, entries = [], []
         if role == "pose":
