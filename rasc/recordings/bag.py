@@ -262,14 +262,17 @@ def scan(path: str | os.PathLike, cfg: ImportConfig, *, joints: bool = True,
 
 
 def check_clock(path: Path, tt: TopicTimes, stamp: str) -> None:
-    """Refuse a topic without messages, with all-zero header stamps (when they are used),
-    or whose header stamps jump against its receive times by more than
-    :data:`~rasc.recordings.config.CLOCK_JUMP_S` between consecutive messages."""
+    """Refuse a topic without messages; when the header stamps are used (``stamp ==
+    "header"``), one whose header stamps are all zero or jump against its receive times
+    by more than :data:`~rasc.recordings.config.CLOCK_JUMP_S` between consecutive
+    messages."""
     if not tt.stamps:
         raise InputError(f"{path}: topic {tt.topic} has no messages")
     s = np.array(tt.stamps, dtype=np.int64)
     r = np.array(tt.received, dtype=np.int64)
-    if stamp == "header" and not np.any(s):
+    if stamp == "bag":
+        return      # header stamps unused; receive times are in reading order
+    if not np.any(s):
         raise InputError(f"{path}: {tt.topic}: every header stamp is zero; import with "
                          "stamp = \"bag\" (--stamp bag) to use the receive times")
     offset = r - s

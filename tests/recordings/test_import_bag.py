@@ -163,11 +163,12 @@ def test_decode_every_encoding_gives_the_grey_image_back(encoding):
 
 # ---------------------------------------------------------------- refusals
 
-def _tiny_bag(path, kind="ros1", encoding="mono8", stamps_s=None, jump_at=None,
-              topics=TOPICS, joints=True, still=True):
+def _tiny_bag(path, kind="ros1", encoding="mono8", jump_at=None, topics=TOPICS,
+              joints=True, still=True, zero_stamps=False):
     """A small bag (64x48 images): joints at 50 Hz resting at three positions 1 s each
     (moving between them when ``still``, else always moving), an image pair per 0.25 s.
-    ``jump_at``: header stamps from that joint message on are 100 s earlier."""
+    ``jump_at``: header stamps from that joint message on are 100 s earlier;
+    ``zero_stamps``: every header stamp 0 (a driver that does not stamp)."""
     w = _BagWriter(Path(path), kind)
     img = np.full((48, 64), 100, np.uint8)
     t0 = 1_700_000_000 * 10**9
@@ -179,14 +180,15 @@ def _tiny_bag(path, kind="ros1", encoding="mono8", stamps_s=None, jump_at=None,
         q = targets[seg] if (still and i < 50) else targets[seg] + 0.002 * (i - 50 if still
                                                                               else k)
         t = t0 + k * 20_000_000
-        stamp = t - (100 * 10**9 if jump_at is not None and k >= jump_at else 0)
+        stamp = 0 if zero_stamps else t - (100 * 10**9 if jump_at is not None and k >= jump_at
+                                            else 0)
         if joints:
             msgs.append((t, JOINT_TOPIC, "sensor_msgs/msg/JointState",
                          joint_message(w, (*JOINT_NAMES["left"], *JOINT_NAMES["right"]), q,
                                        stamp)))
         if k % 12 == 0:
             for eye in ("left", "right"):
-                mt, m = image_message(w, img, "mono8", t, eye)
+                mt, m = image_message(w, img, "mono8", 0 if zero_stamps else t, eye)
                 if encoding != "mono8":
                     m = type(m)(**{**{f: getattr(m, f) for f in m.__dataclass_fields__},
                                    "encoding": encoding})
@@ -247,6 +249,14 @@ def test_still_moments_too_short_for_the_stated_time(tmp_path):
 def test_clock_jump(tmp_path):
     bag = _tiny_bag(tmp_path / "b.bag", jump_at=100)
     _refused(tmp_path, bag, config(), r"/joint_states message 100: clock jump")
+
+
+def test_zero_header_stamps_need_the_receive_times(tmp_path):
+    bag = _tiny_bag(tmp_path / "b.bag", zero_stamps=True)
+    _refused(tmp_path, bag, config(), r"every header stamp is zero; import with stamp = "
+                                      r"\"bag\"")
+    res = import_bag(bag, tmp_path / "ds", config(stamp="bag"))
+    assert res.n_pose == 6
 
 
 def test_unknown_encoding(tmp_path):
