@@ -147,3 +147,18 @@ def test_cli_refuses_a_missing_calibration(tmp_path, rasc_cli):
                               str(tmp_path / "r.pdf"))
     assert code == 2 and err.startswith("rasc report: error: ") and err.count("\n") == 1
     assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.slow
+def test_calibrate_writes_the_report_too(rasc_render, tmp_path, rasc_cli):
+    ds = rasc_render(n_intrinsics=8).path
+    cal, pdf = tmp_path / "cal.json", tmp_path / "report.pdf"
+    # the report may not overwrite the calibration (an input of the report)
+    code, _, err = rasc_cli("calibrate", str(ds), "--out", str(cal), "--report", str(cal),
+                            "--quiet")
+    assert code == 2 and "--report" in err and not cal.exists()
+    code, _, err = rasc_cli("calibrate", str(ds), "--out", str(cal), "--report", str(pdf),
+                            "--quiet")
+    assert code == 0, err
+    assert "rasc calibrate: report: USABLE" in err
+    assert pdf_pages(pdf.read_bytes()) == PAGES and cal.is_file()
