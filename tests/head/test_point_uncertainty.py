@@ -160,3 +160,26 @@ def test_rasc_triangulate_writes_sigmas(refined, tmp_path, rasc_cli):
     code, out, err = rasc_cli("triangulate", str(cal), str(tmp_path / "px.csv"),
                               "--angle-unit", "deg", "--pixel-sigma", "0.5")
     assert code == 0 and json.loads(out)["uncertainty"]["pixel_sigma_px"] == 0.5
+
+
+def test_geometry_level_covariance_is_the_head_level_one_without_a_lens():
+    """rasc.geometry.triangulation.point_covariance (analytic, ideal pixels) against
+    point_uncertainty (central differences through the head) on a head without
+    distortion: the same first-order covariance (1e-6 relative: the differences'
+    error)."""
+    from rasc.geometry.triangulation import point_covariance
+    from rasc.head.model import EyeCalibration, HeadCalibration
+
+    head, _ = plausible_head(2)
+    flat = HeadCalibration(**{e: EyeCalibration(
+        K=getattr(head, e).K, dist=[], T_cam_from_gaze=getattr(head, e).T_cam_from_gaze,
+        T_ptu_from_base=getattr(head, e).T_ptu_from_base,
+        image_size=getattr(head, e).image_size) for e in ("left", "right")})
+    uvl, uvr = flat.project(POINTS, *ANGLES)
+    rng = np.random.default_rng(5)         # inconsistent pixels: the residual term counts
+    uvl, uvr = uvl + rng.normal(0, 0.5, uvl.shape), uvr + rng.normal(0, 0.5, uvr.shape)
+    p = flat.triangulate(uvl, uvr, *ANGLES)
+    cov = point_covariance(flat.left.projection_matrix(*ANGLES[:2]),
+                           flat.right.projection_matrix(*ANGLES[2:]), uvl, uvr, p, 0.4)
+    want = point_uncertainty(flat, uvl, uvr, *ANGLES, pixel_sigma=0.4).total
+    np.testing.assert_allclose(cov, want, rtol=1e-6, atol=1e-6 * np.abs(want).max())
