@@ -312,6 +312,7 @@ def test_cli_refusal_is_one_line_exit_2(tmp_path, rasc_cli):
 
 # ---------------------------------------------------------------- images + CSV
 
+@pytest.mark.slow
 def test_image_folder_with_csv(small, tmp_path):
     """The rendered images with their angles in degrees as a CSV → the same manifest
     entries (angles to 1e-12 deg: printed with repr, read back exactly)."""
