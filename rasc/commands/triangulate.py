@@ -115,8 +115,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _uncertainty(args, cal, uv_left, uv_right, ang):
     """Each point's covariance (rasc.head.uncertainty) and the document's account of it."""
+    import math
+
     from rasc.head.use import point_covariances
 
+    if args.pixel_sigma is not None and not (math.isfinite(args.pixel_sigma)
+                                             and args.pixel_sigma >= 0):
+        raise InputError(f"--pixel-sigma: must be a number of pixels >= 0, got "
+                         f"{args.pixel_sigma:g}")
     unc, note = point_covariances(args.calibration, cal.head, uv_left, uv_right,
                                   ang["pan_left"], ang["tilt_left"], ang["pan_right"],
                                   ang["tilt_right"], pixel_sigma=args.pixel_sigma,
