@@ -36,7 +36,15 @@ from rasc.errors import RascError
 from rasc.interrupt import Interrupted, exit_process, received, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study")
+COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study",
+            "import_recording", "report")
+#: a command named otherwise than its module (``import`` is a Python keyword)
+COMMAND_NAMES = {"import_recording": "import"}
+
+
+def command_name(module: str) -> str:
+    """The command of a module of :data:`COMMANDS` (``look_at`` → ``look-at``)."""
+    return COMMAND_NAMES.get(module, module.replace("_", "-"))
 
 
 class _Parser(argparse.ArgumentParser):
@@ -63,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _command_name(argv: list[str]) -> str:
     """The sub-command named in ``argv`` (for messages before the parser exists)."""
-    names = {name.replace("_", "-") for name in COMMANDS}
+    names = {command_name(name) for name in COMMANDS}
     return next((a for a in argv if a in names), "")
 
 

@@ -28,10 +28,10 @@ def test_help_version_and_usage_errors_load_no_library():
     ``--version``, a missing argument and an unknown option; none loads a library."""
     code = (
         "import contextlib, io, sys\n"
-        "from rasc.cli import COMMANDS, main\n"
+        "from rasc.cli import COMMANDS, command_name, main\n"
         "codes = []\n"
         "argvs = [['--help'], ['--version'], ['handeye'], ['calibrate', '--nope'],\n"
-        "         *[[c.replace('_', '-'), '--help'] for c in COMMANDS]]\n"
+        "         *[[command_name(c), '--help'] for c in COMMANDS]]\n"
         "for argv in argvs:\n"
         "    with contextlib.redirect_stdout(io.StringIO()), "
         "contextlib.redirect_stderr(io.StringIO()):\n"
@@ -61,6 +61,8 @@ _ARGV = {
     "look_at": ["look-at", "{ws}/cal.json", "--point", "0,1,0", "--angle-unit", "deg",
                 "--out", "{ws}/out.json"],
     "study": ["study", "{ws}/spec.toml", "--out", "{ws}/study", "--quiet"],
+    "import_recording": ["import", "{ws}/rec.bag", "--out", "{ws}/ds", "--quiet"],
+    "report": ["report", "{ws}/cal.json", "--out", "{ws}/report.pdf"],
 }
 
 

@@ -59,6 +59,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--plots", metavar="DIR",
                    help="with --model general: write residual plots residuals_left.png, "
                         "residuals_right.png into DIR")
+    p.add_argument("--report", metavar="FILE.pdf",
+                   help="also write the calibration report (as rasc report does)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -98,6 +100,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out is not None:            # the output rule, before any long work
         check_output(args.out, inputs=[args.dataset, args.mounts])
+    if args.report is not None:
+        check_output(args.report, inputs=[args.dataset, args.mounts, args.out],
+                     input_folders=[args.dataset], flag="--report")
     get_method(args.method)  # an unknown name or a broken plugin, before any image is read
     if args.scales is not None and args.model != "general":
         raise InputError("--scales: only the whole-head refinement estimates scales; "
@@ -135,6 +140,11 @@ def run(args: argparse.Namespace) -> int:
 
         for path in residual_plots(cal.refinement, args.plots):
             log(f"wrote {path}")
+    if args.report is not None:
+        from rasc.report.pdf import write_report
+
+        v = write_report(doc, args.report, dataset=dataset, source=args.out or "calibration")
+        print(f"rasc calibrate: report: {v.line()}", file=sys.stderr)
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     for eye in ("left", "right"):

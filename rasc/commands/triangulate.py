@@ -11,8 +11,11 @@ integers, (0, 0) the top-left pixel), ``pan_left, tilt_left, pan_right, tilt_rig
 Output (``rasc-triangulation/1``): per point its ``line`` in the file, ``label`` (if
 given), ``p_base`` (x, y, z in the calibration's length unit; x up, y forward, z left)
 and ``residual_px`` per eye (distance from the measured pixel to the point's
-reprojection; null if the point lies behind that camera). Warned: points behind a camera
-and reprojection residuals above :data:`RESIDUAL_WARN_PX`.
+reprojection; null if the point lies behind that camera), ``sigma_base`` (σ per base axis)
+and ``covariance_base`` (3x3) from the pixel noise (``--pixel-sigma``, default the
+calibration's corner noise) and the calibration's covariance where it has one
+(:mod:`rasc.head.uncertainty`); the document's ``uncertainty`` says which. Warned: points
+behind a camera and reprojection residuals above :data:`RESIDUAL_WARN_PX`.
 """
 
 from __future__ import annotations
@@ -43,6 +46,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     common.add_angle_unit(p, "the pan and tilt columns")
     p.add_argument("--method", choices=("ls", "tls"), default="ls",
                    help="least squares (default) or total least squares (eq. 19)")
+    p.add_argument("--pixel-sigma", type=float, metavar="PX",
+                   help="noise of each measured pixel coordinate for the points' sigmas "
+                        "(default: the calibration's corner noise)")
     common.add_out(p)
     p.set_defaults(func=run)
     return p
@@ -74,18 +80,21 @@ def run(args: argparse.Namespace) -> int:
     if not np.all(np.isfinite(tri.p_base)):
         i = int(np.argmax(~np.all(np.isfinite(tri.p_base), axis=1)))
         raise InputError(f"{table.where(i)}: numbers too large to triangulate")
+    unc, unc_doc = _uncertainty(args, cal, uv_left, uv_right, ang)
     points = []
     for i in range(tri.p_base.shape[0]):
         entry = {"line": table.lines[i], "p_base": tri.p_base[i],
                  "residual_px": {e: (float(tri.residual_px[e][i]) if tri.in_front[e][i]
-                                     else None) for e in ("left", "right")}}
+                                     else None) for e in ("left", "right")},
+                 **({} if unc is None else {"sigma_base": unc.sigma[i],
+                                            "covariance_base": unc.total[i]})}
         if table.labels is not None:
             entry["label"] = table.labels[i]
         points.append(entry)
     doc = {"format": RESULT_FORMAT, "calibration": args.calibration, "input": args.points,
            "angle_unit": args.angle_unit, "method": args.method,
            "length_unit": cal.length_unit or "that of the calibration",
-           "frame": "base (x up, y forward, z left)", "points": points}
+           "frame": "base (x up, y forward, z left)", "uncertainty": unc_doc, "points": points}
     common.write_result(doc, args.out)
     for eye in ("left", "right"):
         behind = np.nonzero(~tri.in_front[eye])[0]
@@ -102,3 +111,20 @@ def run(args: argparse.Namespace) -> int:
                     f"{RESIDUAL_WARN_PX:g} px from their pixels (worst {res[worst]:.3g} px, "
                     f"{table.where(worst)}): mismatched pixels or wrong angles?")
     return 0
+
+
+def _uncertainty(args, cal, uv_left, uv_right, ang):
+    """Each point's covariance (rasc.head.uncertainty) and the document's account of it."""
+    import math
+
+    from rasc.head.use import point_covariances
+
+    if args.pixel_sigma is not None and not (math.isfinite(args.pixel_sigma)
+                                             and args.pixel_sigma >= 0):
+        raise InputError(f"--pixel-sigma: must be a number of pixels >= 0, got "
+                         f"{args.pixel_sigma:g}")
+    unc, note = point_covariances(args.calibration, cal.head, uv_left, uv_right,
+                                  ang["pan_left"], ang["tilt_left"], ang["pan_right"],
+                                  ang["tilt_right"], pixel_sigma=args.pixel_sigma,
+                                  method=args.method)
+    return unc, note

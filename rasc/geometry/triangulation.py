@@ -176,3 +176,37 @@ def triangulate(P_left: np.ndarray, P_right: np.ndarray, uv_left: np.ndarray,
                 f"separated camera centres, or pass on_degenerate='nan' to flag it")
         p[bad] = np.nan
     return p
+
+
+def point_covariance(P_left: np.ndarray, P_right: np.ndarray, uv_left: np.ndarray,
+                     uv_right: np.ndarray, p: np.ndarray, sigma_px: float) -> np.ndarray:
+    """First-order covariance (N, 3, 3) of :func:`triangulate`'s ``method="ls"`` points
+    ``p`` for independent noise of ``sigma_px`` on each ideal pixel coordinate.
+
+    ``p`` solves the normal equations ``Aᵀ f = 0`` of the residuals ``f = A p − b``
+    (eq. 19, four rows). A pixel coordinate ``u`` of one eye enters one row,
+    ``(u p3 − p1)·(p, 1)``: ``∂f_row/∂u = p3·(p, 1) = w`` (the point's projective depth
+    in that eye) and ``∂A_row/∂u = p3[:3]``. Implicit differentiation gives
+    ``∂p/∂u = −(AᵀA)⁻¹ (A_rowᵀ w + p3[:3] f_row)`` (the second term vanishes on
+    consistent pixels), and ``Σ_p = σ² J Jᵀ`` with ``J`` the four columns. Exact to first
+    order; the projections are those of :func:`triangulate` (undistorted pixels: a lens
+    adds the undistortion's Jacobian, see :mod:`rasc.head.uncertainty`).
+    """
+    uv_left = _image_points(uv_left, "uv_left")
+    uv_right = _image_points(uv_right, "uv_right")
+    n = uv_left.shape[0]
+    P_left = _projections(P_left, n, "P_left")
+    P_right = _projections(P_right, n, "P_right")
+    p = np.asarray(p, dtype=float).reshape(n, 3)
+    H = np.concatenate([_rows(P_left, uv_left), _rows(P_right, uv_right)], axis=1)  # (N,4,4)
+    A = H[:, :, :3]
+    ph = np.concatenate([p, np.ones((n, 1))], axis=1)                             # (N, 4)
+    f = np.einsum("nij,nj->ni", H, ph)                                             # (N, 4)
+    G = np.linalg.inv(np.swapaxes(A, 1, 2) @ A)                                    # (N,3,3)
+    J = np.zeros((n, 3, 4))
+    for row, P in enumerate((P_left, P_left, P_right, P_right)):
+        P3 = np.broadcast_to(P[:, 2], (n, 4))
+        w = np.einsum("nj,nj->n", P3, ph)
+        d = A[:, row] * w[:, None] + P3[:, :3] * f[:, row, None]
+        J[:, :, row] = -np.einsum("nij,nj->ni", G, d)
+    return sigma_px ** 2 * np.einsum("nik,njk->nij", J, J)

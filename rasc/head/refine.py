@@ -281,7 +281,16 @@ class RefinementResult:
                 "parameters": self.parameters,
                 "not_identifiable": self.not_identifiable,
                 "T_ptuL_from_ptuR": self.T_ptuL_from_ptuR.tolist(),
-                "images": [im.to_dict() for im in self.images]}
+                "images": [im.to_dict() for im in self.images],
+                # the head's parameters' covariance, for rasc triangulate's sigmas
+                **_covariance_entry(self)}
+
+
+def _covariance_entry(res) -> dict:
+    from rasc.head.uncertainty import covariance_document
+
+    doc = covariance_document(res)
+    return {} if doc is None else {"covariance": doc}
 
 
 GAUGE = ("each unit's ptu frame: x along its pan axis, origin at the foot of the common "

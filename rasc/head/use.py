@@ -348,6 +348,28 @@ def triangulate(head: HeadCalibration, uv_left, uv_right, pan_left, tilt_left, p
     return Triangulation(p, residual, front)
 
 
+def point_covariances(path, head: HeadCalibration, uv_left, uv_right, pan_left, tilt_left,
+                      pan_right, tilt_right, *, pixel_sigma: float | None = None,
+                      method: str = "ls"):
+    """Each triangulated point's covariance from the pixel noise and the covariance kept
+    in the calibration file ``path`` (:func:`rasc.head.uncertainty.point_uncertainty`).
+    ``pixel_sigma`` None: the file's corner noise. Returns (PointUncertainty or None,
+    a dict saying what was propagated); None when no pixel noise is known (a bare head
+    document without ``pixel_sigma``)."""
+    from rasc.head.uncertainty import point_uncertainty, read_covariance
+
+    cov, default = read_covariance(path)
+    if pixel_sigma is None and default is None:
+        return None, {"pixel_sigma_px": None, "calibration_covariance": cov is not None,
+                      "note": "no pixel noise known: give --pixel-sigma for sigmas"}
+    sigma, source = (pixel_sigma, "--pixel-sigma") if pixel_sigma is not None else default
+    unc = point_uncertainty(head, uv_left, uv_right, pan_left, tilt_left, pan_right,
+                            tilt_right, pixel_sigma=sigma, covariance=cov, method=method)
+    return unc, {"pixel_sigma_px": sigma, "pixel_sigma_source": source,
+                 "calibration_covariance": cov is not None,
+                 "method": "first-order propagation (rasc.head.uncertainty)"}
+
+
 # --------------------------------------------------------------------------------------
 # looking at a point
 

@@ -481,7 +481,8 @@ def _manifest_dict(board: Board | dict, images: list[dict], angle_unit: str,
 
 def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[dict], *,
                    angle_unit: str = "deg", ground_truth: str | None = None,
-                   length_unit: str | None = None, check_files: bool = True) -> Path:
+                   length_unit: str | None = None, check_files: bool = True,
+                   provenance: dict | None = None) -> Path:
     """Validate and write ``manifest.json`` atomically; return its path.
 
     Parameters
@@ -494,6 +495,8 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     ground_truth : file name of the ground-truth JSON, relative to the folder
     length_unit : the unit of the board's square_size (written when given)
     check_files : require the images (and ground truth) to exist already
+    provenance : where the images came from (``rasc import``: recordings, topics,
+        thresholds), written as the manifest's ``provenance`` object; readers ignore it
     """
     path = Path(path)
     manifest = path if path.suffix == ".json" else path / MANIFEST
@@ -501,6 +504,8 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
         board = board.to_dict()
     obj = _manifest_dict(board, [dict(im) if isinstance(im, dict) else im for im in images],
                          angle_unit, ground_truth, length_unit)
+    if provenance is not None:
+        obj["provenance"] = provenance
     # json round trip: numpy scalars become numbers, and what is written is what is checked
     try:
         obj = json.loads(json.dumps(obj, default=to_jsonable))

@@ -1,0 +1,363 @@
+"""Recordings → a ``rasc-dataset/1`` folder (:func:`import_bag`, :func:`import_image_folder`).
+
+The manifest is written by :func:`rasc.vision.dataset.write_manifest` (the one writer of
+the format); each image carries where it came from (``source``: topic, header stamp,
+receive time; a pose image also the still moment it was taken in), and the manifest's
+``provenance`` names the recordings (path, format, size), the topics, joints, thresholds
+and the rasc version. The folder is built under a temporary name beside ``out`` and
+renamed into place at the end (:func:`building`): a refused recording leaves nothing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import math
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+
+from rasc.errors import InputError
+from rasc.geometry.frames import EYES
+from rasc.recordings.bag import BagScan, decode_image, read_images, scan
+from rasc.recordings.config import ImportConfig
+from rasc.recordings.still import common_still, longest_run_ns, nearest
+from rasc.vision.dataset import MIN_POSE_VIEWS, write_manifest
+
+
+@dataclass(frozen=True)
+class Capture:
+    """One still moment: its view name, the moment (first, last reading, ns), the angles
+    per eye (median of the readings in the moment, in the config's angle unit) and per
+    eye the index of the chosen image in its topic's stamps."""
+
+    view: str
+    still: tuple[int, int]
+    angles: dict[str, tuple[float, float]]
+    image: dict[str, int]
+
+
+@dataclass
+class ImportResult:
+    """What an import wrote: the folder, the counts, the warnings, the bytes of the
+    recordings read and the time it took."""
+
+    out: Path
+    n_pose: int
+    n_intrinsics: int
+    warnings: list[str] = field(default_factory=list)
+    bytes_read: int = 0
+    seconds: float = 0.0
+
+
+def plan_captures(sc: BagScan, cfg: ImportConfig) -> tuple[list[Capture], list[str]]:
+    """The captures of a scanned bag: the common still moments of the four joints, each
+    with the image of each eye nearest its middle, inside it and within
+    ``cfg.tolerance_s``; still moments without such an image are skipped (warned). Raises
+    when there is no still moment, or fewer than MIN_POSE_VIEWS captures."""
+    thr = cfg.threshold_value
+    min_ns = int(round(cfg.min_duration_s * 1e9))
+    series = [sc.joints[(eye, axis)] for eye in EYES for axis in ("pan", "tilt")]
+    moments = common_still(series, thr, min_ns)
+    where = f"{sc.path}"
+    if not moments:
+        longest = {f"{eye} {axis}": longest_run_ns(*sc.joints[(eye, axis)], thr)
+                   for eye in EYES for axis in ("pan", "tilt")}
+        worst = min(longest, key=longest.get)
+        raise InputError(f"{where}: no still moment: the joints never stayed within "
+                         f"{thr:g} {cfg.angle_unit} for {cfg.min_duration_s:g} s together "
+                         f"(the {worst} reading: at most {longest[worst] / 1e9:.3g} s); "
+                         "raise still.threshold or lower still.min_duration_s")
+    stamps = {}
+    order = {}
+    for eye in EYES:
+        t = sc.images[eye].times(cfg.stamp)
+        order[eye] = np.argsort(t, kind="stable")
+        stamps[eye] = t[order[eye]]
+    tol = int(round(cfg.tolerance_s * 1e9))
+    captures: list[Capture] = []
+    warnings: list[str] = []
+    for a, b in moments:
+        mid = (a + b) // 2
+        chosen = {}
+        for eye in EYES:
+            k = nearest(stamps[eye], mid, a, b, tol)
+            if k is None:
+                warnings.append(f"{where}: still moment {(a - moments[0][0]) / 1e9:.3f}-"
+                                f"{(b - moments[0][0]) / 1e9:.3f} s (from the first) has no "
+                                f"{eye} image within it and {cfg.tolerance_s:g} s of its "
+                                "middle: skipped")
+                break
+            chosen[eye] = int(order[eye][k])
+        else:
+            angles = {}
+            for eye in EYES:
+                vals = []
+                for axis in ("pan", "tilt"):
+                    t, v = sc.joints[(eye, axis)]
+                    sel = (t >= a) & (t <= b)
+                    vals.append(float(np.median(v[sel])))
+                angles[eye] = (vals[0], vals[1])
+            captures.append(Capture(view=f"{len(captures):02d}", still=(a, b), angles=angles,
+                                    image=chosen))
+    if len(captures) < MIN_POSE_VIEWS:
+        raise InputError(f"{where}: {len(captures)} still moment(s) with images of both eyes "
+                         f"({len(moments)} still moments in all); hand-eye needs at least "
+                         f"{MIN_POSE_VIEWS} at positions that turn about two different axes")
+    return captures, warnings
+
+
+def plan_intrinsics(sc: BagScan, cfg: ImportConfig) -> dict[str, list[int]]:
+    """Per eye, the images of an intrinsics recording kept: the first, then each at least
+    ``cfg.interval_s`` after the one kept before (0: every image)."""
+    out = {}
+    step = int(round(cfg.interval_s * 1e9))
+    for eye in EYES:
+        t = sc.images[eye].times(cfg.stamp)
+        keep, last = [], None
+        for k in np.argsort(t, kind="stable"):
+            if last is None or t[k] - last >= step:
+                keep.append(int(k))
+                last = t[k]
+        out[eye] = keep
+    return out
+
+
+@contextlib.contextmanager
+def building(out: str | os.PathLike) -> Iterator[Path]:
+    """A temporary folder beside ``out`` to build it in; renamed to ``out`` when the block
+    ends without error, removed otherwise. ``out`` must not exist, or be an empty folder."""
+    from rasc.interrupt import Interrupted, shielded
+
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"--out {out}: exists and is not an empty folder; rasc import never "
+                         "replaces files: name a new folder")
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot create a folder in {parent}: "
+                         f"{exc.strerror or exc}") from None
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)
+        yield tmp
+        try:
+            os.rename(tmp, out)
+        except OSError as exc:
+            raise InputError(f"--out {out}: appeared meanwhile: {exc.strerror or exc}; "
+                             "nothing written") from None
+    except KeyboardInterrupt:
+        with shielded(reraise=False):
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise Interrupted(f"nothing written (removed the partial dataset {tmp})") from None
+    except BaseException:
+        with shielded():
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _write_image(folder: Path, rel: str, pixels, ext: str) -> str:
+    import cv2
+
+    rel = rel + ext
+    path = folder / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if isinstance(pixels, bytes):
+        path.write_bytes(pixels)
+    elif not cv2.imwrite(str(path), pixels, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+        raise InputError(f"{path}: cannot write the image")
+    return rel
+
+
+def _recording(sc: BagScan) -> dict:
+    return {"path": str(sc.path), "format": sc.format, "size_bytes": sc.size_bytes}
+
+
+def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig, *,
+               intrinsics: str | os.PathLike | None = None, quiet: bool = True,
+               log: Callable[[str], None] = lambda s: None) -> ImportResult:
+    """Import the still moments of ``bag`` as pose views (and the images of the
+    ``intrinsics`` recording as intrinsics views) into the new dataset folder ``out``."""
+    from rasc import __version__
+    from rasc.progress import progress
+    from rasc.vision.dataset import load_dataset
+
+    t0 = time.perf_counter()
+    cfg.require(joints=True)
+    bag = Path(bag)
+    jobs: list[tuple[BagScan, str, list[tuple[str, str, int, int]], list[dict]]] = []
+    warnings: list[str] = []
+    scans = []
+    for path, role in ((bag, "pose"), *(((Path(intrinsics), "intrinsics"),)
+                                        if intrinsics is not None else ())):
+        with progress(desc=f"scan {path.name}", quiet=quiet, unit="msg") as bar:
+            sc = scan(path, cfg, joints=role == "pose", bar=bar)
+        scans.append(sc)
+        wanted, entries = [], []
+        if role == "pose":
+            captures, w = plan_captures(sc, cfg)
+            warnings += w
+            log(f"{path}: {len(captures)} captures (still moments with images of both eyes)")
+            for c in captures:
+                for eye in EYES:
+                    tt, k = sc.images[eye], c.image[eye]
+                    wanted.append((f"{path}: {tt.topic} message {k}", tt.topic,
+                                   tt.stamps[k], tt.received[k]))
+                    entries.append({"file": f"poses/{eye}_{c.view}", "eye": eye, "role": "pose",
+                                    "pan": c.angles[eye][0], "tilt": c.angles[eye][1],
+                                    "view": c.view,
+                                    "source": {"recording": len(scans) - 1, "topic": tt.topic,
+                                               "stamp_ns": tt.stamps[k],
+                                               "received_ns": tt.received[k],
+                                               "still_ns": list(c.still)}})
+        else:
+            keep = plan_intrinsics(sc, cfg)
+            for eye in EYES:
+                tt = sc.images[eye]
+                if len(keep[eye]) < 3:
+                    raise InputError(f"{path}: {len(keep[eye])} {eye} image(s) at least "
+                                     f"{cfg.interval_s:g} s apart; intrinsics need at least 3 "
+                                     "views of the board (lower intrinsics.interval_s?)")
+                for n, k in enumerate(keep[eye]):
+                    wanted.append((f"{path}: {tt.topic} message {k}", tt.topic,
+                                   tt.stamps[k], tt.received[k]))
+                    entries.append({"file": f"intrinsics/{eye}_{n:03d}", "eye": eye,
+                                    "role": "intrinsics",
+                                    "source": {"recording": len(scans) - 1, "topic": tt.topic,
+                                               "stamp_ns": tt.stamps[k],
+                                               "received_ns": tt.received[k]}})
+            log(f"{path}: {len(keep['left'])} left and {len(keep['right'])} right "
+                "intrinsics images")
+        jobs.append((sc, role, wanted, entries))
+    images: list[dict] = []
+    with building(out) as tmp:
+        for sc, _role, wanted, entries in jobs:
+            with progress(total=len(wanted), desc=f"images {sc.path.name}", quiet=quiet) as bar:
+                for i, msg, msgtype in read_images(sc.path, wanted, progress=bar.update):
+                    pixels, ext = decode_image(msg, msgtype, wanted[i][0])
+                    entries[i]["file"] = _write_image(tmp, entries[i]["file"], pixels, ext)
+            images += entries
+        # intrinsics first, as rasc render writes them
+        images.sort(key=lambda e: (e["role"] != "intrinsics",))
+        provenance = {"tool": f"rasc import (rasc {__version__})",
+                      "recordings": [_recording(sc) for sc in scans],
+                      **cfg.to_dict()}
+        write_manifest(tmp, cfg.board, images, angle_unit=cfg.angle_unit,
+                       length_unit=cfg.length_unit, provenance=provenance)
+        load_dataset(tmp).validate()        # one size per eye, every image readable
+    n_pose = sum(e["role"] == "pose" for e in images)
+    return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
+                        warnings=warnings, bytes_read=sum(sc.size_bytes for sc in scans),
+                        seconds=time.perf_counter() - t0)
+
+
+# ------------------------------------------------------------------ image folder + CSV
+
+CSV_COLUMNS = ("file", "eye", "pan", "tilt", "view", "role")
+
+
+def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
+                        out: str | os.PathLike, cfg: ImportConfig) -> ImportResult:
+    """A folder of images and a CSV of angles → a dataset folder (images copied).
+
+    CSV (header line; ``file`` and ``eye`` required): ``file`` relative to ``folder``,
+    ``eye`` left/right, ``pan``, ``tilt`` (in ``cfg.angle_unit``; both empty for an
+    intrinsics view), optional ``view`` (default: the k-th pose row of each eye is view
+    k) and ``role`` (default: pose when there are angles, else intrinsics)."""
+    from rasc import __version__
+    from rasc.vision.dataset import load_dataset
+
+    t0 = time.perf_counter()
+    if cfg.board is None:
+        raise InputError(f"{cfg.source}: no board: give [board] inner_corners and "
+                         "square_size (or --board NXxNY --square-size S)")
+    folder, csv_path = Path(folder), Path(csv_path)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: no such folder")
+    try:
+        text = csv_path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(f"{csv_path}: no such CSV file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{csv_path}: cannot read: {exc}") from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        raise InputError(f"{csv_path}: empty (expected a header line: file,eye,pan,tilt)")
+    header = [h.strip() for h in rows[0]]
+    unknown = [h for h in header if h not in CSV_COLUMNS]
+    if unknown:
+        raise InputError(f"{csv_path}: line 1: unknown column {unknown[0]!r} (columns: "
+                         + ", ".join(CSV_COLUMNS) + ")")
+    for need in ("file", "eye"):
+        if need not in header:
+            raise InputError(f"{csv_path}: line 1: missing column {need!r}")
+    col = {h: i for i, h in enumerate(header)}
+    images: list[dict] = []
+    count = {eye: 0 for eye in EYES}
+    sources = []
+    for lineno, row in enumerate(rows[1:], start=2):
+        if not any(c.strip() for c in row):
+            continue
+        where = f"{csv_path}: line {lineno}"
+        if len(row) != len(header):
+            raise InputError(f"{where}: {len(row)} fields, the header has {len(header)}")
+        get = {h: row[i].strip() for h, i in col.items()}
+        rel = PurePosixPath(get["file"].replace("\\", "/"))
+        if not get["file"] or rel.is_absolute() or ".." in rel.parts:
+            raise InputError(f"{where}: file {get['file']!r} must be a path inside {folder}")
+        src = folder / rel
+        if not src.is_file():
+            raise InputError(f"{where}: file {get['file']!r} does not exist in {folder}")
+        eye = get["eye"]
+        if eye not in EYES:
+            raise InputError(f"{where}: eye must be 'left' or 'right', got {eye!r}")
+        angles = [get.get("pan", ""), get.get("tilt", "")]
+        role = get.get("role") or ("pose" if any(angles) else "intrinsics")
+        if role not in ("pose", "intrinsics"):
+            raise InputError(f"{where}: role must be 'pose' or 'intrinsics', got {role!r}")
+        entry = {"file": "", "eye": eye, "role": role,
+                 "source": {"file": str(src), "line": lineno}}
+        if role == "pose":
+            values = []
+            for name, v in zip(("pan", "tilt"), angles, strict=True):
+                try:
+                    x = float(v)
+                except ValueError:
+                    raise InputError(f"{where}: {name} {v!r} is not a number") from None
+                if not math.isfinite(x):
+                    raise InputError(f"{where}: {name} {v!r} is not finite")
+                values.append(x)
+            entry["pan"], entry["tilt"] = values
+            entry["view"] = get.get("view") or f"{count[eye]:02d}"
+            count[eye] += 1
+        n = sum(e["eye"] == eye and e["role"] == role for e in images)
+        entry["file"] = (f"{'poses' if role == 'pose' else 'intrinsics'}/{eye}_"
+                         f"{n:03d}{src.suffix.lower()}")
+        sources.append(src)
+        images.append(entry)
+    if not images:
+        raise InputError(f"{csv_path}: no rows after the header")
+    with building(out) as tmp:
+        for entry, src in zip(images, sources, strict=True):
+            dst = tmp / entry["file"]
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, dst)
+        write_manifest(tmp, cfg.board, images, angle_unit=cfg.angle_unit,
+                       length_unit=cfg.length_unit,
+                       provenance={"tool": f"rasc import (rasc {__version__})",
+                                   "recordings": [{"path": str(folder), "format": "images + CSV",
+                                                   "csv": str(csv_path)}]})
+        load_dataset(tmp).validate()
+    n_pose = sum(e["role"] == "pose" for e in images)
+    return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
+                        bytes_read=sum(s.stat().st_size for s in sources),
+                        seconds=time.perf_counter() - t0)
