@@ -16,7 +16,7 @@ RASC = Path(__file__).resolve().parents[1] / "rasc"
 #: Rooms in floor order: a room may import its own floor and the floors below it.
 #: Shared utilities (errors, io, interrupt, progress) are the ground floor.
 FLOORS = {
-    "": 0,            # rasc/errors.py, io.py, interrupt.py, progress.py, __init__
+    "": 0,            # rasc/errors.py, formats.py, io.py, interrupt.py, progress.py, __init__
     "geometry": 1,
     "handeye": 2,
     "vision": 2,
@@ -47,7 +47,7 @@ def room(module: str) -> str:
     if len(parts) == 1:
         return ""
     name = parts[1]
-    if len(parts) == 2 and name in ("errors", "io", "interrupt", "progress"):
+    if len(parts) == 2 and name in ("errors", "formats", "io", "interrupt", "progress"):
         return ""
     return name
 
@@ -153,7 +153,7 @@ def test_imports_only_run_down():
 
 def test_every_room_is_a_package_and_the_ground_floor_is_small():
     top = sorted(p.name for p in RASC.iterdir() if p.suffix == ".py")
-    assert set(top) <= {"__init__.py", "__main__.py", "cli.py", "errors.py", "io.py",
+    assert set(top) <= {"__init__.py", "__main__.py", "cli.py", "errors.py", "formats.py", "io.py",
                         "interrupt.py", "progress.py", "testing.py"}, top
 
 
