@@ -103,6 +103,8 @@ def test_the_key_follows_the_calibration_code_only(tmp_path):
     root = tmp_path / "rasc"
     shutil.copytree(Path(rasc.__file__).parent, root,
                     ignore=shutil.ignore_patterns("__pycache__"))
+    from rasc.sim import MODELS_DIR
+    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")    # beside it, as in a checkout
     d0 = calibration_code_digest(root)
     assert d0 == calibration_code_digest()
     # a change outside the calibration code (the renderer, the study engine): same key
@@ -136,6 +138,8 @@ def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
     root = tmp_path / "rasc"
     shutil.copytree(Path(rasc.__file__).parent, root,
                     ignore=shutil.ignore_patterns("__pycache__"))
+    from rasc.sim import MODELS_DIR
+    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")    # beside it, as in a checkout
     d0 = renderer_digest(root)
     assert d0 == renderer_digest()
     # code no render runs: the same key
@@ -144,7 +148,7 @@ def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
         path.write_text(path.read_text() + "\n# changed\n")
     assert renderer_digest(root) == d0
     # one character in the renderer or in what it imports: another key
-    for part in ("sim/scene.py", "sim/models/stereo_head.xml", "vision/camera.py",
+    for part in ("sim/scene.py", "../sim/models/stereo_head.xml", "vision/camera.py",
                  "geometry/kinematics.py", "geometry/lens.py", "vision/dataset.py", "io.py"):
         path = root / part
         text = path.read_text()
