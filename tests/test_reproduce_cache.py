@@ -98,13 +98,19 @@ def test_the_key_follows_the_dataset_bytes(default_dataset, tmp_path):
     assert calibration_cache(k1) != calibration_cache(k0)
 
 
-def test_the_key_follows_the_calibration_code_only(tmp_path):
+def copy_of_the_package(tmp_path: Path) -> Path:
+    """A copy of the rasc package folder with the models beside it, as in a checkout."""
     import rasc
+    from rasc.sim import MODELS_DIR
     root = tmp_path / "rasc"
     shutil.copytree(Path(rasc.__file__).parent, root,
                     ignore=shutil.ignore_patterns("__pycache__"))
-    from rasc.sim import MODELS_DIR
-    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")    # beside it, as in a checkout
+    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")
+    return root
+
+
+def test_the_key_follows_the_calibration_code_only(tmp_path):
+    root = copy_of_the_package(tmp_path)
     d0 = calibration_code_digest(root)
     assert d0 == calibration_code_digest()
     # a change outside the calibration code (the renderer, the study engine): same key
@@ -134,12 +140,7 @@ def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
     """The default dataset's cache key (renderer_sha256) covers every module the renderer
     imports, not only rasc/sim: the unit's kinematics, the lens model, the manifest's
     writer (each missed by the earlier hand-kept list), and nothing else."""
-    import rasc
-    root = tmp_path / "rasc"
-    shutil.copytree(Path(rasc.__file__).parent, root,
-                    ignore=shutil.ignore_patterns("__pycache__"))
-    from rasc.sim import MODELS_DIR
-    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")    # beside it, as in a checkout
+    root = copy_of_the_package(tmp_path)
     d0 = renderer_digest(root)
     assert d0 == renderer_digest()
     # code no render runs: the same key

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from rasc.errors import InputError
+from rasc.io import finite_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -150,18 +151,7 @@ def read_points_csv(path: str, required: tuple[str, ...],
 
 
 def _cell_number(cell: str, where: str) -> float:
-    s = cell.strip()
-    if not s:
-        raise InputError(f"{where}: empty; expected a number")
-    try:
-        x = float(s)
-    except ValueError:
-        raise InputError(f"{where}: {s[:30]!r} is not a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{where}: {s[:30]!r} is not finite; give a finite number")
-    if abs(x) > MAX_ABS_VALUE:
-        raise InputError(f"{where}: {s[:30]} is out of range (|value| > {MAX_ABS_VALUE:g})")
-    return x
+    return finite_number(cell, where, text=True, max_abs=MAX_ABS_VALUE)
 
 
 def angles_to_radians(values: np.ndarray, unit: str, name: str, where) -> np.ndarray:

@@ -44,11 +44,7 @@ counted by ``sys.setprofile``, array operators not counted); anything else it le
 the general path. Timings, against OpenCV's PARK in the same run:
 ``benchmarks/bench_handeye.py`` (figures in the README).
 
-Literal noise. The paper's eq. 13 noise leaves ``R_cw`` slightly non-orthogonal. Such
-input is accepted with ``check_rigid=False`` (the default ``True`` rejects anything not
-rigid within :data:`rasc.geometry.transforms.RIGID_ATOL`): the rotation step then uses each view's
-nearest rotation (polar factor), the translation step and eq. 10 use the matrices as
-given (``R_A = R_i R_jᵀ``, ``t_A = t_i − R_A t_j`` exactly as eq. 7 prints them).
+Literal (non-orthogonal) input: see :mod:`rasc.handeye.solver`.
 """
 
 from __future__ import annotations
