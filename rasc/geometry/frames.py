@@ -1,6 +1,6 @@
 """The frames of the stereo head, its transforms and the pan-tilt unit's parameters,
-declared once (docs/METHOD.md §1, §10). Pages show them generated: :func:`markdown_table`
-renders each, :func:`render_tables` fills a page's marked blocks (docs/METHOD.md's two;
+declared once (docs/METHOD.md §1, §10). Pages show them generated: :func:`render_tables`
+fills a page's marked blocks (docs/METHOD.md's two;
 tests/io/test_tables.py checks that they are current), and README.md's "Frames" section
 lists the same rows (tests/test_frames_readme.py compares them).
 
@@ -17,8 +17,9 @@ paper's unit, :class:`rasc.geometry.kinematics.PanTiltUnit` for a real one.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
+
+from rasc import layout
 
 
 @dataclass(frozen=True)
@@ -109,21 +110,9 @@ TABLES = {
 }
 
 
-def markdown_table(name: str) -> str:
-    """The table ``name`` of :data:`TABLES` as Markdown (header, rule, rows; ending in a
-    newline): what docs pages show, generated, never copied by hand."""
-    header, rows = TABLES[name]
-    lines = [header, ("---",) * len(header), *rows]
-    return "".join("| " + " | ".join(cells) + " |\n" for cells in lines)
-
-
-_MARK = re.compile(r"(<!-- table: ([a-z-]+) \(generated from rasc/geometry/frames\.py\) -->\n)"
-                   r"(.*?)(<!-- end table -->)", re.S)
-
-
 def render_tables(text: str) -> str:
-    """``text`` (Markdown) with every block between ``<!-- table: NAME (generated from
-    rasc/geometry/frames.py) -->`` and ``<!-- end table -->`` replaced by
-    :func:`markdown_table` (NAME): run it over a page to bring its tables up to date; a
-    page is current when ``render_tables(page) == page`` (tests/io/test_tables.py)."""
-    return _MARK.sub(lambda m: m.group(1) + markdown_table(m.group(2)) + m.group(4), text)
+    """``text`` (Markdown) with every generated table brought up to date: each block between
+    ``<!-- table: NAME (generated from rasc/...) -->`` and ``<!-- end table -->`` becomes
+    table NAME of :data:`TABLES` or :data:`rasc.layout.TABLES` (:func:`rasc.layout.render_tables`).
+    A page is current when ``render_tables(page) == page`` (tests/io/test_tables.py)."""
+    return layout.render_tables(text, {**layout.TABLES, **TABLES})

@@ -76,49 +76,16 @@ def _index_str(idx: tuple[int, ...]) -> str:
 
 def validate_poses(T: Any, name: str, *, batch: bool = False,
                    check_rigid: bool = True) -> np.ndarray:
-    """Check an array of 4×4 transforms, (n, 4, 4) or with ``batch`` (S, n, 4, 4).
+    """Check an array of 4×4 transforms, (n, 4, 4) or with ``batch`` (S, n, 4, 4), by the
+    one transform check, :func:`rasc.geometry.transforms.validate_rigid_transform`.
 
     Always: shape, finite, last row ``0 0 0 1``, rotation block with det > 0. With
     ``check_rigid`` also orthonormal with det +1 within ``RIGID_ATOL``. Raises
     :class:`InputError` naming ``name[index]``.
     """
-    try:
-        T = np.asarray(T, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: not a numeric array of 4x4 transforms") from None
-    want = "(S, n, 4, 4)" if batch else "(n, 4, 4)"
-    if T.ndim != (4 if batch else 3) or T.shape[-2:] != (4, 4):
-        raise InputError(f"{name}: expected shape {want}, got {T.shape}")
-
-    def first(bad: np.ndarray) -> tuple[tuple[int, ...], str]:
-        k = tuple(int(x) for x in np.argwhere(bad)[0])
-        return k, f"{name}[{_index_str(k)}]"
-
-    # Each check is one reduction; the offending index is looked for only on failure.
-    if not np.isfinite(T).all():
-        raise InputError(f"{first(~np.isfinite(T).all(axis=(-1, -2)))[1]}: contains NaN "
-                         "or infinity")
-    last = np.abs(T[..., 3, :] - _LAST_ROW)
-    if last.size and last.max() > RIGID_ATOL:
-        k, where = first(last.max(axis=-1) > RIGID_ATOL)
-        raise InputError(f"{where}: last row is {T[k][3].tolist()}, expected [0, 0, 0, 1]")
-    R = T[..., :3, :3]
-    det = _det(R)
-    if not (det > 0).all():
-        k, where = first(~(det > 0))
-        raise InputError(f"{where}: rotation block has determinant {det[k]:.6g}; a pose "
-                         "needs a rotation (det +1)")
-    if check_rigid:
-        err = np.abs(np.swapaxes(R, -1, -2) @ R - _EYE3)
-        if err.size and max(err.max(), np.abs(det - 1.0).max()) > RIGID_ATOL:
-            bad = (err.max(axis=(-1, -2)) > RIGID_ATOL) | (np.abs(det - 1.0) > RIGID_ATOL)
-            k, where = first(bad)
-            try:
-                validate_rigid_transform(T[k], name=where)
-            except InputError as exc:
-                raise InputError(f"{exc} (pass check_rigid=False to accept the paper's "
-                                 "literal eq. 13 noise)") from None
-    return T
+    return validate_rigid_transform(
+        T, name=name, stacked=2 if batch else 1, rigid=check_rigid,
+        hint=" (pass check_rigid=False to accept the paper's literal eq. 13 noise)")
 
 
 def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool,
