@@ -144,7 +144,8 @@ def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
     d0 = renderer_digest(root)
     assert d0 == renderer_digest()
     # code no render runs: the same key
-    for other in ("handeye/solver.py", "head/refine.py", "study/engine.py", "commands/render.py"):
+    for other in ("handeye/solver.py", "head/refine/solver.py", "study/engine.py",
+                  "commands/render.py"):
         path = root / other
         path.write_text(path.read_text() + "\n# changed\n")
     assert renderer_digest(root) == d0
