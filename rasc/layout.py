@@ -34,7 +34,8 @@ ROOMS = (
          "tables), `lens` (OpenCV's lens model in numpy), `triangulation` (eq. 15–19)"),
     Room("rasc/handeye/", 2, "`paper` (RASC's eq. 6–10 written plainly: the reference), "
          "`solver` (the entry points: `solve_rasc`, the batched form, `diagnose`), "
-         "`_kernels` (the speed work, private), `result` (thresholds, result types); "
+         "`_kernels`, `_checks`, `_linalg` (the speed work and the input and degeneracy "
+         "checks, private), `result` (thresholds, result types); "
          "`advice`, `li`, `opencv`, `methods` (every method by name, plugins, the "
          "jackknife), `inverse`, `noise` (eq. 13–14), `document` (the `rasc-handeye/1` "
          "reader)"),

@@ -478,14 +478,15 @@ def test_near_single_axis_sweep_justifies_the_thresholds():
 def _solve_unchecked(T_cw, T_gp):
     """RASC with the axis-spread check off (restored afterwards, so no other test sees
     it)."""
-    import rasc.handeye._kernels as he  # where the check reads it
+    import rasc.handeye._checks as checks
+    import rasc.handeye._kernels as kernels
 
-    saved = he.MIN_AXIS_SPREAD
-    he.MIN_AXIS_SPREAD = 0.0
+    saved = checks.MIN_AXIS_SPREAD                # read by both paths' checks
+    checks.MIN_AXIS_SPREAD = kernels.MIN_AXIS_SPREAD = 0.0
     try:
         return solve_rasc(T_cw, T_gp)
     finally:
-        he.MIN_AXIS_SPREAD = saved
+        checks.MIN_AXIS_SPREAD = kernels.MIN_AXIS_SPREAD = saved
 
 
 def test_nearly_pan_only_is_rejected_and_weak_spread_is_warned():

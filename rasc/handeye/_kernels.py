@@ -51,14 +51,41 @@ from __future__ import annotations
 
 import functools
 import math
-import threading
 from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from rasc.errors import DegenerateDataError, InputError
-from rasc.geometry.transforms import RIGID_ATOL, validate_rigid_transform
+from rasc.errors import InputError
+from rasc.handeye._checks import (  # noqa: F401  (validate_poses: solver's public name)
+    _check_cond_CtC,
+    _check_positions,
+    _check_rotation_axes,
+    _cond_CtC_surely_ok,
+    _fmt_axis,
+    _unit_axis,
+    _validate_inputs,
+    validate_poses,
+)
+from rasc.handeye._linalg import (  # noqa: F401  (_det_closed_form: for the tests)
+    _CHUNK_FLOATS,
+    _EYE3,
+    _LAST_ROW,
+    _det,
+    _det_closed_form,
+    _eigh,
+    _gram,
+    _max,
+    _min,
+    _read_only,
+    _row_offsets,
+    _scratch,
+    _solve_spd,
+    _stacked,
+    _sum,
+    _svd,
+    _swap,
+)
 from rasc.handeye.result import (
     MAX_COND_CTC,
     MIN_AXIS_SPREAD,
@@ -70,130 +97,7 @@ from rasc.handeye.result import (
 
 # --------------------------------------------------------------------------- input
 
-def _index_str(idx: tuple[int, ...]) -> str:
-    return ", ".join(str(int(i)) for i in idx)
-
-
-def validate_poses(T: Any, name: str, *, batch: bool = False,
-                   check_rigid: bool = True) -> np.ndarray:
-    """Check an array of 4×4 transforms, (n, 4, 4) or with ``batch`` (S, n, 4, 4), by the
-    one transform check, :func:`rasc.geometry.transforms.validate_rigid_transform`.
-
-    Always: shape, finite, last row ``0 0 0 1``, rotation block with det > 0. With
-    ``check_rigid`` also orthonormal with det +1 within ``RIGID_ATOL``. Raises
-    :class:`InputError` naming ``name[index]``.
-    """
-    return validate_rigid_transform(
-        T, name=name, stacked=2 if batch else 1, rigid=check_rigid,
-        hint=" (pass check_rigid=False to accept the paper's literal eq. 13 noise)")
-
-
-def _validate_inputs(T_cam_from_world: Any, T_gaze_from_ptu: Any, *, batch: bool,
-                     check_rigid: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
-    """Validate both inputs as :func:`validate_poses` does, in one pass over both.
-
-    Returns ``(T_cw, T_gp, T_all, (G, err))``: T_cw (S, n, 4, 4) (S = 1 unless ``batch``),
-    T_gp (Sq, n, 4, 4) with Sq ∈ {1, S}, ``T_all`` their concatenation (S + Sq, n, 4, 4),
-    ``G`` = RᵀR of every rotation block of T_all and ``err`` (S + Sq, n) = max |RᵀR − I| of
-    each (both None when not measured: without ``check_rigid``, or for a batch too large to
-    concatenate). The checks run once on the stacked arrays; only when one fails (or the
-    arrays cannot be stacked) does :func:`validate_poses` run on each input in turn, so the
-    error raised is the one it raises, for the first offending input and index. A batch of
-    more than ``_CHUNK_FLOATS`` numbers is not copied into a concatenation: each input is
-    checked on its own and ``T_all`` is None (:func:`_solve` concatenates block by block).
-    """
-    fast = None
-    try:
-        A = np.asarray(T_cam_from_world, dtype=float)
-        B = np.asarray(T_gaze_from_ptu, dtype=float)
-    except (TypeError, ValueError):
-        A = B = None
-    if (A is not None and A.ndim == (4 if batch else 3) and B.ndim in ((3, 4) if batch else (3,))
-            and A.shape[-3:] == B.shape[-3:] and A.shape[-2:] == (4, 4) and A.size
-            and (B.ndim == 3 or B.shape[0] == A.shape[0])):
-        B4 = B if B.ndim == 4 else B[None]
-        if batch and A.size > _CHUNK_FLOATS:
-            if _fast_checks(A, check_rigid) is not None and \
-                    _fast_checks(B4, check_rigid) is not None:
-                return A, B4, None, (None, None, None)   # each block measures its own G
-            fast = None
-        else:
-            T_all = np.concatenate([A if batch else A[None], B4])
-            fast = _fast_checks(T_all, check_rigid)
-    if fast is not None:
-        S = A.shape[0] if batch else 1
-        return T_all[:S], T_all[S:], T_all, fast
-    # The slow path: the first failing check of the first input raises its own message.
-    A = validate_poses(T_cam_from_world, "T_cam_from_world", batch=batch, check_rigid=check_rigid)
-    shared = not batch or np.ndim(T_gaze_from_ptu) == 3
-    B = validate_poses(T_gaze_from_ptu, "T_gaze_from_ptu", batch=not shared,
-                       check_rigid=check_rigid)
-    A = A if batch else A[None]
-    B = B[None] if shared else B
-    if batch and not shared and B.shape[0] != A.shape[0]:
-        raise InputError(f"T_gaze_from_ptu has {B.shape[0]} samples, T_cam_from_world "
-                         f"{A.shape[0]}")
-    _check_positions(A.shape[1], B.shape[1])
-    return A, B, np.concatenate([A, B]), (None, None, None)
-
-
-def _fast_checks(T: np.ndarray, check_rigid: bool) -> tuple | None:
-    """:func:`validate_poses`' checks as a yes/no on (m, n, 4, 4): None if any fails,
-    else ``(G, err)`` as :func:`_validate_inputs` returns them."""
-    # ufunc reductions rather than the ndarray methods, which add a Python wrapper
-    if not math.isfinite(_sum(T, None)):          # a finite sum ⇔ no NaN and no infinity
-        return None
-    last = T[..., 3, :]
-    if not np.logical_and.reduce(last == _LAST_ROW, axis=None) and \
-            _max(np.abs(last - _LAST_ROW), None) > RIGID_ATOL:     # exact is the usual case
-        return None
-    R = T[..., :3, :3]
-    det = _det(R) if R.size < 9 * 1024 else _det_closed_form(R)
-    if not check_rigid:
-        return (None, None, None) if _min(det, None) > 0 else None
-    # |det − 1| ≤ RIGID_ATOL < 1 implies det > 0
-    G = _gram(R)
-    err = _max(np.abs(G - _EYE3).reshape(R.shape[:-2] + (9,)), axis=-1)    # per view
-    emax = float(_max(err, None))
-    if max(emax, float(_max(np.abs(det - 1.0), None))) > RIGID_ATOL:
-        return None
-    return G, err, emax
-
-
-def _det_closed_form(R: np.ndarray) -> np.ndarray:
-    """det of (..., 3, 3) by cofactors: for many matrices several times faster than one
-    LU per matrix (LAPACK); equal to it to round-off (used only for the yes/no checks of
-    :func:`_fast_checks`, whose failures are re-examined by :func:`validate_poses`)."""
-    r0, r1, r2 = R[..., 0, :], R[..., 1, :], R[..., 2, :]
-    c0 = r1[..., 1] * r2[..., 2] - r1[..., 2] * r2[..., 1]
-    c1 = r1[..., 2] * r2[..., 0] - r1[..., 0] * r2[..., 2]
-    c2 = r1[..., 0] * r2[..., 1] - r1[..., 1] * r2[..., 0]
-    c0 *= r0[..., 0]
-    c1 *= r0[..., 1]
-    c2 *= r0[..., 2]
-    c0 += c1
-    c0 += c2
-    return c0
-
-
-def _check_positions(n: int, n_unit: int) -> None:
-    if n != n_unit:
-        raise InputError(f"T_cam_from_world has {n} positions but T_gaze_from_ptu has "
-                         f"{n_unit}: one unit pose per camera view is needed")
-    if n < 3:
-        raise DegenerateDataError(
-            f"only {n} positions: the hand-eye transform needs at least 3 positions "
-            "(2 motions about different axes); add positions that combine pan and tilt")
-
-
 # ---------------------------------------------------------------------- pair logs
-
-_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-_EYE3 = np.eye(3)
-#: Reductions as ufunc methods: the same numbers as ``a.sum()`` / ``a.max()`` /
-#: ``a.min()``, without the ndarray methods' Python wrapper (≈0.5 µs a call).
-_sum, _max, _min = np.add.reduce, np.maximum.reduce, np.minimum.reduce
-
 
 def _quaternion_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Constant tables of the quaternion maths, [x, y, z, w] (scipy's order).
@@ -293,40 +197,6 @@ def _quaternions(R: np.ndarray, err: np.ndarray | None = None,
     return v.reshape(R.shape[:-2] + (4,))
 
 
-#: Per-thread scratch arrays for the largest temporaries that never leave their function
-#: (all pairs' quaternion products, eq. 10's residual blocks). A fresh array of a few
-#: hundred kB per call is mapped and page-faulted in anew each time the allocator has
-#: trimmed the heap (measured: 376 page faults per 88-pose solve); reusing one does not.
-#: Arrays above ``_SCRATCH_MAX_FLOATS`` are allocated as usual (no memory is held).
-_SCRATCH = threading.local()
-_SCRATCH_MAX_FLOATS = 1 << 18
-#: ... and below this size too: small arrays come from the allocator's pools, without
-#: page faults, and faster than the look-up of a thread's buffer.
-_SCRATCH_MIN_FLOATS = 1 << 12
-
-
-def _scratch(slot: int, shape: tuple[int, ...]) -> np.ndarray:
-    """An uninitialised float array of ``shape``: this thread's buffer ``slot`` (0–4).
-
-    Slot 4 holds the one-block solve's pair translations (:func:`_solve`); slots 0–3
-    temporaries that die in the function that takes them."""
-    size = math.prod(shape)
-    if size > _SCRATCH_MAX_FLOATS or size < _SCRATCH_MIN_FLOATS:
-        return np.empty(shape)
-    bufs = getattr(_SCRATCH, "bufs", None)
-    if bufs is None:
-        bufs = _SCRATCH.bufs = [np.empty(0)] * 5
-    if bufs[slot].size < size:
-        bufs[slot] = np.empty(size)
-    return bufs[slot][:size].reshape(shape)
-
-
-@functools.lru_cache(maxsize=64)
-def _row_offsets(m: int) -> np.ndarray:
-    """``0, 4, ..., 4(m − 1)``: the first row of each of m stacked 4×4 blocks."""
-    return _read_only(np.arange(0, 4 * m, 4))
-
-
 def _pair_logs(q: np.ndarray, i: np.ndarray, j: np.ndarray,
                take: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``log(R_i R_jᵀ)`` from quaternions q (..., n, 4) for index arrays i, j (K,).
@@ -408,31 +278,7 @@ def _pairs(n: int, pairs: str, home: int | None) -> _Pairs:
                   W_all=W_all.reshape(1, n, n), wk_all=_read_only((use_ij + use_ji * 1.0)[None]))
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a
-
-
 # ------------------------------------------------------------------- the analysis
-
-def _unit_axis(v: np.ndarray) -> tuple[float, float, float]:
-    """An axis as a unit vector, its largest component positive (an eigenvector's sign
-    is arbitrary)."""
-    x, y, z = np.asarray(v, dtype=float).tolist()
-    norm = math.sqrt(x * x + y * y + z * z)
-    ax, ay, az = abs(x), abs(y), abs(z)           # the first of the largest, as max(key=abs)
-    big = (x if ax >= az else z) if ax >= ay else (y if ay >= az else z)
-    sign = -1.0 if big < 0 else 1.0
-    return (sign * x / norm + 0.0, sign * y / norm + 0.0, sign * z / norm + 0.0)  # no -0.0
-
-
-def _fmt_axis(v: np.ndarray) -> str:
-    return "[" + ", ".join(f"{x:.3f}" for x in np.round(_unit_axis(v), 3) + 0.0) + "]"
-
-
-def _where(S: int, s: int) -> str:
-    return f" (sample {s})" if S > 1 else ""
-
 
 def _weights(theta: np.ndarray, pair: _Pairs, n: int,
              min_rotation_rad: float) -> tuple[np.ndarray, np.ndarray]:
@@ -453,128 +299,6 @@ def _weights(theta: np.ndarray, pair: _Pairs, n: int,
     W[:, pair.ij] = w_ij
     W[:, pair.ji] = w_ji
     return W.reshape(-1, n, n), w_ij + w_ji.astype(float)
-
-
-def _check_rotation_axes(eig: tuple, wk: np.ndarray, min_rotation_rad: float,
-                         S_total: int = 1, offset: int = 0,
-                         all_pairs: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Raise unless ≥ 2 usable motions about non-parallel axes (``MIN_AXIS_SPREAD``).
-
-    eig: eigenvalues (Su, 3) and vectors (Su, 3, 3) of ``G = Σ w β βᵀ``; wk (Su, K) pair
-    weights (Su = 1: shared by all samples; else samples ``offset`` ... of ``S_total``).
-    ``all_pairs``: wk is the method's whole pair set (at least 2 pairs for n ≥ 3).
-    Returns the axis spread λ2/λ1 (Su,) and the dominant axis (Su, 3).
-    """
-    Su = wk.shape[0]
-    if Su == 1:                                   # a unit shared by all samples
-        S_total = 1
-    usable = ([2] if all_pairs else np.count_nonzero(wk, axis=1) if Su > 1
-              else [np.count_nonzero(wk)])
-    if min(usable) < 2:
-        usable = np.asarray(usable)
-        s = int(np.argmax(usable < 2))
-        raise DegenerateDataError(
-            f"only {int(usable[s])} motion(s) of the unit rotate by at least "
-            f"{min_rotation_rad:g} rad{_where(S_total, offset + s)}: the hand-eye transform "
-            "needs at least 2 motions about different axes; move the unit between views (e.g. "
-            "positions that combine pan and tilt)")
-    lam, vec = eig
-    if Su == 1:                                   # one sample: plain floats are cheaper
-        _, l1, l2 = lam[0].tolist()
-        spread = np.array([l1 / l2])
-        bad = not l1 / l2 >= MIN_AXIS_SPREAD
-    else:
-        spread = lam[:, 1] / lam[:, 2]
-        bad = not _min(spread) >= MIN_AXIS_SPREAD
-    if bad:
-        s = int(np.argmax(~(spread >= MIN_AXIS_SPREAD)))
-        raise DegenerateDataError(
-            f"rotation about, and translation along, the unit's rotation axis "
-            f"{_fmt_axis(vec[s, :, 2])} (unit frame) cannot be determined"
-            f"{_where(S_total, offset + s)}: "
-            f"all motions turn about that one axis (axis spread λ2/λ1 = {spread[s]:.2g} < "
-            f"{MIN_AXIS_SPREAD:g}: pan-only or tilt-only data, or the other joint moved "
-            "too little); add positions with tilt (and pan), so the motions turn about at "
-            "least two different axes")
-    return spread, vec[:, :, 2]
-
-
-def _cond_CtC_surely_ok(CtC: np.ndarray) -> bool:
-    """True if every cond(CᵀC) (CtC (S, 3, 3), symmetric positive semi-definite) is
-    certainly within ``MAX_COND_CTC``, without an eigen-decomposition.
-
-    With eigenvalues λ0 ≤ λ1 ≤ λ2: λ2 ≤ tr = Σλ and λ1λ2 ≤ c2 = λ0λ1 + λ0λ2 + λ1λ2 (the
-    sum of the principal 2×2 minors), so λ0 = det/(λ1λ2) ≥ det/c2 and cond = λ2/λ0 ≤
-    tr·c2/det. The bound is at most 9× the condition number, so well-posed samples
-    (cond ≈ 2 for the nine poses) pass by a wide margin; the 1 % slack covers round-off
-    in tr, c2 and det. False means "not certain": the caller computes the eigenvalues.
-    """
-    a00, a11, a22 = CtC[:, 0, 0], CtC[:, 1, 1], CtC[:, 2, 2]
-    a01, a02, a12 = CtC[:, 0, 1], CtC[:, 0, 2], CtC[:, 1, 2]
-    tr = a00 + a11 + a22
-    c2 = a00 * a11 + a00 * a22 + a11 * a22 - a01 * a01 - a02 * a02 - a12 * a12
-    det = _det_closed_form(CtC)
-    return bool(((tr * c2) <= (0.99 * MAX_COND_CTC) * det).all())
-
-
-def _check_cond_CtC(eig: tuple, S_total: int, offset: int = 0) -> np.ndarray:
-    """cond(CᵀC) (Sc,) from its eigenvalues (inf when singular); raises above
-    ``MAX_COND_CTC`` naming the weak direction (the smallest eigenvalue's vector)."""
-    lam, vec = eig
-    if len(lam) == 1:                             # one sample: plain floats are cheaper
-        l0, _, l2 = lam[0].tolist()
-        cond = np.array([l2 / l0 if l0 > 0 else math.inf])
-    else:
-        cond = np.divide(lam[:, 2], lam[:, 0], out=np.full(len(lam), np.inf),
-                         where=lam[:, 0] > 0)
-    if not _max(cond) <= MAX_COND_CTC:
-        s = int(np.argmax(~(cond <= MAX_COND_CTC)))
-        raise DegenerateDataError(
-            f"translation along {_fmt_axis(vec[s, :, 0])} (camera frame) is not determined"
-            f"{_where(S_total, offset + s)}: cond(CᵀC) = {cond[s]:.3g} > {MAX_COND_CTC:g} (eq. "
-            "7); the motions' rotation axes are nearly parallel; add positions that turn "
-            "about a second axis (combine pan with tilt)")
-    return cond
-
-
-#: LAPACK through numpy's public np.linalg only (eigh, svd, solve, det: one LAPACK call
-#: per matrix of a stack). Its per-call set-up (type checks, an errstate context) costs
-#: about 6 µs a call for a 3×3 (measured: eigh 10.4 µs against 4.7 µs for the gufunc
-#: alone, svd 12.3 against 5.4, solve 6.9 against 1.8), about 20 µs of a nine-view solve;
-#: the private numpy.linalg._umath_linalg gufuncs that skip it are not called (the
-#: cost, side by side: benchmarks/bench_handeye.py). Non-convergence raises LinAlgError.
-_eigh = np.linalg.eigh
-_svd = np.linalg.svd
-_det = np.linalg.det
-
-
-def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve`` for (..., 3, 3) and (..., 3): one LU per matrix."""
-    return np.linalg.solve(A, b[..., None])[..., 0]
-
-
-def _swap(a: np.ndarray) -> np.ndarray:
-    return a.swapaxes(-1, -2)
-
-
-def _gram(R: np.ndarray) -> np.ndarray:
-    """RᵀR of (..., 3, 3) matrices, elementwise (one product, then the three terms added
-    in order): per matrix the same bits however many there are, and for many small
-    matrices faster than one BLAS call per matrix."""
-    P = R[..., :, :, None] * R[..., :, None, :]                   # R_ij R_ik at [i, j, k]
-    G = np.add(P[..., 0, :, :], P[..., 1, :, :])
-    G += P[..., 2, :, :]
-    return G
-
-
-def _stacked(R: np.ndarray) -> np.ndarray:
-    """R (S, n, 3, 3) → (S, 3n, 3), rows ordered (component i, view a): ``R_a[i, :]``.
-
-    Component-major: every sum over views below is then a matrix product or a reduction
-    over a leading axis, the fast kinds.
-    """
-    S, n = R.shape[:2]
-    return R.transpose(0, 2, 1, 3).reshape(S, 3 * n, 3)
 
 
 def _pair_translations(R: np.ndarray, Rs: np.ndarray, t: np.ndarray,
@@ -745,11 +469,6 @@ def _align_half_turns(alpha: np.ndarray, theta_A: np.ndarray, beta: np.ndarray,
     RX0, _ = _polar_rotation(np.where(enough, others, bw) @ _swap(alpha))
     flip = near & ((alpha * (RX0 @ beta)).sum(axis=1) < 0)
     return np.where(flip[:, None, :], -alpha, alpha)
-
-
-#: Samples per block of the batched solve: keeps every temporary (S·9n² floats) near
-#: 2 MB, inside the cache, whatever S.
-_CHUNK_FLOATS = 1 << 18
 
 
 def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _Pairs,
