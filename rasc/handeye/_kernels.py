@@ -641,7 +641,7 @@ def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
     if not (math.isfinite(_sum(T_all, None))                   # no NaN, no infinity
             and T_all[..., 3, :].tobytes() == _LAST_ROW_BYTES * (2 * n)   # −0.0: declined
             and _max(np.abs(_swap(R_all) @ R_all - _EYE3), None) < _ONE_EXACT
-            and _min(_det(R_all), None) > 0):                  # rigid: det = +1
+            and _min(_det_closed_form(R_all), None) > 0):      # rigid: det = ±1, its sign
         return None
     # quaternions (_quaternions: Shepperd's row, no power steps)
     K4 = (R_all.reshape(2, n, 9) @ _QMAT).reshape(2 * n, 16)
