@@ -144,14 +144,11 @@ def read_points_csv(path: str, required: tuple[str, ...],
             if name == "label":
                 labels.append(cell.strip())
                 continue
-            values[name].append(_cell_number(cell, f"{path}: line {n}, column {name}"))
+            values[name].append(finite_number(cell, f"{path}: line {n}, column {name}",
+                                              text=True, max_abs=MAX_ABS_VALUE))
         lines.append(n)
     columns = {c: np.array(v, dtype=float) for c, v in values.items()}
     return Table(path, columns, labels if "label" in names else None, lines)
-
-
-def _cell_number(cell: str, where: str) -> float:
-    return finite_number(cell, where, text=True, max_abs=MAX_ABS_VALUE)
 
 
 def angles_to_radians(values: np.ndarray, unit: str, name: str, where) -> np.ndarray:
@@ -183,4 +180,5 @@ def parse_point_option(text: str) -> np.ndarray:
     parts = text.split(",")
     if len(parts) != 3:
         raise InputError(f"--point {text}: expected X,Y,Z (three comma-separated numbers)")
-    return np.array([_cell_number(s, f"--point {text}") for s in parts])
+    return np.array([finite_number(s, f"--point {text}", text=True, max_abs=MAX_ABS_VALUE)
+                     for s in parts])
