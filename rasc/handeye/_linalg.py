@@ -57,11 +57,11 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 
 #: LAPACK through numpy's public np.linalg only (eigh, svd, solve, det: one LAPACK call
-#: per matrix of a stack). Its per-call set-up (type checks, an errstate context) costs
-#: about 6 µs a call for a 3×3 (measured: eigh 10.4 µs against 4.7 µs for the gufunc
-#: alone, svd 12.3 against 5.4, solve 6.9 against 1.8), about 20 µs of a nine-view solve;
-#: the private numpy.linalg._umath_linalg gufuncs that skip it are not called (the
-#: cost, side by side: benchmarks/bench_handeye.py). Non-convergence raises LinAlgError.
+#: per matrix of a stack, the same routines and so the same numbers as numpy's private
+#: gufuncs, which are not called). Its per-call set-up (type checks, an errstate context)
+#: costs 5–7 µs a call for a 3×3 on an idle machine, more under load: a nine-view solve
+#: measured 50–75 µs slower than with the gufuncs at load 6 (benchmarks/bench_handeye.py
+#: against the base commit). Non-convergence raises LinAlgError.
 _eigh = np.linalg.eigh
 _svd = np.linalg.svd
 _det = np.linalg.det
