@@ -165,8 +165,12 @@ def renderer_digest(root: Path | None = None) -> str:
     if root is None:
         import rasc
         root = Path(rasc.__file__).parent
-    return tree_digest(root, [*module_files(root, RENDERER_MODULES),
-                              *(root / "sim" / "models").rglob("*")])
+    import hashlib
+
+    from rasc.sim import models_dir
+    models = models_dir(root)
+    return hashlib.sha256((tree_digest(root, module_files(root, RENDERER_MODULES))
+                           + tree_digest(models, models.rglob("*"))).encode()).hexdigest()
 
 
 def dataset_cache(options: dict) -> Path | None:

@@ -77,7 +77,7 @@ QUICK_DEPTHS_M = (1.771,)
 #: wider on every side, 1.00 × 0.96 m — the paper's 1 m × 1 m plane; 22 + 21 is odd, so
 #: the corner order is fixed by the colours (docs/CONTRACTS.md)
 BOARD = Board((22, 21), 0.04)
-#: nominal half-baseline for aiming (rasc/sim/models/README.md: units at base z = ±0.15 m);
+#: nominal half-baseline for aiming (sim/models/README.md: units at base z = ±0.15 m);
 #: only the commanded angles depend on it
 HALF_BASELINE_AIM_M = 0.15
 #: the second pose at plane k: (Δpan, Δtilt) in degrees added to both eyes' verging pose

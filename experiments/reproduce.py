@@ -328,7 +328,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         t0 = time.perf_counter()
         sections.append(pipeline_section(ctx))
         timings.append(("render + calibrate the default dataset", time.perf_counter() - t0))
-        rig = REPO / "rasc" / "sim" / "models" / "stereo_head.png"
+        rig = REPO / "sim" / "models" / "stereo_head.png"
         if rig.is_file():
             shutil.copyfile(rig, ctx.out / "rig.png")
         if parallel is not None:
@@ -359,7 +359,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         f"Command: `python -m experiments.reproduce{' --quick' if ctx.quick else ''} "
         f"--seed {ctx.seed} --workers {ctx.workers}` — {mode}; seed {ctx.seed}.\n",
         "Everything below was computed from images rendered by the MuJoCo model of the "
-        "head (`rasc/sim/models/`) and passed through the real pipeline (OpenCV detection, "
+        "head (`sim/models/`) and passed through the real pipeline (OpenCV detection, "
         "camera calibration, per-pose extrinsics) into the solvers. Raw results are in "
         "the CSV/JSON files beside this report; figures are PNG"
         + (" (SVG too in the full protocol)" if ctx.quick else " and SVG") + ".\n",

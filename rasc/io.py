@@ -534,3 +534,50 @@ def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"{text}: cannot write: folder {parent} is not writable")
     return p
+
+
+# ----------------------------------------------------------------- checking values
+
+def shown(value: Any, limit: int = 40) -> str:
+    """A value as the user wrote it (JSON spelling where it has one: ``"8"``, ``true``,
+    ``null``), cut to ``limit`` characters, for error messages."""
+    try:
+        text = json.dumps(value, allow_nan=True)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def finite_number(value: Any, where: str, *, text: bool = False,
+                  max_abs: float | None = None) -> float:
+    """The ONE check of a single number read from a file or an option: a finite int or
+    float (a numpy number too), not a boolean, string or null; with ``text`` a string
+    such as a table cell or an option value, parsed by ``float``. With ``max_abs`` also
+    ``|value| <= max_abs``. Returns it as a float; otherwise raises one
+    :class:`~rasc.errors.InputError` line starting with ``where``:
+
+    * ``<where>: expected a number, got <value>`` (``empty; expected a number`` for an
+      empty cell);
+    * ``<where>: must be finite, got <value>`` (NaN or infinity);
+    * ``<where>: <value> is out of range (|value| > <max_abs>)``.
+    """
+    if text and isinstance(value, str):
+        s = value.strip()
+        if not s:
+            raise InputError(f"{where}: empty; expected a number")
+        try:
+            x = float(s)
+        except ValueError:
+            raise InputError(f"{where}: expected a number, got {shown(s)}") from None
+    else:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.number):
+            raise InputError(f"{where}: expected a number, got {shown(value)}")
+        try:
+            x = float(value)
+        except OverflowError:                     # an integer beyond the float range
+            raise InputError(f"{where}: {shown(value)} is out of range") from None
+    if not math.isfinite(x):
+        raise InputError(f"{where}: must be finite, got {shown(value)}")
+    if max_abs is not None and abs(x) > max_abs:
+        raise InputError(f"{where}: {shown(value)} is out of range (|value| > {max_abs:g})")
+    return x

@@ -258,9 +258,8 @@ def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> st
     of the package and the versions of the libraries that render and detect, so a
     development install whose renderer changed within one version renders afresh."""
     from rasc import __version__
+    from rasc.sim import MODELS_DIR as models
     from rasc.study.engine import code_digest
-
-    models = Path(__file__).resolve().parent / "sim" / "models"
     files = {p.name: _file_digest(p) for p in sorted(models.glob("*.xml"))}
     if model_path is not None:
         files["model_path"] = _file_digest(Path(model_path))

@@ -554,7 +554,7 @@ def test_mounts_in_another_unit_or_far_from_loop_closure(default, tmp_path, caps
     line = fails(["calibrate", default / "ds", "--mounts", mounts, "--out",
                   tmp_path / "out" / "cal.json", "--quiet"], capsys, tmp_path / "out",
                  "calibrate")
-    # the model's baseline is 0.300 m (rasc/sim/models/README.md), loop closure 0.56 mm off
+    # the model's baseline is 0.300 m (sim/models/README.md), loop closure 0.56 mm off
     assert line == ("rasc calibrate: error: --mounts: T_ptuL_from_ptuR puts the units 300 "
                     "apart but loop closure measures 0.3 (in the unit of board.square_size): "
                     "give its translation in that unit")

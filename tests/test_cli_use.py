@@ -256,11 +256,11 @@ BAD_PIXELS = {
     "empty cell": (PIXEL_HEADER + "\n" + GOOD_ROW.replace(",4,", ",,") + "\n",
                    "line 2, column pan_left: empty"),
     "text cell": (PIXEL_HEADER + "\n" + GOOD_ROW.replace(",4,", ",four,") + "\n",
-                  "'four' is not a number"),
-    "nan": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "nan") + "\n", "not finite"),
-    "inf": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "-inf") + "\n", "not finite"),
+                  'expected a number, got "four"'),
+    "nan": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "nan") + "\n", "must be finite"),
+    "inf": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "-inf") + "\n", "must be finite"),
     "overflow": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "1e999") + "\n",
-                 "not finite"),
+                 "must be finite"),
     "huge": (PIXEL_HEADER + "\n" + GOOD_ROW.replace("781.69304", "1e300") + "\n",
              "out of range"),
     "degrees beyond a turn": (PIXEL_HEADER + "\n" + GOOD_ROW.replace(",4,", ",400,") + "\n",
@@ -336,8 +336,8 @@ def test_out_is_an_input(tmp_path, capsys):
 @pytest.mark.parametrize("argv,message", [
     (["--point", "0,-1,0"], "behind the head"),
     (["--point", "0,1"], "expected X,Y,Z"),
-    (["--point", "0,1,x"], "'x' is not a number"),
-    (["--point", "0,nan,1"], "not finite"),
+    (["--point", "0,1,x"], 'expected a number, got "x"'),
+    (["--point", "0,nan,1"], "must be finite"),
     ([], "no point"),
 ])
 def test_bad_look_at(argv, message, tmp_path, capsys):

@@ -22,6 +22,8 @@ from rasc.geometry.transforms import (
     rotation_error_deg,
     rotvec_from_matrix,
 )
+from rasc.handeye import paper
+from rasc.handeye._kernels import _det_closed_form, _polar_rotation
 from rasc.handeye.advice import check_motions_match, motion_angle_ratio, solution_warnings
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import (
@@ -29,8 +31,6 @@ from rasc.handeye.solver import (
     WEAK_AXIS_SPREAD,
     HandEyeDiagnostics,
     HandEyeResult,
-    _det_closed_form,
-    _polar_rotation,
     diagnose,
     pair_rotvecs,
     quality_eq10,
@@ -50,31 +50,6 @@ EXACT = 1e-9
 def grid(half_deg, k):
     a = np.linspace(-half_deg, half_deg, k)
     return [(p, t) for p in a for t in a]
-
-
-def reference_solve(T_cw, T_gp, pairs="all", RX=None):
-    """The definition, written out plainly: a loop over ordered pairs, rotvec_from_matrix,
-    (MᵀM)^(-1/2) Mᵀ by eigh, and lstsq on the stacked 3K×3 system of eq. 7."""
-    n = len(T_cw)
-    M, rows, rhs, pair_list = np.zeros((3, 3)), [], [], []
-    for i in range(n):
-        for j in range(n):
-            if i == j or (pairs == "half" and i < j):
-                continue
-            RA = T_cw[i, :3, :3] @ T_cw[j, :3, :3].T
-            tA = T_cw[i, :3, 3] - RA @ T_cw[j, :3, 3]
-            RB = T_gp[i, :3, :3] @ T_gp[j, :3, :3].T
-            tB = T_gp[i, :3, 3] - RB @ T_gp[j, :3, 3]
-            pair_list.append((RA, tA, RB, tB))
-            M += np.outer(rotvec_from_matrix(RB), rotvec_from_matrix(RA))
-    if RX is None:
-        w, V = np.linalg.eigh(M.T @ M)
-        RX = V @ np.diag(w ** -0.5) @ V.T @ M.T
-    for RA, tA, _, tB in pair_list:
-        rows.append(np.eye(3) - RA)
-        rhs.append(tA - RX @ tB)
-    t = np.linalg.lstsq(np.concatenate(rows), np.concatenate(rhs), rcond=None)[0]
-    return make_transform(RX, t)
 
 
 def assert_close_transform(T, T_ref, atol):
@@ -138,8 +113,8 @@ def test_recovery_with_half_turns():
 @pytest.mark.parametrize("unit", ["pan-tilt", "arm"])
 def test_equals_plain_all_pairs_definition_under_noise(pairs, unit):
     """The vectorised solver (quaternion logs, polar factor, separable normal equations)
-    equals the plain loop over ordered pairs. 1e-12: both are exact formulas of the same
-    numbers; measured differences 1e-15..1e-14."""
+    equals the paper's plain loop over ordered pairs (rasc.handeye.paper). 1e-12: both are
+    exact formulas of the same numbers; measured differences 1e-15..1e-14."""
     rng = np.random.default_rng(11)
     if unit == "pan-tilt":
         X, Y = rig(rng)
@@ -149,7 +124,8 @@ def test_equals_plain_all_pairs_definition_under_noise(pairs, unit):
         T_gp = random_rigid(rng, 10, max_angle=1.0)
     T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.005, rng, variant="exponential")
     res = solve_rasc(T_cw, T_gp, pairs=pairs)
-    assert_close_transform(res.T_cam_from_gaze, reference_solve(T_cw, T_gp, pairs), 1e-12)
+    ref = paper.solve(T_cw, T_gp, pairs=pairs).T_cam_from_gaze
+    assert_close_transform(res.T_cam_from_gaze, ref, 1e-12)
 
 
 def test_literal_noise_translation_step_is_eq7_as_printed():
@@ -163,7 +139,7 @@ def test_literal_noise_translation_step_is_eq7_as_printed():
     with pytest.raises(InputError, match=r"T_cam_from_world\[0\].*check_rigid=False"):
         solve_rasc(T_cw, T_gp)
     res = solve_rasc(T_cw, T_gp, check_rigid=False)
-    ref = reference_solve(T_cw, T_gp, RX=res.T_cam_from_gaze[:3, :3])
+    ref = paper.solve(T_cw, T_gp, R_X=res.T_cam_from_gaze[:3, :3]).T_cam_from_gaze
     np.testing.assert_allclose(res.T_cam_from_gaze[:3, 3], ref[:3, 3], atol=1e-12, rtol=0)
     # The same draws as rotations (exponential variant) give nearly the same solution:
     # the variants differ at second order in σ_r. At the paper's largest level (0.04 rad,
@@ -502,14 +478,15 @@ def test_near_single_axis_sweep_justifies_the_thresholds():
 def _solve_unchecked(T_cw, T_gp):
     """RASC with the axis-spread check off (restored afterwards, so no other test sees
     it)."""
-    import rasc.handeye.solver as he
+    import rasc.handeye._checks as checks
+    import rasc.handeye._kernels as kernels
 
-    saved = he.MIN_AXIS_SPREAD
-    he.MIN_AXIS_SPREAD = 0.0
+    saved = checks.MIN_AXIS_SPREAD                # read by both paths' checks
+    checks.MIN_AXIS_SPREAD = kernels.MIN_AXIS_SPREAD = 0.0
     try:
         return solve_rasc(T_cw, T_gp)
     finally:
-        he.MIN_AXIS_SPREAD = saved
+        checks.MIN_AXIS_SPREAD = kernels.MIN_AXIS_SPREAD = saved
 
 
 def test_nearly_pan_only_is_rejected_and_weak_spread_is_warned():

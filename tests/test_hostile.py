@@ -312,7 +312,7 @@ case("data-loss", "render --out is a non-empty folder",
 case("data-loss", "render --out is a file", lambda ws: render(ws, out="poses.json"),
      fragment="exists as a file")
 case("data-loss", "render --out is the --model file",
-     lambda ws: (shutil.copy(ROOT / "rasc/sim/models/scene.xml", ws / "scene.xml"),
+     lambda ws: (shutil.copy(ROOT / "sim/models/scene.xml", ws / "scene.xml"),
                  render(ws, "scene.xml", "--model", ws / "scene.xml"))[1],
      fragment="exists as a file")
 

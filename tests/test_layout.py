@@ -11,30 +11,25 @@ import subprocess
 import sys
 from pathlib import Path
 
+from rasc.layout import ROOMS
+
 RASC = Path(__file__).resolve().parents[1] / "rasc"
 
-#: Rooms in floor order: a room may import its own floor and the floors below it.
-#: Shared utilities (errors, io, interrupt, progress) are the ground floor.
-FLOORS = {
-    "": 0,            # rasc/errors.py, io.py, interrupt.py, progress.py, __init__
-    "geometry": 1,
-    "handeye": 2,
-    "vision": 2,
-    "sim": 3,
-    "head": 3,
-    "recordings": 3,  # reads bags into datasets (vision); nothing of head or sim
-    "study": 4,
-    "report": 4,      # draws calibrations (head) and their datasets (vision)
-    "testing": 5,
-    "commands": 5,
-    "cli": 6,
-    "__main__": 7,
-}
+#: Rooms and their floors, from the one layout table (rasc/layout.py): a room may import
+#: its own floor and the floors below it. The ground floor ("") is rasc/*.py's shared
+#: utilities (errors, formats, io, interrupt, layout, progress).
+def _room_of(where: str) -> str:
+    parts = where.split(",")[0].strip().rstrip("/").split("/")
+    return "" if parts[-1].endswith(".py") and len(parts) == 2 and parts[-1] in GROUND \
+        else parts[-1].removesuffix(".py")
+
+
+GROUND = ("errors.py", "formats.py", "io.py", "interrupt.py", "layout.py", "progress.py")
+FLOORS = {_room_of(r.where): r.floor for r in ROOMS if r.floor is not None}
 
 #: Rooms on one floor that must not import each other.
 SAME_FLOOR_FORBIDDEN = {("handeye", "vision"), ("vision", "handeye"), ("sim", "head"),
-                        ("head", "sim"), ("recordings", "head"), ("recordings", "sim"),
-                        ("head", "recordings"), ("sim", "recordings")}
+                        ("head", "sim")}
 
 
 def module_name(path: Path) -> str:
@@ -50,7 +45,7 @@ def room(module: str) -> str:
     if len(parts) == 1:
         return ""
     name = parts[1]
-    if len(parts) == 2 and name in ("errors", "io", "interrupt", "progress"):
+    if len(parts) == 2 and f"{name}.py" in GROUND:
         return ""
     return name
 
@@ -156,7 +151,8 @@ def test_imports_only_run_down():
 
 def test_every_room_is_a_package_and_the_ground_floor_is_small():
     top = sorted(p.name for p in RASC.iterdir() if p.suffix == ".py")
-    assert set(top) <= {"__init__.py", "__main__.py", "cli.py", "errors.py", "io.py",
+    assert set(top) <= {"__init__.py", "__main__.py", "cli.py", "errors.py", "formats.py", "io.py",
+                        "layout.py",
                         "interrupt.py", "progress.py", "testing.py"}, top
 
 
@@ -201,9 +197,9 @@ def test_the_mathematics_needs_numpy_and_scipy_alone():
 def test_every_command_module_is_registered_and_none_is_hidden():
     """rasc/commands/<name>.py (not _private) is exactly rasc.cli.COMMANDS, and each one
     builds its parser: a command whose module fails to import is an error, not skipped."""
-    from rasc.cli import COMMANDS, build_parser, command_name
+    from rasc.cli import COMMANDS, build_parser
 
     modules = {p.stem for p in (RASC / "commands").glob("*.py") if not p.stem.startswith("_")}
     assert set(COMMANDS) == modules
     names = set(build_parser()._subparsers._group_actions[0].choices)
-    assert names == {command_name(c) for c in COMMANDS}
+    assert names == {c.replace("_", "-") for c in COMMANDS}

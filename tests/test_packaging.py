@@ -2,7 +2,8 @@
 MuJoCo models as package data, and ``python -m rasc render`` then ``python -m rasc
 calibrate`` run from a temporary folder with rasc imported from the install.
 
-The wheel is built from a copy of the project's files (pyproject.toml, README.md, rasc/)
+The wheel is built from a copy of the project's files (pyproject.toml, setup.py, README.md,
+rasc/, and sim/models/, which setup.py maps into the package as ``rasc.sim.models``)
 so the checkout gets no build/ or egg-info; it is installed with ``--no-deps`` into a
 target folder put first on PYTHONPATH, reusing this environment's dependencies (no
 network). The build backend comes from this environment (setuptools >= 77, pyproject's
@@ -30,10 +31,11 @@ REPO = Path(__file__).resolve().parents[1]
 def test_wheel_installs_renders_and_calibrates_away_from_the_checkout(tmp_path):
     src = tmp_path / "src"
     src.mkdir()
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "setup.py", "README.md"):
         shutil.copy2(REPO / name, src / name)
-    shutil.copytree(REPO / "rasc", src / "rasc",
-                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    for folder in ("rasc", "sim"):
+        shutil.copytree(REPO / folder, src / folder,
+                        ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     wheels = tmp_path / "wheels"
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps",
                             *pip_build_flags(), "-w", str(wheels), str(src)],
@@ -41,8 +43,9 @@ def test_wheel_installs_renders_and_calibrates_away_from_the_checkout(tmp_path):
     assert build.returncode == 0, build.stdout + build.stderr
     (wheel,) = wheels.glob("rasc-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    for model in ("rasc/sim/models/stereo_head.xml", "rasc/sim/models/scene.xml"):
-        assert model in names
+    for model in ("stereo_head.xml", "scene.xml", "README.md", "stereo_head.png"):
+        assert f"rasc/sim/models/{model}" in names          # the top-level sim/models/
+    assert not [n for n in names if n.startswith("sim/")]   # and no top-level package sim
     entry_points = zipfile.ZipFile(wheel).read(
         next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
     assert "rasc.testing = rasc.testing" in entry_points
@@ -63,7 +66,8 @@ def test_wheel_installs_renders_and_calibrates_away_from_the_checkout(tmp_path):
         return proc
 
     where = run("-c", "import rasc, rasc.sim.scene as s; print(rasc.__file__); "
-                      "print(s.SCENE_XML)").stdout.split()
+                      "print(s.SCENE_XML); print(s.HEAD_XML)").stdout.split()
+    assert [Path(p).name for p in where[1:]] == ["scene.xml", "stereo_head.xml"]
     assert all(Path(p).is_relative_to(site) for p in where), where
     assert not any(Path(p).is_relative_to(REPO) for p in where), where
     # a small dataset (5 intrinsics views, 4 positions with both axes moving) is enough

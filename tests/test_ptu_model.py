@@ -122,7 +122,7 @@ def test_axes_are_normalised_and_bad_parameters_refused():
         PanTiltUnit(tilt_axis=(1, 0, 0))
     with pytest.raises(InputError, match="pan_scale: must be positive"):
         PanTiltUnit(pan_scale=0.0)
-    with pytest.raises(InputError, match="tilt_offset: value must be finite"):
+    with pytest.raises(InputError, match="tilt_offset: must be finite"):
         PanTiltUnit(tilt_offset=float("nan"))
     with pytest.raises(InputError, match="tilt_point: expected 3 numbers"):
         PanTiltUnit(tilt_point=(0.0, 1.0))

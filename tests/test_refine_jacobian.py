@@ -1,4 +1,4 @@
-"""The refinement's Levenberg–Marquardt Jacobian (rasc.head.refine._Problem.jacobian_lm):
+"""The refinement's Levenberg–Marquardt Jacobian (rasc.head.refine.jacobian, ``jacobian_lm``):
 its analytic columns (intrinsics with either distortion model, every board pose) against
 central differences, on a synthetic head (rasc.sim.synthetic) away from and at the
 initial guess, and the refinement it drives against the truth."""
@@ -11,6 +11,7 @@ import pytest
 from rasc.geometry.kinematics import PanTiltUnit
 from rasc.head import refine as rf
 from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+from rasc.head.refine import problem as problem_module
 from rasc.sim.synthetic import corner_dataset, default_head
 
 #: 30 mm between the axes and 0.5° non-orthogonal (the unit columns are non-trivial)
@@ -119,12 +120,12 @@ def test_a_wrong_derivative_would_be_seen(problem):
     rng = np.random.default_rng(7)
     x = 0.02 * rng.standard_normal(len(problem.names))
     Jc = problem.jacobian(x, h=1e-5, central=True, analytic=False).toarray()
-    saved = rf._left_jacobian
+    saved = problem_module._left_jacobian              # where the projection reads it
     try:
-        rf._left_jacobian = lambda w: np.broadcast_to(np.eye(3), w.shape + (3,))
+        problem_module._left_jacobian = lambda w: np.broadcast_to(np.eye(3), w.shape + (3,))
         Ja = problem.jacobian_lm(x, problem.residuals(x)).toarray()
     finally:
-        rf._left_jacobian = saved
+        problem_module._left_jacobian = saved
     rot = _columns(problem, lambda n: n.startswith("board[") and ".rot" in n)
     err = np.abs(Ja - Jc)[:, rot].max(axis=0) / np.abs(Jc)[:, rot].max(axis=0)
     assert err.max() > 100 * ANALYTIC_RTOL

@@ -98,11 +98,19 @@ def test_the_key_follows_the_dataset_bytes(default_dataset, tmp_path):
     assert calibration_cache(k1) != calibration_cache(k0)
 
 
-def test_the_key_follows_the_calibration_code_only(tmp_path):
+def copy_of_the_package(tmp_path: Path) -> Path:
+    """A copy of the rasc package folder with the models beside it, as in a checkout."""
     import rasc
+    from rasc.sim import MODELS_DIR
     root = tmp_path / "rasc"
     shutil.copytree(Path(rasc.__file__).parent, root,
                     ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(MODELS_DIR, tmp_path / "sim" / "models")
+    return root
+
+
+def test_the_key_follows_the_calibration_code_only(tmp_path):
+    root = copy_of_the_package(tmp_path)
     d0 = calibration_code_digest(root)
     assert d0 == calibration_code_digest()
     # a change outside the calibration code (the renderer, the study engine): same key
@@ -132,19 +140,17 @@ def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
     """The default dataset's cache key (renderer_sha256) covers every module the renderer
     imports, not only rasc/sim: the unit's kinematics, the lens model, the manifest's
     writer (each missed by the earlier hand-kept list), and nothing else."""
-    import rasc
-    root = tmp_path / "rasc"
-    shutil.copytree(Path(rasc.__file__).parent, root,
-                    ignore=shutil.ignore_patterns("__pycache__"))
+    root = copy_of_the_package(tmp_path)
     d0 = renderer_digest(root)
     assert d0 == renderer_digest()
     # code no render runs: the same key
-    for other in ("handeye/solver.py", "head/refine.py", "study/engine.py", "commands/render.py"):
+    for other in ("handeye/solver.py", "head/refine/solver.py", "study/engine.py",
+                  "commands/render.py"):
         path = root / other
         path.write_text(path.read_text() + "\n# changed\n")
     assert renderer_digest(root) == d0
     # one character in the renderer or in what it imports: another key
-    for part in ("sim/scene.py", "sim/models/stereo_head.xml", "vision/camera.py",
+    for part in ("sim/scene.py", "../sim/models/stereo_head.xml", "vision/camera.py",
                  "geometry/kinematics.py", "geometry/lens.py", "vision/dataset.py", "io.py"):
         path = root / part
         text = path.read_text()

@@ -313,7 +313,7 @@ def test_unit_file_both_then_each_eye(tmp_path):
     ("[left]\ntilt_ofset_mm = [0, 1, 0]\n", r"unit.toml: left.tilt_ofset_mm: unknown key"),
     ("[centre]\npan_scale = 1\n", r"unit.toml: centre: unknown table"),
     ("pan_scale = 1\n", r"unit.toml: pan_scale: unknown table or key"),
-    ("[both]\npan_scale = '1'\n", r"unit.toml: both.pan_scale: expected a number, got '1'"),
+    ("[both]\npan_scale = '1'\n", r'unit.toml: both.pan_scale: expected a number, got "1"'),
     ("[right]\npan_scale = 0\n", r"unit.toml: right.pan_scale: must be positive"),
     ("[left]\ntilt_zero_deg = nan\n", r"unit.toml: left.tilt_zero_deg: must be finite"),
     ("[left]\ncamera_position_mm = [1, inf, 0]\n",
@@ -321,7 +321,7 @@ def test_unit_file_both_then_each_eye(tmp_path):
     ("[left]\ncamera_euler_deg = [1, 2]\n", r"unit.toml: left.camera_euler_deg: expected 3"),
     ("[both]\naxis_skew_deg = 90\n", r"unit.toml: both.axis_skew_deg: must be within"),
     ("[left\n", r"unit.toml: not valid TOML"),
-    ("[left]\npan_scale = true\n", r"unit.toml: left.pan_scale: expected a number, got True"),
+    ("[left]\npan_scale = true\n", r"unit.toml: left.pan_scale: expected a number, got true"),
 ])
 def test_unit_file_errors_are_one_line(tmp_path, text, message):
     path = tmp_path / "unit.toml"

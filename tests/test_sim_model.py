@@ -1,4 +1,4 @@
-"""The MuJoCo stereo head (rasc/sim/models) and rasc.sim.scene's ground truth, without rendering.
+"""The MuJoCo stereo head (sim/models) and rasc.sim.scene's ground truth, without rendering.
 
 The truth chosen here is the model file itself: these tests read its attributes
 independently (xml.etree) or recompute them from the paper's formulas (eq. 3, the
@@ -113,7 +113,7 @@ def test_static_scene_is_the_default_board():
     for name in ("rasc_board_inner_corners", "rasc_board_square_size"):
         np.testing.assert_array_equal(static.numeric(name).data, generated.numeric(name).data)
     assert static.nbody == generated.nbody and static.ncam == generated.ncam
-    # and it is literally the generator's output (regenerate it: rasc/sim/models/README.md)
+    # and it is literally the generator's output (regenerate it: sim/models/README.md)
     assert SCENE_XML.read_text() == scene_xml(head_path="stereo_head.xml", generated=False)
 
 

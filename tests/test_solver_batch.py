@@ -3,7 +3,7 @@
 ``solve_rasc_batch(T)[k]``, ``solve_rasc_batch(T[k:k+1])`` and ``solve_rasc(T[k])`` are
 the same bits (transform and eq. 10 quality) for every k, whatever the batch's size and
 composition: a single solve is a block of one sample of the same code, and every step of
-a block treats each sample on its own (rasc/handeye/solver.py, ``_solve``). Exact
+a block treats each sample on its own (rasc/handeye/_kernels.py, ``_solve``). Exact
 equality is the claim, so the tests compare with ``==``, no tolerance.
 """
 
@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.handeye import solver
+from rasc.handeye import _kernels
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch, solve_rasc_each
 
@@ -74,7 +74,7 @@ def test_chunked_batch_has_the_single_solves_bits_across_blocks(variant):
     validation's RᵀR is not handed over for batches this size: each block measures
     its own), and the full results with diagnostics of solve_rasc_each."""
     S = 800
-    chunk = solver._CHUNK_FLOATS // (9 * 81)
+    chunk = _kernels._CHUNK_FLOATS // (9 * 81)
     assert 2 * chunk < S
     T_cw, T_gp = pose_sets(11, S, "pan-tilt", variant, 0.01)
     T_gp_each = np.repeat(T_gp[None], S, 0)

@@ -1,9 +1,7 @@
-"""The solver's fast paths pinned against a plain formulation (docs/METHOD.md §3, eq. 6–10).
-
-The reference below is eq. 6–10 written out with np.linalg and scipy, a loop over ordered
-pairs with no shared code: the vectorised solver (quaternion pair logs, separable normal
-equations, chunked batches, the power iteration for non-orthogonal input) must give the
-same numbers, so a later speed-up cannot silently change the answer.
+"""The solver's fast paths (rasc.handeye._kernels): the quaternions of non-orthogonal
+matrices, the cond(CᵀC) bound, chunked batches, and the one-solve path against the general
+path, bit for bit. Their agreement with the paper's equations written plainly
+(rasc.handeye.paper) is tests/handeye/test_kernels_vs_paper.py.
 """
 
 from __future__ import annotations
@@ -16,58 +14,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from rasc.handeye import solver
+from rasc.handeye import _kernels, paper, solver
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 
 from conftest import PAPER, pan_tilt, random_rigid, rig
-
-
-def polar(R: np.ndarray) -> np.ndarray:
-    """Nearest rotation of a 3×3 matrix: U diag(1, 1, det) Vᵀ of its SVD."""
-    U, _, Vt = np.linalg.svd(R)
-    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
-
-
-def plain_rasc(T_cw, T_gp, pairs="all", min_rotation_rad=solver.MIN_PAIR_ROTATION_RAD):
-    """Eq. 6–10 as printed: A_ij, B_ij per ordered pair; α = log R_A of the views' nearest
-    rotations, β = log R_B; M = Σ β αᵀ; R_X = V diag(1, 1, ±1) Uᵀ (eq. 9's polar factor);
-    t_X by lstsq on the stacked (I − R_A) t_X = t_A − R_X t_B (eq. 7, matrices as given);
-    eq. 10 over all i ≠ j. Returns (T_cam_from_gaze (4, 4), quality)."""
-    n = len(T_cw)
-    P = [polar(T[:3, :3]) for T in T_cw]
-    M, used, allp = np.zeros((3, 3)), [], []
-    for i in range(n):
-        for j in range(n):
-            if i == j:
-                continue
-            RA = T_cw[i, :3, :3] @ T_cw[j, :3, :3].T
-            tA = T_cw[i, :3, 3] - RA @ T_cw[j, :3, 3]
-            RB = T_gp[i, :3, :3] @ T_gp[j, :3, :3].T
-            tB = T_gp[i, :3, 3] - RB @ T_gp[j, :3, 3]
-            allp.append((RA, RB))
-            beta = Rotation.from_matrix(RB).as_rotvec()
-            if (pairs == "half" and i < j) or np.linalg.norm(beta) < min_rotation_rad:
-                continue
-            alpha = Rotation.from_matrix(P[i] @ P[j].T).as_rotvec()
-            M += np.outer(beta, alpha)
-            used.append((RA, tA, tB))
-    U, _, Vt = np.linalg.svd(M)
-    V = Vt.T
-    RX = V @ np.diag([1.0, 1.0, np.linalg.det(V @ U.T)]) @ U.T
-    C = np.concatenate([np.eye(3) - RA for RA, _, _ in used])
-    d = np.concatenate([tA - RX @ tB for _, tA, tB in used])
-    tX = np.linalg.lstsq(C, d, rcond=None)[0]
-    quality = np.mean([np.linalg.norm(RX @ RB @ RX.T - RA) for RA, RB in allp])
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = RX, tX
-    return T, quality
-
-
-# Tolerance 1e-10 (absolute; rotations are of order 1, translations ≤ ~1): both sides are
-# exact formulas of the same numbers, the normal equations vs lstsq differ by cond(CᵀC)·ε
-# (cond ≈ 2–50 here) and the logs by a few ulp; measured differences ≤ 1e-14.
-TOL = 1e-10
 
 
 def scene(kind: str, seed: int):
@@ -81,39 +32,6 @@ def scene(kind: str, seed: int):
     return X @ T_gp @ Y, T_gp, rng
 
 
-@pytest.mark.parametrize("kind", ["pan-tilt", "arm"])
-@pytest.mark.parametrize("variant", ["exponential", "literal"])
-@pytest.mark.parametrize("pairs", ["all", "half"])
-def test_single_solve_equals_plain_eq_6_to_10(kind, variant, pairs):
-    T_true, T_gp, rng = scene(kind, 3)
-    for _ in range(3):
-        T_cw = perturb_T_cam_from_world(T_true, 0.02, 0.004, rng, variant=variant)
-        res = solve_rasc(T_cw, T_gp, pairs=pairs, check_rigid=variant == "exponential")
-        T, quality = plain_rasc(T_cw, T_gp, pairs)
-        np.testing.assert_allclose(res.T_cam_from_gaze, T, atol=TOL, rtol=0)
-        assert abs(res.quality - quality) < TOL
-
-
-@pytest.mark.parametrize("variant", ["exponential", "literal"])
-def test_chunked_batch_equals_plain_eq_6_to_10(variant):
-    """S = 400 nine-view samples exceed one block (``_CHUNK_FLOATS``): the chunked path
-    (power iteration for literal input) gives the plain solution for every sample
-    checked, and the single solve's very bits."""
-    T_true, T_gp, rng = scene("pan-tilt", 4)
-    S = 400
-    assert S * 9 * 81 > solver._CHUNK_FLOATS
-    T_cw = perturb_T_cam_from_world(np.broadcast_to(T_true, (S, 9, 4, 4)), 0.03, 0.004, rng,
-                                    variant=variant)
-    out = solve_rasc_batch(T_cw, T_gp, check_rigid=False)
-    for s in (0, 1, 137, 398, 399):
-        T, quality = plain_rasc(T_cw[s], T_gp)
-        np.testing.assert_allclose(out.T_cam_from_gaze[s], T, atol=TOL, rtol=0)
-        assert abs(out.quality[s] - quality) < TOL
-        one = solve_rasc(T_cw[s], T_gp, check_rigid=False)
-        np.testing.assert_array_equal(out.T_cam_from_gaze[s], one.T_cam_from_gaze)
-        assert out.quality[s] == one.quality
-
-
 @pytest.mark.parametrize("sigma", [1e-6, 1e-3, 2e-2, 4e-2])
 def test_quaternions_of_many_non_orthogonal_matrices(sigma):
     """The power iteration to the nearest rotation's quaternion (K^p e_k, p from each
@@ -125,10 +43,10 @@ def test_quaternions_of_many_non_orthogonal_matrices(sigma):
     R[::7] = Rotation.random(86, random_state=9).as_matrix()     # rigid ones among them
     err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
     assert 1e-14 < err.max() < 1 / 3
-    want = Rotation.from_matrix(np.stack([polar(r) for r in R])).as_quat()
-    q = solver._quaternions(R, err)
+    want = Rotation.from_matrix(np.stack([paper.nearest_rotation(r) for r in R])).as_quat()
+    q = _kernels._quaternions(R, err)
     for k in (0, 1, 7, 599):
-        np.testing.assert_array_equal(solver._quaternions(R[k:k + 1])[0], q[k])
+        np.testing.assert_array_equal(_kernels._quaternions(R[k:k + 1])[0], q[k])
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     q *= np.sign((q * want).sum(axis=1))[:, None]
     np.testing.assert_allclose(q, want, atol=1e-13, rtol=0)
@@ -145,7 +63,7 @@ def test_cond_bound_never_passes_an_ill_conditioned_CtC():
     lam[:, 1] = np.minimum(lam[:, 1], cond)
     A = (Q * lam[:, None, :]) @ np.swapaxes(Q, 1, 2) * 10 ** rng.uniform(-3, 3, (2000, 1, 1))
     for k in range(2000):
-        ok = solver._cond_CtC_surely_ok(A[k:k + 1])
+        ok = _kernels._cond_CtC_surely_ok(A[k:k + 1])
         if cond[k] > solver.MAX_COND_CTC:
             assert not ok, cond[k]
         if cond[k] < solver.MAX_COND_CTC / 10:
@@ -191,7 +109,7 @@ def same_result(a, b) -> None:
 
 
 @pytest.mark.parametrize("kind", ["pan-tilt", "arm"])
-@pytest.mark.parametrize("n", [3, 5, 9, 17, solver._ONE_MAX_VIEWS])
+@pytest.mark.parametrize("n", [3, 5, 9, 17, _kernels._ONE_MAX_VIEWS])
 @pytest.mark.parametrize("pairs", ["all", "half"])
 def test_one_solve_path_has_the_general_paths_bits(kind, n, pairs):
     """On rigid data (the common case) solve_rasc takes _solve_one, and its result is the
@@ -207,7 +125,7 @@ def test_one_solve_path_has_the_general_paths_bits(kind, n, pairs):
     for _ in range(5):
         T_cw = perturb_T_cam_from_world(X @ T_gp @ Y, 0.01, 0.002, rng, variant="exponential")
         for kw in ({"pairs": pairs}, {"pairs": pairs, "min_rotation_rad": 0.0}):
-            taken = solver._solve_one(T_cw, T_gp, solver._pairs(n, pairs, None),
+            taken = _kernels._solve_one(T_cw, T_gp, _kernels._pairs(n, pairs, None),
                                       kw.get("min_rotation_rad", solver.MIN_PAIR_ROTATION_RAD))
             assert taken is not None                 # the test covers the fast path
             same_result(taken, general(T_cw, T_gp, **kw))
@@ -215,8 +133,8 @@ def test_one_solve_path_has_the_general_paths_bits(kind, n, pairs):
 
 
 def _one_declines(T_cw, T_gp, **kw) -> bool:
-    pair = solver._pairs(len(T_cw), kw.get("pairs", "all"), None)
-    return solver._solve_one(np.asarray(T_cw, float), np.asarray(T_gp, float), pair,
+    pair = _kernels._pairs(len(T_cw), kw.get("pairs", "all"), None)
+    return _kernels._solve_one(np.asarray(T_cw, float), np.asarray(T_gp, float), pair,
                              kw.get("min_rotation_rad", solver.MIN_PAIR_ROTATION_RAD)) is None
 
 
@@ -305,7 +223,7 @@ def test_one_solve_path_only_for_its_arguments():
     assert not solver._one_case(T_cw, PAPER, "all", -1.0)
     assert not solver._one_case(T_cw, PAPER, "all", float("nan"))
     assert not solver._one_case(T_cw, PAPER, "all", "1e-3")
-    many = np.repeat(T_cw, 4, axis=0)[: solver._ONE_MAX_VIEWS + 1]
+    many = np.repeat(T_cw, 4, axis=0)[: _kernels._ONE_MAX_VIEWS + 1]
     assert not solver._one_case(many, many, "all", 1e-3)
     same_result(solve_rasc(T_cw.tolist(), PAPER.tolist()), solve_rasc(T_cw, PAPER))
     with pytest.raises(solver.InputError, match="pairs: expected one of"):

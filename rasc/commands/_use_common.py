@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from rasc.errors import InputError
+from rasc.io import finite_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -143,25 +144,11 @@ def read_points_csv(path: str, required: tuple[str, ...],
             if name == "label":
                 labels.append(cell.strip())
                 continue
-            values[name].append(_cell_number(cell, f"{path}: line {n}, column {name}"))
+            values[name].append(finite_number(cell, f"{path}: line {n}, column {name}",
+                                              text=True, max_abs=MAX_ABS_VALUE))
         lines.append(n)
     columns = {c: np.array(v, dtype=float) for c, v in values.items()}
     return Table(path, columns, labels if "label" in names else None, lines)
-
-
-def _cell_number(cell: str, where: str) -> float:
-    s = cell.strip()
-    if not s:
-        raise InputError(f"{where}: empty; expected a number")
-    try:
-        x = float(s)
-    except ValueError:
-        raise InputError(f"{where}: {s[:30]!r} is not a number") from None
-    if not math.isfinite(x):
-        raise InputError(f"{where}: {s[:30]!r} is not finite; give a finite number")
-    if abs(x) > MAX_ABS_VALUE:
-        raise InputError(f"{where}: {s[:30]} is out of range (|value| > {MAX_ABS_VALUE:g})")
-    return x
 
 
 def angles_to_radians(values: np.ndarray, unit: str, name: str, where) -> np.ndarray:
@@ -193,4 +180,5 @@ def parse_point_option(text: str) -> np.ndarray:
     parts = text.split(",")
     if len(parts) != 3:
         raise InputError(f"--point {text}: expected X,Y,Z (three comma-separated numbers)")
-    return np.array([_cell_number(s, f"--point {text}") for s in parts])
+    return np.array([finite_number(s, f"--point {text}", text=True, max_abs=MAX_ABS_VALUE)
+                     for s in parts])

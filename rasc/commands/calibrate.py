@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rasc import formats
 from rasc.commands import loading
 from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
 #: The --mounts file: {"format": "rasc-mounts/1" (optional), "T_ptuL_from_ptuR": 4x4 (the
 #: right unit's frame in the left one, translation in the unit of board.square_size),
 #: "description": free text (optional)}; any other key is an error.
-MOUNTS_FORMAT = "rasc-mounts/1"
+MOUNTS_FORMAT = formats.MOUNTS.tag
 MOUNTS_KEYS = ("format", "T_ptuL_from_ptuR", "description")
 
 

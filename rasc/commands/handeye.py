@@ -21,13 +21,14 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
+from rasc import formats
 from rasc.commands import loading
 from rasc.errors import DegenerateDataError, InputError, RascError, SolverFailure
 
 if TYPE_CHECKING:
     from rasc.handeye.document import HandEyeInput
 
-RESULT_FORMAT = "rasc-handeye-result/1"
+RESULT_FORMAT = formats.HANDEYE_RESULT.tag
 
 #: The built-in names of rasc.handeye.methods.METHODS, listed here so that building the
 #: parser imports no solver (and no cv2); a test checks that they match.

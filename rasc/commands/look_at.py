@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import argparse
 
+from rasc import formats
 from rasc.commands import _use_common as common
 from rasc.commands import loading
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 
-RESULT_FORMAT = "rasc-look-at/1"
+RESULT_FORMAT = formats.LOOK_AT.tag
 #: from this many points (about 1 s at ~5 ms per point and eye) a progress bar is shown
 PROGRESS_MIN_POINTS = 100
 

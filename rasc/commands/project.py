@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import argparse
 
+from rasc import formats
 from rasc.commands import _use_common as common
 from rasc.commands import loading
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 
-RESULT_FORMAT = "rasc-projection/1"
+RESULT_FORMAT = formats.PROJECTION.tag
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -69,7 +69,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "render", help="render a calibration dataset from the simulated head",
         description="Render intrinsics views and pan-tilt pose views of the chessboard for "
                     "both eyes of the simulated head, with ground truth.")
-    p.add_argument("--model", metavar="PATH", help="MJCF scene (default rasc/sim/models/scene.xml)")
+    p.add_argument("--model", metavar="PATH", help="MJCF scene (default sim/models/scene.xml)")
     p.add_argument("--out", metavar="DIR", default="dataset",
                    help="output folder, new or empty: an existing dataset is never replaced "
                         "(default ./dataset)")

@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import argparse
 
+from rasc import formats
 from rasc.commands import _use_common as common
 from rasc.commands import loading
 from rasc.errors import DegenerateDataError, InputError
 
-RESULT_FORMAT = "rasc-triangulation/1"
+RESULT_FORMAT = formats.TRIANGULATION.tag
 COLUMNS = ("u_left", "v_left", "u_right", "v_right",
            "pan_left", "tilt_left", "pan_right", "tilt_right")
 #: A matched pair whose triangulated point reprojects this far from either measured pixel

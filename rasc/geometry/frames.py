@@ -1,6 +1,8 @@
 """The frames of the stereo head, its transforms and the pan-tilt unit's parameters,
-declared once (docs/METHOD.md §1, §10). README.md's "Frames" section repeats these three
-tables row for row (tests/test_frames_readme.py compares them).
+declared once (docs/METHOD.md §1, §10). Pages show them generated: :func:`render_tables`
+fills a page's marked blocks (docs/METHOD.md's two;
+tests/io/test_tables.py checks that they are current), and README.md's "Frames" section
+lists the same rows (tests/test_frames_readme.py compares them).
 
 ``T_a_from_b`` maps coordinates in frame b into frame a (``q_a = T_a_from_b q_b``);
 the paper writes it ``T_ab``. A point in base coordinates reaches camera coordinates
@@ -16,6 +18,8 @@ paper's unit, :class:`rasc.geometry.kinematics.PanTiltUnit` for a real one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from rasc import layout
 
 
 @dataclass(frozen=True)
@@ -93,3 +97,24 @@ UNIT_PARAMETERS = (
     UnitParameter("axis_distance", "d", "(derived) common-normal distance between the two "
                   "axes: the one observable offset; ideal 0", "length unit of the dataset"),
 )
+
+
+# ------------------------------------------------------------------- the tables as text
+
+#: The Markdown tables, by name: header and rows, each cell as printed.
+TABLES = {
+    "frames": (("frame", "paper", "meaning"), [(f.name, f.symbol, f.meaning) for f in FRAMES]),
+    "transforms": (("transform", "paper", "what"),
+                   [(f"`{t.name}`", t.symbol, t.meaning) for t in TRANSFORMS]),
+    "unit-parameters": (("parameter", "symbol", "meaning", "unit"),
+                        [(f"`{p.name}`", p.symbol, p.meaning, p.unit)
+                         for p in UNIT_PARAMETERS]),
+}
+
+
+def render_tables(text: str) -> str:
+    """``text`` (Markdown) with every generated table brought up to date: each block between
+    ``<!-- table: NAME (generated from rasc/...) -->`` and ``<!-- end table -->`` becomes
+    table NAME of :data:`TABLES` or :data:`rasc.layout.TABLES` (:func:`rasc.layout.render_tables`).
+    A page is current when ``render_tables(page) == page`` (tests/io/test_tables.py)."""
+    return layout.render_tables(text, {**layout.TABLES, **TABLES})

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rasc.errors import InputError
+from rasc.io import finite_number
 
 
 def R_gaze_from_ptu(pan: np.ndarray | float, tilt: np.ndarray | float) -> np.ndarray:
@@ -88,22 +89,12 @@ def _as_vector(value, name: str, where: str) -> tuple[float, float, float]:
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}")
     if len(value) != 3 or any(isinstance(v, (bool, str, bytes)) for v in value):
         raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}")
-    try:
-        out = tuple(float(v) + 0.0 for v in value)   # + 0.0: no -0.0 in JSON
-    except (TypeError, ValueError):
-        raise InputError(f"{where}{name}: expected 3 numbers, got {value!r}") from None
-    if not all(np.isfinite(out)):
-        raise InputError(f"{where}{name}: values must be finite, got {value!r}")
-    return out  # type: ignore[return-value]
+    return tuple(_as_scalar(v, f"{name}[{k}]", where)   # type: ignore[return-value]
+                 for k, v in enumerate(value))
 
 
 def _as_scalar(value, name: str, where: str) -> float:
-    if isinstance(value, (bool, str, bytes)) or not isinstance(value, (int, float, np.number)):
-        raise InputError(f"{where}{name}: expected a number, got {value!r}")
-    out = float(value) + 0.0
-    if not np.isfinite(out):
-        raise InputError(f"{where}{name}: value must be finite, got {value!r}")
-    return out
+    return finite_number(value, f"{where}{name}") + 0.0      # + 0.0: no -0.0 in JSON
 
 
 def _unit_vector(v: tuple[float, float, float], name: str, where: str):

@@ -107,32 +107,57 @@ def is_rigid_transform(T: np.ndarray, atol: float = RIGID_ATOL) -> bool:
 
 
 def validate_rigid_transform(T: np.ndarray, *, name: str = "transform",
-                             atol: float = RIGID_ATOL) -> np.ndarray:
-    """Check that ``T`` is a 4×4 rigid transform; return it as a float array.
+                             atol: float = RIGID_ATOL, stacked: int = 0, rigid: bool = True,
+                             hint: str = "") -> np.ndarray:
+    """The ONE check of rigid transforms: ``T`` (4, 4), or with ``stacked`` = k a stack of
+    them with k leading indices ((n, 4, 4) for k = 1); return it as a float array.
 
-    Checks: shape (4, 4); finite; ``RᵀR = I`` and ``det R = +1`` within ``atol``
-    (element-wise); last row ``0 0 0 1`` within ``atol``. Raises :class:`InputError`
-    with a message that starts with ``name``.
+    Checks, in order: numeric; shape; finite; last row ``0 0 0 1`` within ``atol``; a
+    proper rotation block (det > 0); with ``rigid`` also ``RᵀR = I`` and ``det R = +1``
+    within ``atol`` (element-wise). ``rigid=False`` accepts the paper's literal eq. 13
+    noise (a rotation block near, not on, SO(3)). Raises :class:`InputError` with one line
+    that starts with ``name`` (``name[i, j]`` for the first offending matrix of a stack);
+    ``hint`` is appended to the rigidity messages. Each check is one reduction over the
+    stack; the offending index is looked for only on failure.
     """
+    lead = ["S", "n"][-stacked:] if 0 < stacked <= 2 else ["m"] * stacked
+    want = f"shape ({', '.join(lead)}, 4, 4)" if stacked else "a 4x4 matrix"
     try:
         T = np.asarray(T, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: not a numeric 4x4 matrix") from None
-    if T.shape != (4, 4):
-        raise InputError(f"{name}: expected a 4x4 matrix, got shape {T.shape}")
-    if not np.all(np.isfinite(T)):
-        raise InputError(f"{name}: contains NaN or infinity")
-    if np.max(np.abs(T[3] - [0.0, 0.0, 0.0, 1.0])) > atol:
-        raise InputError(f"{name}: last row is {T[3].tolist()}, expected [0, 0, 0, 1]")
-    R = T[:3, :3]
-    with np.errstate(over="ignore", invalid="ignore"):   # huge entries: ortho = inf, refused
-        ortho = float(np.max(np.abs(R.T @ R - np.eye(3))))
-    if not ortho <= atol:
-        raise InputError(
-            f"{name}: rotation part is not orthonormal (max |RᵀR − I| = {ortho:.3g} > {atol:g})")
-    det = float(np.linalg.det(R))
-    if abs(det - 1.0) > atol:
-        raise InputError(f"{name}: rotation part has determinant {det:.6g}, expected +1")
+        what = "array of 4x4 transforms" if stacked else "4x4 matrix"
+        raise InputError(f"{name}: not a numeric {what}") from None
+    if T.ndim != stacked + 2 or T.shape[-2:] != (4, 4):
+        raise InputError(f"{name}: expected {want}, got shape {T.shape}")
+
+    def first(bad: np.ndarray) -> tuple[tuple[int, ...], str]:
+        k = tuple(int(x) for x in np.argwhere(bad)[0]) if stacked else ()
+        return k, f"{name}[{', '.join(map(str, k))}]" if stacked else name
+
+    if not np.isfinite(T).all():
+        raise InputError(f"{first(~np.isfinite(T).all(axis=(-1, -2)))[1]}: contains NaN "
+                         "or infinity")
+    last = np.abs(T[..., 3, :] - [0.0, 0.0, 0.0, 1.0])
+    if last.size and last.max() > atol:
+        k, where = first(last.max(axis=-1) > atol)
+        raise InputError(f"{where}: last row is {T[k][3].tolist()}, expected [0, 0, 0, 1]")
+    R = T[..., :3, :3]
+    det = np.linalg.det(R)
+    if not (det > 0).all():
+        k, where = first(~(det > 0))
+        raise InputError(f"{where}: rotation part has determinant {det[k]:.6g}; a pose "
+                         "needs a rotation (det +1)")
+    if rigid and R.size:
+        with np.errstate(over="ignore", invalid="ignore"):  # huge entries: inf, refused
+            ortho = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
+        if not (ortho <= atol).all():
+            k, where = first(~(ortho <= atol))
+            raise InputError(f"{where}: rotation part is not orthonormal (max |RᵀR − I| = "
+                             f"{ortho[k]:.3g} > {atol:g}){hint}")
+        if not (np.abs(det - 1.0) <= atol).all():
+            k, where = first(~(np.abs(det - 1.0) <= atol))
+            raise InputError(f"{where}: rotation part has determinant {det[k]:.6g}, "
+                             f"expected +1{hint}")
     return T
 
 

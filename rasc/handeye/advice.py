@@ -14,12 +14,12 @@ import math
 import numpy as np
 
 from rasc.errors import InputError
+from rasc.handeye._kernels import _fmt_axis
 from rasc.handeye.solver import (
     MIN_PAIR_ROTATION_RAD,
     WEAK_AXIS_SPREAD,
     HandEyeResult,
     HandEyeUncertainty,
-    _fmt_axis,
     pair_rotvecs,
 )
 

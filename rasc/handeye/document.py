@@ -34,7 +34,6 @@ catches a wrong angle unit that the values alone cannot show).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -42,12 +41,14 @@ from typing import Any
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.kinematics import T_gaze_from_ptu as T_gaze_from_ptu_eq3
 from rasc.geometry.transforms import validate_rigid_transform
-from rasc.io import read_json_document
+from rasc.io import finite_number, read_json_document
+from rasc.io import shown as _shown
 
-FORMAT = "rasc-handeye/1"
+FORMAT = formats.HANDEYE.tag
 ANGLE_UNITS = ("deg", "rad")
 TOP_KEYS = ("format", "angle_unit", "length_unit", "description", "positions")
 POSITION_KEYS = ("pan", "tilt", "T_gaze_from_ptu", "T_cam_from_world", "label")
@@ -124,24 +125,6 @@ def _type_name(value: Any) -> str:
             type(None): "null"}.get(type(value), type(value).__name__)
 
 
-def _shown(value: Any, limit: int = 40) -> str:
-    """A JSON value as the user wrote it, cut to ``limit`` characters for messages."""
-    text = json.dumps(value)
-    return text if len(text) <= limit else text[:limit - 3] + "..."
-
-
-def _number(value: Any, name: str) -> float:
-    """A finite JSON number (not a boolean, string or null)."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{name} = {_shown(value)} is not a number")
-    value = float(value)
-    if math.isnan(value):
-        raise InputError(f"{name} is NaN; give a finite number")
-    if math.isinf(value):
-        raise InputError(f"{name} is infinite; give a finite number")
-    return value
-
-
 def _matrix4(value: Any, name: str) -> np.ndarray:
     """A 4×4 rigid transform given as 4 rows of 4 numbers → ndarray (4, 4)."""
     if not isinstance(value, list) or not all(isinstance(row, list) for row in value):
@@ -156,7 +139,7 @@ def _matrix4(value: Any, name: str) -> np.ndarray:
     if shape != "4x4":
         hint = "; add the last row [0, 0, 0, 1]" if shape == "3x4" else ""
         raise InputError(f"{name}: expected a 4x4 matrix, got {shape}{hint}")
-    T = np.array([[_number(x, f"{name}[{i}][{j}]") for j, x in enumerate(row)]
+    T = np.array([[finite_number(x, f"{name}[{i}][{j}]") for j, x in enumerate(row)]
                   for i, row in enumerate(value)])
     return validate_rigid_transform(T, name=name)
 
@@ -228,8 +211,8 @@ def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]
         for key, other in (("pan", "tilt"), ("tilt", "pan")):
             if key not in item:
                 raise InputError(f"{where}: {other!r} given without {key!r}")
-        pan = _number(item["pan"], f"{where}.pan")
-        tilt = _number(item["tilt"], f"{where}.tilt")
+        pan = finite_number(item["pan"], f"{where}.pan")
+        tilt = finite_number(item["tilt"], f"{where}.tilt")
         for key, value in (("pan", pan), ("tilt", tilt)):   # radians: check_angle_unit
             if angle_unit == "deg" and abs(value) > 360.0:
                 raise InputError(f"{where}.{key} = {value:g} deg is more than a full turn")

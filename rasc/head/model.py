@@ -34,12 +34,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry import lens, triangulation
 from rasc.geometry.kinematics import IDEAL, PanTiltUnit
 from rasc.geometry.transforms import invert_transform, validate_rigid_transform
 
-FORMAT = "rasc-head/1"
+FORMAT = formats.HEAD.tag
 EYE_FIELDS = ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base", "image_size")
 OPTIONAL_EYE_FIELDS = ("unit", "std")
 

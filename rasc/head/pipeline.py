@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PanTiltUnit, T_gaze_from_ptu, canonical_gauge
@@ -36,7 +37,7 @@ from rasc.head.base_to_ptu import (
 )
 from rasc.head.model import EyeCalibration, HeadCalibration
 
-FORMAT = "rasc-calibration/1"
+FORMAT = formats.CALIBRATION.tag
 
 
 @dataclass

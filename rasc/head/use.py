@@ -30,15 +30,17 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
+from rasc import formats
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform
 from rasc.head.model import FORMAT as HEAD_FORMAT
 from rasc.head.model import EyeCalibration, HeadCalibration
+from rasc.io import finite_number
 from rasc.io import read_json_document as _read_json_document
 
 #: The document ``rasc calibrate`` writes (rasc.head.pipeline.FORMAT; a test checks).
-CALIBRATION_FORMAT = "rasc-calibration/1"
+CALIBRATION_FORMAT = formats.CALIBRATION.tag
 
 #: :func:`look_at` succeeds when the point's ideal image is this close to the principal
 #: point, pixels: far below any corner detector (0.02 px at best), far above the solver's
@@ -88,25 +90,13 @@ def read_json_document(path: str | os.PathLike, what: str = "calibration file") 
     return _read_json_document(path, what, top=None)
 
 
-def _finite_number(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{name}: expected a number, got {json.dumps(value)[:40]}")
-    try:
-        value = float(value)
-    except OverflowError:
-        raise InputError(f"{name}: number too large") from None
-    if not math.isfinite(value):
-        raise InputError(f"{name}: NaN or infinity; give a finite number")
-    return value
-
-
 def _numbers_only(value: Any, name: str) -> None:
     """Nested lists of finite JSON numbers (no booleans, strings, nulls or objects)."""
     if isinstance(value, list):
         for i, v in enumerate(value):
             _numbers_only(v, f"{name}[{i}]")
     else:
-        _finite_number(value, name)
+        finite_number(value, name)
 
 
 def _head_from_dict(d: Any, where: str) -> HeadCalibration:
@@ -151,7 +141,7 @@ def _joint_range(eyes: Any) -> dict | None:
             for key, acc in (("pan_deg", pans), ("tilt_deg", tilts)):
                 if key not in v:
                     raise InputError(f"eyes.{eye}.pose_views[{i}].{key}: missing")
-                acc.append(_finite_number(v[key], f"eyes.{eye}.pose_views[{i}].{key}"))
+                acc.append(finite_number(v[key], f"eyes.{eye}.pose_views[{i}].{key}"))
         out[eye] = {"pan": (math.radians(min(pans)), math.radians(max(pans))),
                     "tilt": (math.radians(min(tilts)), math.radians(max(tilts)))}
     return out

@@ -1,3 +1,19 @@
-"""The simulated stereo head: the MuJoCo model (``models/``, shipped as package data),
-offscreen rendering and image degradation (:mod:`~rasc.sim.scene`, the only module that
-imports mujoco, lazily) and dataset rendering (:mod:`~rasc.sim.render`)."""
+"""The simulated stereo head: the MuJoCo model (top-level ``sim/models/`` in a checkout,
+shipped in the wheel as the package data ``rasc/sim/models/``), offscreen rendering and
+image degradation (:mod:`~rasc.sim.scene`, the only module that imports mujoco, lazily)
+and dataset rendering (:mod:`~rasc.sim.render`)."""
+
+from pathlib import Path
+
+
+def models_dir(package: str | Path | None = None) -> Path:
+    """The folder of the MJCF models for the rasc package folder ``package`` (default: the
+    imported one): ``rasc/sim/models/`` in an installed wheel (package data, mapped from
+    ``sim/models/`` by setup.py), else the checkout's top-level ``sim/models/`` beside it."""
+    root = Path(__file__).resolve().parent.parent if package is None else Path(package)
+    inside = root / "sim" / "models"
+    return inside if inside.is_dir() else root.parent / "sim" / "models"
+
+
+#: The MJCF models (``stereo_head.xml``, ``scene.xml``) and their README.
+MODELS_DIR = models_dir()

@@ -1,8 +1,9 @@
 """Simulated stereo head: MuJoCo model, offscreen rendering and ground truth.
 
-The model lives in ``rasc/sim/models/`` (``stereo_head.xml`` = the head, ``scene.xml`` = head +
+The model lives in ``sim/models/`` (:data:`rasc.sim.MODELS_DIR`;
+``stereo_head.xml`` = the head, ``scene.xml`` = head +
 chessboard target); its frames are those of :mod:`rasc.geometry.frames` (README "Frames") and
-``rasc/sim/models/README.md``. Everything this module reports as ground truth is read from the
+``sim/models/README.md``. Everything this module reports as ground truth is read from the
 compiled model, never retyped:
 
 * per eye ``T_cam_from_gaze`` (hand-eye, ``T_cg``), ``T_ptu_from_base`` (``T_pb``), ``K``
@@ -45,11 +46,12 @@ from rasc.geometry.transforms import (
     rotation_angle,
     validate_rigid_transform,
 )
+from rasc.sim import models_dir
 from rasc.sim.units import IDEAL_BUILD, UnitBuild
 from rasc.vision.board import DEFAULT_BOARD, Board
 
 #: The repository's model folder (the package is installed editable from the repository).
-MODELS_DIR = Path(__file__).resolve().parent / "models"
+MODELS_DIR = models_dir()
 HEAD_XML = MODELS_DIR / "stereo_head.xml"
 SCENE_XML = MODELS_DIR / "scene.xml"
 
@@ -196,7 +198,7 @@ def scene_xml(board: Board = DEFAULT_BOARD, head_path: str | os.PathLike | None 
     ----------
     board : Board
     head_path : path, optional
-        Head model to include (default: ``rasc/sim/models/stereo_head.xml``, absolute). A
+        Head model to include (default: ``sim/models/stereo_head.xml``, absolute). A
         relative path is written as given: MuJoCo resolves it against the scene file's
         folder, so use it only for a scene written to a file.
     generated : bool
@@ -278,7 +280,7 @@ class StereoHeadSim:
     Parameters
     ----------
     model_path : path, optional
-        MJCF scene to load (default ``rasc/sim/models/scene.xml``). Must contain the bodies
+        MJCF scene to load (default ``sim/models/scene.xml``). Must contain the bodies
         ``base_link``, ``{eye}_ptu_link``, ``{eye}_tilt_link``, joints ``{eye}_pan_joint``,
         ``{eye}_tilt_joint`` and cameras ``{eye}_camera`` for eye in (left, right); a
         target (mocap body ``board_link``, site ``board_origin``, custom numerics
@@ -287,7 +289,7 @@ class StereoHeadSim:
         Instead of ``model_path``: generate the scene for this board (:func:`scene_xml`,
         kept in ``self.scene_xml``) around the head model ``head_path``.
     head_path : path, optional
-        Head model for ``board`` (default ``rasc/sim/models/stereo_head.xml``).
+        Head model for ``board`` (default ``sim/models/stereo_head.xml``).
     image_size : (width, height), optional
         Render size; default the cameras' ``resolution`` (1280×960). K scales with it.
     units : {"left": UnitBuild, "right": UnitBuild}, optional

@@ -25,13 +25,13 @@ applies a build to the MuJoCo model.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
+from rasc.io import finite_number
 
 _VECTORS = ("tilt_axis_offset_mm", "camera_position_mm", "camera_euler_deg")
 _NUMBERS = ("axis_skew_deg", "pan_zero_deg", "tilt_zero_deg", "pan_scale", "tilt_scale")
@@ -101,7 +101,7 @@ def _check(build: UnitBuild, where: str) -> None:
         value = getattr(build, name)
         if value is None and name == "axis_skew_deg":
             continue
-        object.__setattr__(build, name, _number(value, f"{where}.{name}"))
+        object.__setattr__(build, name, finite_number(value, f"{where}.{name}"))
     for name in ("pan_scale", "tilt_scale"):
         if getattr(build, name) <= 0:
             raise InputError(f"{where}.{name}: must be positive, got {getattr(build, name)}")
@@ -110,18 +110,10 @@ def _check(build: UnitBuild, where: str) -> None:
                          f"got {build.axis_skew_deg}")
 
 
-def _number(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{where}: must be finite, got {value!r}")
-    return float(value)
-
-
 def _vector(value, where: str) -> tuple[float, float, float]:
     if not isinstance(value, (list, tuple)) or len(value) != 3:
         raise InputError(f"{where}: expected 3 numbers [x, y, z], got {value!r}")
-    return tuple(_number(v, f"{where}[{k}]") for k, v in enumerate(value))  # type: ignore
+    return tuple(finite_number(v, f"{where}[{k}]") for k, v in enumerate(value))  # type: ignore
 
 
 #: The model as written (the stock model's units are the paper's).

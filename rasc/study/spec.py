@@ -63,6 +63,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 
@@ -73,7 +74,7 @@ ERRORS = ("translation_mm", "rotation_deg")
 SUMMARY_TAIL = ("method", "n", "n_failed",
                 *(f"{e}_{s}" for e in ERRORS for s in STATS))
 
-FORMAT = "rasc-study/1"
+FORMAT = formats.STUDY.tag
 #: a spec larger than this is refused before it is parsed
 MAX_SPEC_BYTES = 1 << 20
 #: the paper's noise set k (docs/METHOD.md §8): σ_r = 0.005 k rad, σ_t = k mm

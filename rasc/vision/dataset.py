@@ -37,12 +37,13 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
-from rasc.io import read_json_document, to_jsonable, write_json_atomic
+from rasc.io import finite_number, read_json_document, to_jsonable, write_json_atomic
 from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
 
-FORMAT = "rasc-dataset/1"
+FORMAT = formats.DATASET.tag
 MANIFEST = "manifest.json"
 ROLES = ("intrinsics", "pose")
 ANGLE_UNITS = ("deg", "rad")
@@ -307,13 +308,6 @@ def _read_json(path: Path, what: str = "manifest") -> dict:
     return read_json_document(path, what)
 
 
-def _number(value, where: str, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not math.isfinite(value):
-        raise InputError(f"{where}: field {field!r} must be a finite number, got {value!r}")
-    return float(value)
-
-
 def _relative_file(value, where: str, field: str) -> str:
     if not isinstance(value, str) or not value.strip():
         raise InputError(f"{where}: field {field!r} must be a non-empty file name, got {value!r}")
@@ -388,8 +382,8 @@ def _parse_images(obj, where: str, root: Path, angle_unit: str | None,
             if angle_unit is None:
                 raise InputError(f"{where}: missing field 'angle_unit' ('deg' or 'rad'), "
                                  "required when there are pose images")
-            pan = _number(im["pan"], here, "pan") * scale
-            tilt = _number(im["tilt"], here, "tilt") * scale
+            pan = finite_number(im["pan"], f"{here}: field 'pan'") * scale
+            tilt = finite_number(im["tilt"], f"{here}: field 'tilt'") * scale
             for name, a in (("pan", pan), ("tilt", tilt)):
                 if abs(a) > 2 * math.pi:
                     raise InputError(f"{here}: field {name!r} = {im[name]!r} {angle_unit} is "

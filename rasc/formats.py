@@ -1,0 +1,76 @@
+"""Every file format rasc reads or writes, in one place: name, version, what it holds,
+and where its reader and writer are.
+
+A document names its format in its ``"format"`` field, ``<name>/<version>`` (for
+example ``"rasc-head/1"``). Modules take that tag from here (``formats.HEAD.tag``), never
+spell it themselves (tests/io/test_formats.py checks); the reader and the writer are
+given as ``"module:qualified.name"`` (this module sits on the ground floor and imports
+none of them), and the same test resolves each one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Format:
+    """One file format: ``name`` and ``version`` make its tag ``name/version``."""
+
+    name: str
+    version: int
+    what: str
+    reader: str            # "module:qualified.name" of the function that reads it
+    writer: str            # ... and of the one that writes it
+
+    @property
+    def tag(self) -> str:
+        """The value of a document's ``"format"`` field, e.g. ``"rasc-head/1"``."""
+        return f"{self.name}/{self.version}"
+
+
+HEAD = Format("rasc-head", 1, "a stereo head's calibration: per eye K, dist, "
+              "T_cam_from_gaze, T_ptu_from_base",
+              "rasc.head.model:HeadCalibration.from_dict",
+              "rasc.head.model:HeadCalibration.to_dict")
+CALIBRATION = Format("rasc-calibration", 1, "what rasc calibrate writes: the head "
+                     "(rasc-head/1) with diagnostics, uncertainties and warnings",
+                     "rasc.head.use:read_calibration", "rasc.head.pipeline:Calibration.to_dict")
+DATASET = Format("rasc-dataset", 1, "a dataset folder's manifest.json: the board, each "
+                 "image's file, eye and pan/tilt",
+                 "rasc.vision.dataset:load_dataset", "rasc.vision.dataset:write_manifest")
+HANDEYE = Format("rasc-handeye", 1, "the input of rasc handeye: per position the target's "
+                 "pose and the unit's pan/tilt or pose",
+                 "rasc.handeye.document:load_handeye_input",
+                 "rasc.handeye.document:HandEyeInput")
+HANDEYE_RESULT = Format("rasc-handeye-result", 1, "what rasc handeye writes",
+                        "rasc.commands.handeye:result_document",
+                        "rasc.commands.handeye:result_document")
+MOUNTS = Format("rasc-mounts", 1, "rasc calibrate --mounts: a measured T_ptuL_from_ptuR",
+                "rasc.commands.calibrate:_read_mounts", "rasc.commands.calibrate:_read_mounts")
+PROJECTION = Format("rasc-projection", 1, "what rasc project writes",
+                    "rasc.commands.project:run", "rasc.commands.project:run")
+TRIANGULATION = Format("rasc-triangulation", 1, "what rasc triangulate writes",
+                       "rasc.commands.triangulate:run", "rasc.commands.triangulate:run")
+LOOK_AT = Format("rasc-look-at", 1, "what rasc look-at writes",
+                 "rasc.commands.look_at:run", "rasc.commands.look_at:run")
+STUDY = Format("rasc-study", 1, "a study's TOML specification (and the spec echoed in "
+               "its summary.json)", "rasc.study.spec:load_spec", "rasc.study.spec:Spec.to_dict")
+STUDY_DATASET = Format("rasc-study-dataset", 1, "a study's calibrated dataset "
+                       "(datasets/<key>.json, and its cache entry)",
+                       "rasc.study.engine:_cache_get",
+                       "rasc.study.engine:dataset_document")
+STUDY_CACHE = Format("rasc-study-cache", 1, "the key of a study's cache entry (hashed, "
+                     "never written out as a file)", "rasc.study.engine:cache_key",
+                     "rasc.study.engine:cache_key")
+REPRODUCE_DATASET = Format("rasc-reproduce-dataset", 1, "the reproduction's cached "
+                           "default dataset record", "experiments._common",
+                           "experiments._common")
+REPRODUCE_CALIBRATION = Format("rasc-reproduce-calibration", 1, "the reproduction's cached "
+                               "calibration of the default dataset", "experiments._common",
+                               "experiments._common")
+
+#: Every format by tag.
+FORMATS: dict[str, Format] = {f.tag: f for f in (
+    HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
+    LOOK_AT, STUDY, STUDY_DATASET, STUDY_CACHE, REPRODUCE_DATASET, REPRODUCE_CALIBRATION)}

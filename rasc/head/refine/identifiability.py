@@ -1,0 +1,111 @@
+"""Which unit parameters the corners determine (docs/METHOD.md §10): the column test on
+the Jacobian at the initial guess. See :mod:`rasc.head.refine`, "Identifiability"."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from rasc.errors import DegenerateDataError
+from rasc.geometry.frames import EYES
+from rasc.head.refine.model import (
+    UNIT_PARAMETERS,
+    HeadObservations,
+)
+from rasc.head.refine.problem import _Problem
+
+#: Why each parameter is not identifiable when the Jacobian says so (docs/METHOD.md §10).
+REASONS = {
+    "pan_offset": "a pan encoder offset turns the unit's frame about its pan axis, which the "
+                  "mount (T_ptuL_from_ptuR) and the board poses absorb; it needs a measured "
+                  "mount or a known home",
+    "tilt_offset": "a tilt encoder offset turns the gaze frame about the tilt axis, which "
+                   "T_cam_from_gaze absorbs; it needs a known home",
+    "tilt_point_x": "moving the tilt axis along the pan axis commutes with the pan rotation "
+                    "and is absorbed by T_cam_from_gaze and the mount",
+    "tilt_point_z": "moving the point along the tilt axis changes nothing",
+    "tilt_axis_y": "turning the tilt axis about the pan axis is absorbed by T_cam_from_gaze "
+                   "and the mount",
+    "pan_scale": "the pan readings do not vary enough to fix the pan scale",
+    "tilt_scale": "the tilt readings do not vary enough to fix the tilt scale",
+    "tilt_axis_x": "the motions cannot separate the axis angle from the hand-eye rotation",
+    "tilt_point_y": "the motions cannot separate the axis distance from the hand-eye "
+                    "translation",
+}
+
+#: A Jacobian column (normalised) within this sine of the span of the others is not
+#: determined by the data. Exact gauge directions measure ≤ 1e-9 here (central
+#: differences, round-off); the weakest observable unit parameter on the default dataset
+#: (the pan scale from ±8° pans) measures ~1e-2. The threshold sits between, at 1e-6.
+IDENTIFIABILITY_SINE = 1e-6
+
+
+# ----------------------------------------------------------------------------- identifiability
+
+def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
+                  ) -> tuple[dict[str, list[str]], list[dict[str, Any]]]:
+    """Decide, from the Jacobian at the initial guess, which unit parameters the corners
+    determine (see the module docstring); ``hold``: candidates not estimated at all.
+    Raises :class:`DegenerateDataError` when the basic parameters (intrinsics, hand-eye,
+    mounts, board poses) are not determined."""
+    candidates = [n for n in UNIT_PARAMETERS if n not in hold]
+    full = {eye: list(candidates) for eye in EYES}
+    prob = _Problem(obs, full)
+    J = prob.jacobian(np.zeros(len(prob.names)))
+    d = np.sqrt(np.asarray(J.multiply(J).sum(axis=0)).ravel())
+    unit_cols = {}
+    for eye in EYES:
+        c = prob.eye_cols[eye]
+        first = c["start"] + c["n_intr"] + 6
+        for k, n in enumerate(candidates):
+            unit_cols[(eye, n)] = first + k
+    for j in range(len(prob.names)):
+        if d[j] == 0 and j not in set(unit_cols.values()):
+            raise DegenerateDataError(f"refinement: parameter {prob.names[j]} moves no corner")
+    Jn = (J @ sp.diags(1.0 / np.where(d > 0, d, 1.0))).tocsc()
+    # The intrinsics views' board poses act on their own image's rows only: project each
+    # image's rows onto the complement of its six pose columns (a 2N x 6 QR each), which
+    # leaves the angles between the remaining columns and the span of all the others
+    # unchanged; then one QR of the global columns (intrinsics, hand-eye, mounts, the pose
+    # views' board pose) — no dense QR of the whole Jacobian, and no squared condition
+    # number as with JᵀJ.
+    glob = list(range(prob.n_global)) + list(range(len(prob.names) - 6, len(prob.names)))
+    G = Jn[:, glob].toarray()
+    rows_of = prob._rows_of_images()
+    for i in np.flatnonzero(prob.img_role == 0):
+        k = prob.n_global + 6 * int(prob.img_pose[i])
+        rows = rows_of[i]
+        B = Jn[rows][:, k:k + 6].toarray()
+        Qi, Ri = np.linalg.qr(B)
+        if np.abs(np.diag(Ri)).min() < IDENTIFIABILITY_SINE:
+            raise DegenerateDataError(f"refinement: the board pose of intrinsics view "
+                                      f"{prob.img_name[i]} is not determined by its corners")
+        G[rows] -= Qi @ (Qi.T @ G[rows])
+    col = {j: m for m, j in enumerate(glob)}
+    base = [col[j] for j in glob if j not in set(unit_cols.values())]
+    Q, Rq = np.linalg.qr(G[:, base])
+    rdiag = np.abs(np.diag(Rq))
+    if rdiag.min() < IDENTIFIABILITY_SINE:
+        j = glob[base[int(np.argmin(rdiag))]]
+        raise DegenerateDataError(
+            f"refinement: the corners cannot determine {prob.names[j]} (and the parameters "
+            "it trades with); add pose views that turn about both axes and intrinsics "
+            "views tilted 20-45 degrees")
+    free: dict[str, list[str]] = {eye: [] for eye in EYES}
+    dropped = []
+    for eye in EYES:
+        for n in candidates:
+            j = unit_cols[(eye, n)]
+            v = G[:, col[j]]
+            r = v - Q @ (Q.T @ v)
+            r -= Q @ (Q.T @ r)                       # re-orthogonalise once
+            sine = float(np.linalg.norm(r)) if d[j] > 0 else 0.0
+            if sine < IDENTIFIABILITY_SINE:
+                dropped.append({"eye": eye, "parameter": n, "reason": REASONS[n],
+                                "sine": sine})
+            else:
+                Q = np.column_stack([Q, r / sine])
+                free[eye].append(n)
+    return free, dropped

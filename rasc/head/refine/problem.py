@@ -1,0 +1,348 @@
+"""One refinement's problem: parameter layout, prediction and residuals of every corner
+(:class:`_Problem`; its Jacobians are in :mod:`rasc.head.refine.jacobian`). See
+:mod:`rasc.head.refine`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rasc.errors import InputError
+from rasc.geometry.frames import EYES
+from rasc.geometry.transforms import invert_transform, make_transform
+from rasc.head.refine.jacobian import _JacobianMixin
+from rasc.head.refine.model import (
+    DIST_NAMES,
+    DIST_PARAMS,
+    UNIT_DEFAULTS,
+    HeadObservations,
+    _left_jacobian,
+    _rodrigues_batch,
+    _unit_motion,
+    _unit_motion_of,
+)
+
+
+class _Problem(_JacobianMixin):
+    """Parameter layout, residuals and Jacobian structure of one refinement."""
+
+    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]]):
+        self.obs = obs
+        self.dist_idx = DIST_PARAMS[obs.dist_model]
+        P = obs.board_points
+        # length scale for translations: the median camera-to-board distance
+        depths = [T[2, 3] for e in obs.eyes.values()
+                  for T in (*e.T_cam_from_world_intrinsics.values(),
+                            *e.T_cam_from_world_pose.values())]
+        L = float(np.median(depths))
+        self.length_scale = L
+        names, scales, x0 = [], [], []
+
+        def add(name, value, scale):
+            names.append(name)
+            scales.append(scale)
+            x0.append(value)
+
+        self.eye_cols: dict[str, dict[str, int]] = {}
+        for eye in EYES:
+            e = obs.eyes[eye]
+            start = len(names)
+            for k, n in enumerate(("fx", "fy", "cx", "cy")):
+                add(f"{eye}.{n}", (e.K[0, 0], e.K[1, 1], e.K[0, 2], e.K[1, 2])[k], 100.0)
+            for i in self.dist_idx:
+                add(f"{eye}.{DIST_NAMES[i]}", e.dist[i], 1.0)
+            n_intr = len(names) - start
+            for k in range(3):
+                add(f"{eye}.T_cam_from_gaze.rot{'xyz'[k]}", 0.0, 0.1)
+            for k in range(3):
+                add(f"{eye}.T_cam_from_gaze.t{'xyz'[k]}", e.T_cam_from_gaze[k, 3], 0.1 * L)
+            for n in unit_free[eye]:
+                s = 0.1 * L if n.startswith("tilt_point") else (1.0 if n.endswith("scale")
+                                                                 else 0.1)
+                add(f"{eye}.unit.{n}", UNIT_DEFAULTS[n], s)
+            self.eye_cols[eye] = {"start": start, "n_intr": n_intr, "stop": len(names)}
+        self.head_start = len(names)
+        for k in range(3):
+            add(f"T_ptuL_from_ptuR.rot{'xyz'[k]}", 0.0, 0.1)
+        for k in range(3):
+            add(f"T_ptuL_from_ptuR.t{'xyz'[k]}", obs.T_ptuL_from_ptuR[k, 3], 0.1 * L)
+        self.n_global = len(names)
+        # board poses: rotation as a perturbation exp(w)·R0, translation absolute
+        pose_R0, pose_t0, pose_names = [], [], []
+        for eye in EYES:
+            for n, T in obs.eyes[eye].T_cam_from_world_intrinsics.items():
+                pose_names.append(f"{eye}:{n}")
+                pose_R0.append(T[:3, :3])
+                pose_t0.append(T[:3, 3])
+        # one board pose for every pose view: the target stays put while the units move,
+        # as hand-eye (eq. 4-7) and loop closure (eq. 11-12) assume; initial value from the
+        # first pose image (left eye if any), with the ideal unit
+        T_pLpR = obs.T_ptuL_from_ptuR
+        T = None
+        for eye in EYES:
+            e = obs.eyes[eye]
+            if not e.pose:
+                continue
+            f = next(iter(e.pose))
+            R, t = _unit_motion(UNIT_DEFAULTS, np.array([e.pan_tilt[f][0]]),
+                                np.array([e.pan_tilt[f][1]]))
+            T = invert_transform(make_transform(R[0], t[0])) \
+                @ invert_transform(e.T_cam_from_gaze) @ e.T_cam_from_world_pose[f]
+            if eye == "right":
+                T = T_pLpR @ T
+            break
+        if T is None:
+            raise InputError("refinement: no pose images")
+        pose_names.append("pose views")
+        pose_R0.append(T[:3, :3])
+        pose_t0.append(T[:3, 3])
+        self.pose_names = pose_names
+        self.pose_R0 = np.array(pose_R0)
+        n_poses = len(pose_names)
+        for i, pn in enumerate(pose_names):
+            for k in range(3):
+                add(f"board[{pn}].rot{'xyz'[k]}", 0.0, 0.1)
+            for k in range(3):
+                add(f"board[{pn}].t{'xyz'[k]}", pose_t0[i][k], 0.1 * L)
+        self.names = names
+        self.scale = np.array(scales)
+        self.p0 = np.array(x0)
+        self.n_poses = n_poses
+        self.R0_cg = {eye: obs.eyes[eye].T_cam_from_gaze[:3, :3] for eye in EYES}
+        self.R0_pLpR = T_pLpR[:3, :3]
+        self.unit_free = unit_free
+        # images
+        img_eye, img_role, img_name, img_pose, pan, tilt, corners = [], [], [], [], [], [], []
+        pose_view_index = len(pose_names) - 1
+        for ei, eye in enumerate(EYES):
+            e = obs.eyes[eye]
+            for n, c in e.intrinsics.items():
+                img_eye.append(ei)
+                img_role.append(0)
+                img_name.append(n)
+                img_pose.append(pose_names.index(f"{eye}:{n}"))
+                pan.append(0.0)
+                tilt.append(0.0)
+                corners.append(c)
+            for f, c in e.pose.items():
+                img_eye.append(ei)
+                img_role.append(1)
+                img_name.append(f)
+                img_pose.append(pose_view_index)
+                pan.append(e.pan_tilt[f][0])
+                tilt.append(e.pan_tilt[f][1])
+                corners.append(c)
+        self.img_eye = np.array(img_eye)
+        self.img_role = np.array(img_role)
+        self.img_name = img_name
+        self.img_pose = np.array(img_pose)
+        self.pan, self.tilt = np.array(pan), np.array(tilt)
+        self.corners = np.array(corners, dtype=float)          # (n_img, N, 2)
+        self.P = np.asarray(P, float)
+        self.mask = np.ones(self.corners.shape[:2], bool)
+        self.pose_images = {ei: np.flatnonzero((self.img_eye == ei) & (self.img_role == 1))
+                            for ei in range(2)}
+        # results of pure functions of a few parameters (rotations, unit motions), by the
+        # bytes of their arguments: a Jacobian column changes one parameter, so most of
+        # its chain is the same numbers as the last one's (see _cached)
+        self._memo: dict[tuple, Any] = {}
+
+    def _cached(self, fn, *args: np.ndarray) -> Any:
+        """``fn(*args)`` (arrays), computed once for the same argument bytes (exact: the
+        same input bits give the same output bits). Its arrays are made read-only: a
+        caller that wrote into one would change the next call's result."""
+        key = (fn, *((a.shape, a.tobytes()) for a in args))
+        hit = self._memo.get(key)
+        if hit is None:
+            if len(self._memo) >= 256:                # a few iterations' worth
+                self._memo.clear()
+            hit = self._memo[key] = fn(*args)
+            for a in hit if isinstance(hit, tuple) else (hit,):
+                a.flags.writeable = False
+        return hit
+
+    # ---- parameters -----------------------------------------------------------------
+
+    def unpack(self, x: np.ndarray, poses: np.ndarray | None = None) -> dict[str, Any]:
+        """Parameters by name; board poses only for the indices ``poses`` (default all),
+        as ``pose_R``/``pose_t`` in that order."""
+        p = self.p0 + self.scale * x
+        out: dict[str, Any] = {}
+        for eye in EYES:
+            c = self.eye_cols[eye]
+            i = c["start"]
+            fx, fy, cx, cy = p[i:i + 4]
+            d = np.zeros(5)
+            for k, j in enumerate(self.dist_idx):
+                d[j] = p[i + 4 + k]
+            j = i + c["n_intr"]
+            R = self._cached(_rodrigues_batch, p[j:j + 3][None])[0] @ self.R0_cg[eye]
+            T_cg = make_transform(R, p[j + 3:j + 6])
+            u = dict(UNIT_DEFAULTS)
+            for k, n in enumerate(self.unit_free[eye]):
+                u[n] = p[j + 6 + k]
+            out[eye] = {"K": (fx, fy, cx, cy), "dist": d, "T_cam_from_gaze": T_cg, "unit": u}
+        h = self.head_start
+        R = self._cached(_rodrigues_batch, p[h:h + 3][None])[0] @ self.R0_pLpR
+        out["T_ptuL_from_ptuR"] = make_transform(R, p[h + 3:h + 6])
+        b = p[self.n_global:].reshape(self.n_poses, 6)
+        poses = np.arange(self.n_poses) if poses is None else poses
+        out["pose_R"] = self._cached(_rodrigues_batch, b[poses, :3]) @ self.pose_R0[poses]
+        out["pose_t"] = b[poses, 3:].copy()
+        return out
+
+    # ---- prediction -----------------------------------------------------------------
+
+    def predict(self, x: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
+        """Predicted pixels (n_img, N, 2), or (len(sel), N, 2) for the images ``sel``."""
+        sel = np.arange(len(self.img_eye)) if sel is None else sel
+        return self._project(x, sel, self._chain(x, sel))[0]
+
+    def _chain(self, x: np.ndarray, sel: np.ndarray) -> dict[str, Any]:
+        """The kinematic chain of the images ``sel``: ``R`` (n, 3, 3), ``t`` (n, 3) of
+        ``T_cam_from_board`` (eq. 1-2 with the general unit), ``RA`` (n, 3, 3) the rotation
+        of the chain in front of the board pose (I for an intrinsics view), ``Rb``
+        (n, 3, 3) the board pose's rotation and ``w`` (n, 3) its rotation vector, ``s``
+        the unpacked parameters."""
+        img_eye, img_role = self.img_eye[sel], self.img_role[sel]
+        poses, img_pose = np.unique(self.img_pose[sel], return_inverse=True)
+        s = self.unpack(x, poses)
+        R = s["pose_R"][img_pose]
+        t = s["pose_t"][img_pose]
+        Rb = R.copy()
+        RA_all = np.broadcast_to(np.eye(3), R.shape).copy()
+        T_pRpL = None
+        for ei, eye in enumerate(EYES):
+            idx = np.flatnonzero((img_eye == ei) & (img_role == 1))
+            if len(idx) == 0:
+                continue
+            u = s[eye]["unit"]
+            Rg, tg = self._cached(_unit_motion_of, np.array([u[n] for n in UNIT_DEFAULTS]),
+                                  self.pan[sel[idx]], self.tilt[sel[idx]])
+            T_cg = s[eye]["T_cam_from_gaze"]
+            if eye == "left":
+                M = np.eye(4)
+            else:
+                T_pRpL = invert_transform(s["T_ptuL_from_ptuR"]) if T_pRpL is None else T_pRpL
+                M = T_pRpL
+            # chain A = T_cg · T_gp · M, then A · T_board
+            RA = T_cg[:3, :3] @ Rg @ M[:3, :3]
+            tA = (T_cg[:3, :3] @ (Rg @ M[:3, 3] + tg)[..., None])[..., 0] + T_cg[:3, 3]
+            t[idx] = np.einsum("nij,nj->ni", RA, t[idx]) + tA
+            R[idx] = RA @ R[idx]
+            RA_all[idx] = RA
+        b = (self.p0 + self.scale * x)[self.n_global:].reshape(self.n_poses, 6)
+        return {"R": R, "t": t, "RA": RA_all, "Rb": Rb, "w": b[poses, :3][img_pose],
+                "s": s, "img_eye": img_eye,
+                "Kp": np.array([s[eye]["K"] for eye in EYES])[img_eye],      # (n, 4)
+                "D": np.array([s[eye]["dist"] for eye in EYES])[img_eye]}    # (n, 5)
+
+    def _project(self, x: np.ndarray, sel: np.ndarray, ch: dict[str, Any],
+                 derivatives: bool = False):
+        """Pixels (n, N, 2) of the chain ``ch`` of the images ``sel`` (eq. 1-2 with
+        distortion and K; without ``derivatives`` only ``ch``'s ``R``, ``t``, ``Kp`` and
+        ``D`` are used, as :meth:`_residuals_batch` passes them); with ``derivatives``
+        also the analytic derivatives (each (n, N, 2, k)) of the pixels with respect to
+        the camera-frame point (k = 3), to the eye's intrinsics in the layout of
+        :attr:`names` (fx fy cx cy, then the distortion terms of the dataset's model) and
+        to the image's board pose (k = 6: its rotation vector w, ``R = exp(w) R0``, then
+        its translation), in natural units."""
+        R, t = ch["R"], ch["t"]
+        pc = np.einsum("nij,kj->nki", R, self.P) + t[:, None, :]
+        x_, y_ = pc[..., 0] / pc[..., 2], pc[..., 1] / pc[..., 2]
+        Kp, D = ch["Kp"], ch["D"]                                   # (n, 4), (n, 5)
+        k1, k2, p1, p2, k3 = (D[:, i:i + 1] for i in range(5))
+        r2 = x_ * x_ + y_ * y_
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x_ * radial + 2.0 * p1 * x_ * y_ + p2 * (r2 + 2.0 * x_ * x_)
+        yd = y_ * radial + p1 * (r2 + 2.0 * y_ * y_) + 2.0 * p2 * x_ * y_
+        fx, fy = Kp[:, 0:1], Kp[:, 1:2]
+        u = fx * xd + Kp[:, 2:3]
+        v = fy * yd + Kp[:, 3:4]
+        uv = np.stack([u, v], axis=-1)
+        if not derivatives:
+            return uv, None
+        # d(u, v)/d(x_, y_): the distortion's Jacobian scaled by fx, fy
+        drad = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)            # d radial / d r2
+        xy = x_ * y_
+        dxd_dx = radial + 2.0 * x_ * x_ * drad + 2.0 * p1 * y_ + 6.0 * p2 * x_
+        dyd_dy = radial + 2.0 * y_ * y_ * drad + 6.0 * p1 * y_ + 2.0 * p2 * x_
+        cross = 2.0 * xy * drad + 2.0 * p1 * x_ + 2.0 * p2 * y_  # dxd/dy_ = dyd/dx_
+        iz = 1.0 / pc[..., 2]
+        # d(x_, y_)/d pc = [[1/Z, 0, -x_/Z], [0, 1/Z, -y_/Z]]
+        J = np.empty(pc.shape[:2] + (2, 3))
+        J[..., 0, 0] = fx * dxd_dx * iz
+        J[..., 0, 1] = fx * cross * iz
+        J[..., 0, 2] = -(J[..., 0, 0] * x_ + J[..., 0, 1] * y_)
+        J[..., 1, 0] = fy * cross * iz
+        J[..., 1, 1] = fy * dyd_dy * iz
+        J[..., 1, 2] = -(J[..., 1, 0] * x_ + J[..., 1, 1] * y_)
+        # intrinsics: fx fy cx cy, then k1 k2 p1 p2 k3 as the model has them
+        full = {"k1": (fx * x_ * r2, fy * y_ * r2),
+                "k2": (fx * x_ * r2 ** 2, fy * y_ * r2 ** 2),
+                "p1": (fx * 2.0 * xy, fy * (r2 + 2.0 * y_ * y_)),
+                "p2": (fx * (r2 + 2.0 * x_ * x_), fy * 2.0 * xy),
+                "k3": (fx * x_ * r2 ** 3, fy * y_ * r2 ** 3)}
+        zero, one = np.zeros_like(x_), np.ones_like(x_)
+        cols = [(xd, zero), (zero, yd), (one, zero), (zero, one)]
+        cols += [full[DIST_NAMES[i]] for i in self.dist_idx]
+        d_intr = np.stack([np.stack(c, axis=-1) for c in cols], axis=-1)
+        # board pose: q = exp(w) R0 P + t_b, pc = RA q + tA; a change dw of the rotation
+        # vector turns q by J_l(w) dw (J_l: SO(3)'s left Jacobian), so
+        # d pc / d w = -RA [Rb P]x J_l(w), d pc / d t_b = RA
+        q = np.einsum("nij,kj->nki", ch["Rb"], self.P)          # (n, N, 3), without t_b
+        Jl = _left_jacobian(ch["w"])                              # (n, 3, 3)
+        neg_skew = np.zeros(q.shape + (3,))
+        neg_skew[..., 0, 1], neg_skew[..., 0, 2] = q[..., 2], -q[..., 1]
+        neg_skew[..., 1, 0], neg_skew[..., 1, 2] = -q[..., 2], q[..., 0]
+        neg_skew[..., 2, 0], neg_skew[..., 2, 1] = q[..., 1], -q[..., 0]
+        JRA = np.einsum("nkab,nbc->nkac", J, ch["RA"])            # d uv / d q
+        d_board = np.concatenate(
+            [np.einsum("nkab,nkbc,ncd->nkad", JRA, neg_skew, Jl), JRA], axis=-1)
+        return uv, {"point": J, "intrinsics": d_intr, "board": d_board}
+
+    def residuals_of(self, x: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        """Residuals of the images ``sel`` (ascending), kept corners, flattened."""
+        return (self.predict(x, sel) - self.corners[sel])[self.mask[sel]].ravel()
+
+    def _residuals_batch(self, xs: list[np.ndarray], sel: np.ndarray) -> list[np.ndarray]:
+        """:meth:`residuals_of` of the images ``sel`` at each parameter vector of ``xs``:
+        each chain as :meth:`_chain` builds it, then the pixels of all of them in one
+        :meth:`_project`. Its arithmetic is elementwise (and a per-image einsum), so every
+        number is the one a call per vector gives, bit for bit (the refined calibration
+        JSON, byte for byte), for a fraction of the calls: the differences of the
+        Jacobian's kinematic columns, about half of a refinement's time before."""
+        chains = [self._chain(x, sel) for x in xs]
+        batch = {k: np.concatenate([ch[k] for ch in chains]) for k in ("R", "t", "Kp", "D")}
+        uv = self._project(None, sel, batch)[0]
+        uv = uv.reshape((len(xs), len(sel)) + uv.shape[1:])
+        want, keep = self.corners[sel], self.mask[sel]
+        return [(u - want)[keep].ravel() for u in uv]
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        return (self.predict(x) - self.corners)[self.mask].ravel()
+
+    def all_residuals(self, x: np.ndarray) -> np.ndarray:
+        """(n_img, N, 2), rejected corners included."""
+        return self.predict(x) - self.corners
+
+    # ---- Jacobian -------------------------------------------------------------------
+
+    def column_images(self) -> list[np.ndarray]:
+        """For every parameter, the images whose corners it moves."""
+        cols = []
+        for ei, eye in enumerate(EYES):
+            c = self.eye_cols[eye]
+            all_e = np.flatnonzero(self.img_eye == ei)
+            cols += [all_e] * c["n_intr"]
+            cols += [self.pose_images[ei]] * (c["stop"] - c["start"] - c["n_intr"])
+        cols += [self.pose_images[1]] * 6
+        for i in range(self.n_poses):
+            cols += [np.flatnonzero(self.img_pose == i)] * 6
+        return cols
+
+    def _rows_of_images(self) -> list[np.ndarray]:
+        counts = self.mask.sum(axis=1) * 2
+        ends = np.cumsum(counts)
+        return [np.arange(e - c, e) for c, e in zip(counts, ends, strict=True)]
