@@ -70,7 +70,13 @@ REPRODUCE_CALIBRATION = Format("rasc-reproduce-calibration", 1, "the reproductio
                                "calibration of the default dataset", "experiments._common",
                                "experiments._common")
 
+HEAD_COVARIANCE = Format("rasc-head-covariance", 1, "the covariance of a refined head's "
+                         "parameters (kept in a calibration's refinement)",
+                         "rasc.head.uncertainty:HeadCovariance.from_dict",
+                         "rasc.head.uncertainty:HeadCovariance.to_dict")
+
 #: Every format by tag.
 FORMATS: dict[str, Format] = {f.tag: f for f in (
     HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
-    LOOK_AT, STUDY, STUDY_DATASET, STUDY_CACHE, REPRODUCE_DATASET, REPRODUCE_CALIBRATION)}
+    LOOK_AT, STUDY, STUDY_DATASET, STUDY_CACHE, REPRODUCE_DATASET, REPRODUCE_CALIBRATION,
+    HEAD_COVARIANCE)}

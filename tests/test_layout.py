@@ -29,7 +29,8 @@ FLOORS = {_room_of(r.where): r.floor for r in ROOMS if r.floor is not None}
 
 #: Rooms on one floor that must not import each other.
 SAME_FLOOR_FORBIDDEN = {("handeye", "vision"), ("vision", "handeye"), ("sim", "head"),
-                        ("head", "sim")}
+                        ("head", "sim"), ("recordings", "head"), ("recordings", "sim"),
+                        ("head", "recordings"), ("sim", "recordings")}
 
 
 def module_name(path: Path) -> str:
@@ -197,9 +198,9 @@ def test_the_mathematics_needs_numpy_and_scipy_alone():
 def test_every_command_module_is_registered_and_none_is_hidden():
     """rasc/commands/<name>.py (not _private) is exactly rasc.cli.COMMANDS, and each one
     builds its parser: a command whose module fails to import is an error, not skipped."""
-    from rasc.cli import COMMANDS, build_parser
+    from rasc.cli import COMMANDS, build_parser, command_name
 
     modules = {p.stem for p in (RASC / "commands").glob("*.py") if not p.stem.startswith("_")}
     assert set(COMMANDS) == modules
     names = set(build_parser()._subparsers._group_actions[0].choices)
-    assert names == {c.replace("_", "-") for c in COMMANDS}
+    assert names == {command_name(c) for c in COMMANDS}

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from rasc.errors import InputError
-from rasc.io import finite_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -98,7 +97,7 @@ def read_points_csv(path: str, required: tuple[str, ...],
     """Read a CSV points file (module docstring) with these numeric columns."""
     import numpy as np
 
-    from rasc.io import read_text_file
+    from rasc.io import finite_number, read_text_file
 
     text = read_text_file(path, "CSV points file", MAX_CSV_BYTES)
     if "\x00" in text:
@@ -176,6 +175,8 @@ def angle_out(radians: float, unit: str) -> float:
 def parse_point_option(text: str) -> np.ndarray:
     """``--point X,Y,Z`` → (3,) floats."""
     import numpy as np
+
+    from rasc.io import finite_number
 
     parts = text.split(",")
     if len(parts) != 3:

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.head.model import EyeCalibration, HeadCalibration
@@ -49,7 +50,7 @@ PARAMETER_STEP_STD = 1e-2
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
 UNIT_NAMES = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_axis_y", "tilt_point_x",
               "tilt_point_y", "tilt_point_z", "pan_offset", "tilt_offset")
-FORMAT = "rasc-head-covariance/1"
+FORMAT = formats.HEAD_COVARIANCE.tag
 
 
 @dataclass(frozen=True)
