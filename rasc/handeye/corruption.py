@@ -24,7 +24,7 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.geometry.kinematics import T_gaze_from_ptu as _T_gaze_from_ptu
-from rasc.geometry.transforms import matrix_from_rotvec
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec
 
 KINDS = ("rotation", "translation", "swap", "angle")
 
@@ -109,3 +109,42 @@ def corrupt(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, n_bad: in
         bad[i], kind[i] = True, k
         used += 1
     return T_cw, T_gp, bad, kind
+
+
+# ------------------------------------------------------------- synthetic truth
+
+#: The true hand-eye and target of :func:`pan_tilt_poses` / :func:`arm_poses`: a camera
+#: looking along gaze +y (as the simulated head's, ``rasc.sim.synthetic``) turned ~20°
+#: off nominal and 3-6 cm off the unit's centre; the target 1 m ahead.
+TRUE_T_CAM_FROM_GAZE = make_transform(
+    matrix_from_rotvec([0.3, -0.2, 0.1]) @ np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0],
+                                                     [0.0, 1.0, 0.0]]),
+    [0.03, -0.05, 0.02])
+TRUE_T_PTU_FROM_WORLD = make_transform(matrix_from_rotvec([0.1, 0.2, -0.1]),
+                                       [-0.1, 1.0, 0.05])
+
+
+def pan_tilt_poses(n: int, rng: np.random.Generator, *, amplitude_deg: float = 15.0
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n noise-free positions of a pan-tilt unit (eq. 3), pan and tilt uniform in
+    ±amplitude_deg: ``(T_cam_from_world, T_gaze_from_ptu, pan_tilt_rad)`` with
+    :data:`TRUE_T_CAM_FROM_GAZE` and :data:`TRUE_T_PTU_FROM_WORLD`."""
+    pt = np.radians(rng.uniform(-amplitude_deg, amplitude_deg, (n, 2)))
+    G = _T_gaze_from_ptu(pt[:, 0], pt[:, 1])
+    return TRUE_T_CAM_FROM_GAZE @ G @ TRUE_T_PTU_FROM_WORLD, G, pt
+
+
+def arm_poses(n: int, rng: np.random.Generator, *, cone_deg: float = 90.0,
+              angle_deg: float = 30.0, reach: float = 0.2
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """n noise-free positions of a robot arm (a unit that also translates): rotations of
+    up to ±angle_deg about axes within ``cone_deg`` of the unit's z axis (a small cone is
+    near-degenerate), translations N(0, reach²) per axis:
+    ``(T_cam_from_world, T_gripper_from_base)``."""
+    tilt = np.radians(cone_deg) * np.sqrt(rng.uniform(0.0, 1.0, n))
+    azimuth = rng.uniform(0.0, 2 * np.pi, n)
+    axis = np.column_stack([np.sin(tilt) * np.cos(azimuth), np.sin(tilt) * np.sin(azimuth),
+                            np.cos(tilt)])
+    angle = np.radians(rng.uniform(-angle_deg, angle_deg, n))
+    G = make_transform(matrix_from_rotvec(axis * angle[:, None]), rng.normal(0, reach, (n, 3)))
+    return TRUE_T_CAM_FROM_GAZE @ G @ TRUE_T_PTU_FROM_WORLD, G
