@@ -191,7 +191,8 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     if scaled:
         return [scaled]
     advice = ("give every T_cam_from_world translation in one length unit, and check that "
-              "each belongs to the motion beside it")
+              "each belongs to the motion beside it (or solve with --method rasc-robust, "
+              "which leaves out the positions the others contradict)")
     if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
         return [f"{names[k]}: the target is {ratio[k]:.3g}× as far from the camera as at the "
                 f"median position ({distance[k]:.3g} against {scale:.3g}): a translation in "

@@ -81,6 +81,9 @@ class RefinedHandEyeResult(HandEyeResult):
     n_downweighted : positions with a residual beyond the loss's corner.
     start_details : what the start's ``to_dict`` said beyond a plain result
         (``rasc-robust``'s "robust", ``rasc-scale``'s "scale").
+    inliers : the positions refined over when the start was ``rasc-robust``'s (its
+        inliers; the rejected positions stay out), else empty (all of them).
+    rejected : the start's rejected positions (:class:`rasc.handeye.robust.Rejection`).
     """
 
     covariance: Any = None
@@ -93,6 +96,8 @@ class RefinedHandEyeResult(HandEyeResult):
     T_ptu_from_world: Any = None
     n_downweighted: int = 0
     start_details: Any = None
+    inliers: tuple[int, ...] = ()
+    rejected: tuple = ()
 
     def to_dict(self) -> dict[str, Any]:
         out = super().to_dict()
@@ -171,7 +176,8 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     Parameters
     ----------
     T_cam_from_world, T_gaze_from_ptu : (n, 4, 4), as for any method.
-    result : the start: a HandEyeResult (its diagnostics are kept) or a (4, 4).
+    result : the start: a HandEyeResult (its diagnostics are kept) or a (4, 4). A
+        ``rasc-robust`` result is refined over its inliers only.
     loss : "huber" (default), "soft_l1" or "linear" (plain least squares).
     check_rigid : as :func:`~rasc.handeye.solver.solve_rasc`.
 
@@ -189,6 +195,9 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         raise InputError(f"T_cam_from_world has {len(T_cw)} positions, T_gaze_from_ptu "
                          f"{len(T_gp)}")
     start = result.method if isinstance(result, HandEyeResult) else "given"
+    inliers = tuple(getattr(result, "inliers", ()) or ())
+    if inliers:          # rasc-robust's start: refine on the positions it kept
+        T_cw, T_gp = T_cw[list(inliers)], T_gp[list(inliers)]
     X0 = np.asarray(result.T_cam_from_gaze if isinstance(result, HandEyeResult) else result,
                     dtype=float)
     # nearest rotations of (possibly literal eq. 13) input
@@ -242,7 +251,7 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     if diagnostics is None:
         from rasc.handeye.solver import diagnose
 
-        diagnostics = diagnose(T_cam_from_world, T_gaze_from_ptu, check_rigid=check_rigid)[0]
+        diagnostics = diagnose(T_cw, T_gp, check_rigid=check_rigid)[0]
     CX.flags.writeable = False
     return RefinedHandEyeResult(
         T_cam_from_gaze=X, quality=quality, method=f"{start}+refine",
@@ -254,4 +263,5 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         n_downweighted=int(np.sum(per_position > F_SCALE)) if loss != "linear" else 0,
         start_details={k: v for k, v in (result.to_dict().items()
                                          if isinstance(result, HandEyeResult) else ())
-                       if k in ("robust", "scale")})
+                       if k in ("robust", "scale")},
+        inliers=inliers, rejected=tuple(getattr(result, "rejected", ()) or ()))
