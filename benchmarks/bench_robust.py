@@ -8,8 +8,9 @@ hypothesis), 20 random pan-tilt positions in ±15° (1140 triples: 200 drawn), a
 88 real arm poses (tests/data/tabb-rwhe-dataset1). Noise as E9: eq. 13–14, 0.002 rad /
 1 mm. For each case RASC, rasc-robust and the pose-residual refinement
 (rasc.handeye.robust_refine, from RASC's result) are timed alternately in blocks, so
-that all see the same load; the median wall time per solve and the ratio to RASC's are
-printed. No goal is set by the issue beyond measuring; rasc-robust does one batched RASC
+that all see the same load; the median CPU time of this process per solve (which other
+processes' load does not inflate, unlike wall time on a shared machine) and the ratio to
+RASC's are printed. No goal is set by the issue beyond measuring; rasc-robust does one batched RASC
 over its hypotheses and a few RASC solves on the inliers, so a ratio of tens to a
 hundred is what its design costs.
 """
@@ -69,16 +70,16 @@ def cases() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 def side_by_side(fns: dict, repeat: int, block: int = 5) -> dict[str, float]:
-    """Median wall time per call of each function, timed alternately in blocks."""
+    """Median CPU time per call of each function, timed alternately in blocks."""
     for fn in fns.values():
         fn()                                                      # warm-up
     times = {k: [] for k in fns}
     for _ in range(max(1, repeat // block)):
         for k, fn in fns.items():
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             for _ in range(block):
                 fn()
-            times[k].append((time.perf_counter() - t0) / block)
+            times[k].append((time.process_time() - t0) / block)
     return {k: statistics.median(v) for k, v in times.items()}
 
 

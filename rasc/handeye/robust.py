@@ -37,9 +37,12 @@ Algorithm (:func:`solve_rasc_robust`):
    distance).
 3. **MSAC**: every hypothesis is scored by ``Σ_k min((r_k/τ)², 1)`` over both residuals;
    the best one's inliers (both residuals within threshold) are solved by RASC, the
-   residuals measured again against that solution, σ re-estimated from the inliers (RMS
-   of their residual norms over √3) and the inlier set recomputed, until it is stable (at
-   most ``MAX_ROUNDS`` rounds).
+   residuals measured again against that solution as 3-D vectors, their covariance
+   estimated from the inliers (:func:`_covariance`: an anisotropic error, as PnP's, is
+   measured as such), and the inlier set recomputed with the Mahalanobis distance against
+   the 99.9 % bound that allows for that covariance being estimated from the inliers
+   themselves (:func:`_limit`, Hotelling's), until it is stable (at most ``MAX_ROUNDS``
+   rounds).
 
 The result (:class:`RobustHandEyeResult`) is RASC's on the inliers (its quality and
 diagnostics are those of the inliers) and names each rejected position and why (rotation
@@ -96,6 +99,9 @@ MEDIAN_NORM = 1.538
 #: Thresholds never go below round-off: noise-free data still leave residuals of ~1e-15.
 FLOOR_ROTATION_RAD = 1e-9
 FLOOR_RELATIVE = 1e-9
+
+#: Inliers needed to measure the residuals' 3×3 covariance (else isotropic).
+MIN_FOR_COVARIANCE = 8
 
 #: Rounds of "solve the inliers, measure, re-select".
 MAX_ROUNDS = 5
@@ -284,14 +290,58 @@ def _inlier_sigma(r: np.ndarray, floor: float) -> float:
     return max(float(np.median(r)) / MEDIAN_NORM * dof, floor / THRESHOLD_SIGMAS)
 
 
-def _describe(k: int, rot: float, trans: float, tau_r: float, tau_t: float) -> Rejection:
+def _limit(m: int) -> float:
+    """The Mahalanobis distance a good position stays within with probability 0.999 when
+    the covariance is estimated from m positions: Hotelling's prediction bound
+    √(p (m² − 1) / (m (m − p)) · F_{p, m−p}(0.999)), p = 3 (5.5 for m = 20, 4.5 for
+    m = 88; √χ²₃ = 4.03 as m grows). With fewer than :data:`MIN_FOR_COVARIANCE` inliers
+    (isotropic scale from the median): :data:`THRESHOLD_SIGMAS`."""
+    if m < MIN_FOR_COVARIANCE:
+        return THRESHOLD_SIGMAS
+    from scipy.special import fdtri        # the F distribution's quantile
+
+    p = 3
+    return math.sqrt(p * (m * m - 1) / (m * (m - p)) * float(fdtri(p, m - p, 0.999)))
+
+
+def _describe(k: int, rot: float, trans: float, d_r: float, d_t: float,
+              limit: float) -> Rejection:
     parts = []
-    if rot > tau_r:
-        parts.append(f"rotation residual {math.degrees(rot):.3g}° > "
-                     f"{math.degrees(tau_r):.3g}°")
-    if trans > tau_t:
-        parts.append(f"translation residual {trans:.3g} > {tau_t:.3g}")
+    if d_r > limit:
+        parts.append(f"rotation residual {math.degrees(rot):.3g}° ({d_r:.3g} σ > "
+                     f"{limit:.3g} σ)")
+    if d_t > limit:
+        parts.append(f"translation residual {trans:.3g} ({d_t:.3g} σ > {limit:.3g} σ)")
     return Rejection(k, math.degrees(rot), float(trans), " and ".join(parts))
+
+
+def _residual_vectors(X: np.ndarray, T_cw: np.ndarray, T_gp: np.ndarray, fit: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) rotation vectors of R_Yᵀ R_Yk (radians) and (n, 3) t_Yk − t_Y, Y the mean
+    over the positions ``fit``."""
+    w = np.asarray(fit, dtype=float)
+    Y = _inv(X[None] @ T_gp) @ T_cw
+    RY = _chordal_mean(Y[None, :, :3, :3], w[None])[0]
+    tY = w @ Y[:, :3, 3] / w.sum()
+    return rotvec_from_matrix(RY.T @ Y[:, :3, :3]), Y[:, :3, 3] - tY
+
+
+def _covariance(v: np.ndarray, floor: float) -> np.ndarray:
+    """The 3×3 covariance of residual vectors v (m, 3) of the inliers: Σ v vᵀ / (m − 2)
+    (each axis has 3m numbers against the 6 unknowns of X and Y), so an error larger
+    along one axis than the others (a pose from PnP is less sure of its tilt than of its
+    turn about the optical axis) is measured as such. With fewer than
+    :data:`MIN_FOR_COVARIANCE` inliers: isotropic, from the median norm
+    (:func:`_inlier_sigma`). Never below the round-off floor."""
+    m = len(v)
+    f2 = (floor / THRESHOLD_SIGMAS) ** 2
+    if m < MIN_FOR_COVARIANCE:
+        return (_inlier_sigma(np.linalg.norm(v, axis=1), floor) ** 2 + f2) * np.eye(3)
+    return v.T @ v / (m - 2) + f2 * np.eye(3)
+
+
+def _mahalanobis(v: np.ndarray, C: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("ni,ij,nj->n", v, np.linalg.inv(C), v))
 
 
 def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *,
@@ -366,15 +416,20 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         except DegenerateDataError as exc:
             raise DegenerateDataError(f"rasc-robust: the {idx.size} consistent positions "
                                       f"of {n} are degenerate: {exc}") from None
-        r, t = pose_residuals(result.T_cam_from_gaze, T_cw, T_gp, inl)
-        sigma_r, sigma_t = _inlier_sigma(r[inl], floor_r), _inlier_sigma(t[inl], floor_t)
-        tau_r, tau_t = THRESHOLD_SIGMAS * sigma_r, THRESHOLD_SIGMAS * sigma_t
-        new = (r <= tau_r) & (t <= tau_t)
+        rv, tv = _residual_vectors(np.asarray(result.T_cam_from_gaze), T_cw, T_gp, inl)
+        C_r, C_t = _covariance(rv[inl], floor_r), _covariance(tv[inl], floor_t)
+        d_r, d_t = _mahalanobis(rv, C_r), _mahalanobis(tv, C_t)
+        limit = _limit(int(inl.sum()))
+        new = (d_r <= limit) & (d_t <= limit)
         if np.array_equal(new, inl):
             break
         inl = new
-    rejected = tuple(_describe(int(k), float(r[k]), float(t[k]), tau_r, tau_t)
-                     for k in np.flatnonzero(~inl))
+    r, t = np.linalg.norm(rv, axis=1), np.linalg.norm(tv, axis=1)
+    rejected = tuple(_describe(int(k), float(r[k]), float(t[k]), float(d_r[k]),
+                               float(d_t[k]), limit) for k in np.flatnonzero(~inl))
+    sigma_r, sigma_t = math.sqrt(np.trace(C_r) / 3), math.sqrt(np.trace(C_t) / 3)
+    tau_r = limit * math.sqrt(np.linalg.eigvalsh(C_r)[-1])
+    tau_t = limit * math.sqrt(np.linalg.eigvalsh(C_t)[-1])
     return RobustHandEyeResult(
         T_cam_from_gaze=result.T_cam_from_gaze, quality=result.quality, method=NAME,
         diagnostics=result.diagnostics, inliers=tuple(int(k) for k in np.flatnonzero(inl)),
