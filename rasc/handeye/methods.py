@@ -33,7 +33,8 @@ resolved). ``check_rigid`` and ``min_rotation_rad`` are the wrapper's options (a
 
 Built-in entries are ``callable(T_cam_from_world, T_gaze_from_ptu, **options) ->
 HandEyeResult``; options are the solver's keywords (``check_rigid`` for all, ``pairs``
-for "rasc", ``home`` for "li"). The OpenCV entries import cv2 only when called.
+for "rasc", ``home`` for "li", ``seed`` and ``max_draws`` for "rasc-robust"). The
+OpenCV entries import cv2 only when called.
 """
 
 from __future__ import annotations

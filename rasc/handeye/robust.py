@@ -298,7 +298,7 @@ def _limit(m: int) -> float:
     (isotropic scale from the median): :data:`THRESHOLD_SIGMAS`."""
     if m < MIN_FOR_COVARIANCE:
         return THRESHOLD_SIGMAS
-    from scipy.special import fdtri        # the F distribution's quantile
+    from scipy.special import fdtri  # the F distribution's quantile
 
     p = 3
     return math.sqrt(p * (m * m - 1) / (m * (m - p)) * float(fdtri(p, m - p, 0.999)))
