@@ -135,7 +135,9 @@ class RobustHandEyeResult(HandEyeResult):
     inliers : positions used (indices into the input).
     rejected : one :class:`Rejection` per position left out.
     sigma_rotation_deg, sigma_translation : the noise scale read from the data.
-    threshold_rotation_deg, threshold_translation : the rejection thresholds.
+    threshold_rotation_deg, threshold_translation : the rejection thresholds along the
+        residuals' widest axis (``limit_sigmas`` σ there).
+    limit_sigmas : the Mahalanobis distance a position must stay within (:func:`_limit`).
     n_hypotheses : minimal-sample hypotheses scored; seed : their draw's seed.
     """
 
@@ -147,6 +149,7 @@ class RobustHandEyeResult(HandEyeResult):
     threshold_translation: float = math.nan
     n_hypotheses: int = 0
     seed: int = 0
+    limit_sigmas: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         out = super().to_dict()
@@ -165,8 +168,10 @@ def robust_summary(result: RobustHandEyeResult) -> dict[str, Any]:
         "sigma_translation": result.sigma_translation,
         "threshold_rotation_deg": result.threshold_rotation_deg,
         "threshold_translation": result.threshold_translation,
-        "threshold_rule": (f"{THRESHOLD_SIGMAS} sigma (99.9 % of a 3-D Gaussian error's "
-                           "norm), sigma from the data"),
+        "threshold_rule": (f"Mahalanobis distance under the inliers' own residual "
+                           f"covariance within {result.limit_sigmas:.3g} (99.9 % for a 3-D "
+                           f"Gaussian error, covariance estimated from the "
+                           f"{len(result.inliers)} inliers)"),
         "n_hypotheses": result.n_hypotheses,
         "seed": result.seed,
     }
@@ -435,7 +440,7 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         diagnostics=result.diagnostics, inliers=tuple(int(k) for k in np.flatnonzero(inl)),
         rejected=rejected, sigma_rotation_deg=math.degrees(sigma_r),
         sigma_translation=sigma_t, threshold_rotation_deg=math.degrees(tau_r),
-        threshold_translation=tau_t, n_hypotheses=S, seed=int(seed))
+        threshold_translation=tau_t, n_hypotheses=S, seed=int(seed), limit_sigmas=limit)
 
 
 # ------------------------------------------------------------ rasc calibrate's hook
