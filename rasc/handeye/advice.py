@@ -191,8 +191,7 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     if scaled:
         return [scaled]
     advice = ("give every T_cam_from_world translation in one length unit, and check that "
-              "each belongs to the motion beside it (or solve with --method rasc-robust, "
-              "which leaves out the positions the others contradict)")
+              "each belongs to the motion beside it")
     if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
         return [f"{names[k]}: the target is {ratio[k]:.3g}× as far from the camera as at the "
                 f"median position ({distance[k]:.3g} against {scale:.3g}): a translation in "
@@ -200,7 +199,9 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
                 f"({np.linalg.norm(X[:3, 3]):.3g}) is then wrong; {advice}"]
     return [f"the translations contradict each other: the target, fixed while the unit "
             f"moves, lands {worst:.3g} apart in the unit's frame (target distance "
-            f"{scale:.3g}); the solution's translation is unreliable; {advice}"]
+            f"{scale:.3g}); the solution's translation is unreliable; {advice} (or solve "
+            "with --method rasc-robust, which leaves out the positions the others "
+            "contradict)"]
 
 
 def solution_warnings(result: HandEyeResult, *,

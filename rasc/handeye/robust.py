@@ -64,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from rasc.errors import DegenerateDataError, RascError
+from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.transforms import rotvec_from_matrix
 from rasc.handeye.solver import (
     MIN_AXIS_SPREAD,
@@ -298,7 +298,7 @@ def _inlier_sigma(r: np.ndarray, floor: float) -> float:
 def _limit(m: int) -> float:
     """The Mahalanobis distance a good position stays within with probability 0.999 when
     the covariance is estimated from m positions: Hotelling's prediction bound
-    √(p (m² − 1) / (m (m − p)) · F_{p, m−p}(0.999)), p = 3 (5.5 for m = 20, 4.5 for
+    √(p (m² − 1) / (m (m − p)) · F_{p, m−p}(0.999)), p = 3 (5.5 for m = 20, 4.3 for
     m = 88; √χ²₃ = 4.03 as m grows). With fewer than :data:`MIN_FOR_COVARIANCE` inliers
     (isotropic scale from the median): :data:`THRESHOLD_SIGMAS`."""
     if m < MIN_FOR_COVARIANCE:
@@ -317,6 +317,9 @@ def _describe(k: int, rot: float, trans: float, d_r: float, d_t: float,
                      f"{limit:.3g} σ)")
     if d_t > limit:
         parts.append(f"translation residual {trans:.3g} ({d_t:.3g} σ > {limit:.3g} σ)")
+    if not parts:   # the inlier set had not settled after MAX_ROUNDS rounds
+        parts.append(f"left out in the last of {MAX_ROUNDS} rounds (rotation "
+                     f"{d_r:.3g} σ, translation {d_t:.3g} σ, limit {limit:.3g} σ)")
     return Rejection(k, math.degrees(rot), float(trans), " and ".join(parts))
 
 
@@ -377,7 +380,7 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
                              min_rotation_rad=min_rotation_rad, check_rigid=check_rigid)
     n = len(T_cw)
     if not (isinstance(max_draws, int) and max_draws >= 1):
-        raise DegenerateDataError(f"max_draws: expected an integer >= 1, got {max_draws!r}")
+        raise InputError(f"max_draws: expected an integer >= 1, got {max_draws!r}")
     X, samples = _hypotheses(T_cw, T_gp, max_draws, seed, min_rotation_rad)
     S = len(X)
     fit = np.zeros((S, n))
@@ -415,6 +418,7 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
                 f"other (thresholds {math.degrees(tau_r):.3g}° and {tau_t:.3g}); at least "
                 f"{MINIMAL} consistent positions are needed")
         idx = np.flatnonzero(inl)
+        solved = inl.copy()
         try:
             result = solve_rasc(T_cw[idx], T_gp[idx], min_rotation_rad=min_rotation_rad,
                                 check_rigid=False)
@@ -429,6 +433,7 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         if np.array_equal(new, inl):
             break
         inl = new
+    inl = solved          # the set the result was solved on (the same at a fixed point)
     r, t = np.linalg.norm(rv, axis=1), np.linalg.norm(tv, axis=1)
     rejected = tuple(_describe(int(k), float(r[k]), float(t[k]), float(d_r[k]),
                                float(d_t[k]), limit) for k in np.flatnonzero(~inl))
