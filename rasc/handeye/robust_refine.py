@@ -45,7 +45,6 @@ from scipy.optimize import least_squares
 from rasc.errors import InputError, SolverFailure
 from rasc.geometry.transforms import (
     make_transform,
-    matrix_from_rotvec,
     project_to_rotation,
     rotvec_from_matrix,
 )
@@ -125,6 +124,33 @@ def refinement_summary(result: RefinedHandEyeResult) -> dict[str, Any]:
     }
 
 
+def _exp(r: np.ndarray) -> np.ndarray:
+    """Rodrigues' formula for one rotation vector (3,) → (3, 3) (series below 1e-6 rad)."""
+    theta = math.sqrt(float(r @ r))
+    K = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+    if theta < 1e-6:
+        return np.eye(3) + K + 0.5 * K @ K
+    return (np.eye(3) + math.sin(theta) / theta * K
+            + (1.0 - math.cos(theta)) / theta ** 2 * K @ K)
+
+
+def _log(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors of rotations (n, 3, 3), the atan2 form (accurate near 0); angles
+    within 1e-3 rad of π go through scipy (the skew part loses the axis there)."""
+    w = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0],
+                  R[:, 1, 0] - R[:, 0, 1]], axis=1)
+    s = 0.5 * np.linalg.norm(w, axis=1)
+    c = 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0)
+    theta = np.arctan2(s, c)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(s > 1e-8, theta / (2.0 * s), 0.5 + theta ** 2 / 12.0)
+    out = f[:, None] * w
+    near_pi = theta > math.pi - 1e-3
+    if near_pi.any():
+        out[near_pi] = rotvec_from_matrix(R[near_pi])
+    return out
+
+
 class _Problem:
     def __init__(self, T_cw, T_gp, X0, Y0):
         self.R, self.t = T_cw[:, :3, :3], T_cw[:, :3, 3]
@@ -133,14 +159,14 @@ class _Problem:
         self.w = np.ones(2)
 
     def transforms(self, p):
-        X = make_transform(matrix_from_rotvec(p[0:3]) @ self.RX0, p[3:6])
-        Y = make_transform(matrix_from_rotvec(p[6:9]) @ self.RY0, p[9:12])
+        X = make_transform(_exp(p[0:3]) @ self.RX0, p[3:6])
+        Y = make_transform(_exp(p[6:9]) @ self.RY0, p[9:12])
         return X, Y
 
     def raw(self, p):
         X, Y = self.transforms(p)
         P = X @ self.G @ Y
-        r = rotvec_from_matrix(np.swapaxes(P[:, :3, :3], -1, -2) @ self.R)
+        r = _log(np.swapaxes(P[:, :3, :3], -1, -2) @ self.R)
         return r, self.t - P[:, :3, 3]
 
     def residuals(self, p):
