@@ -170,6 +170,7 @@ def test_degenerate_data_never_yield_a_number():
         solve_rasc_robust(T_cw, T_gp)
 
 
+@pytest.mark.slow
 def test_registered_and_usable_as_a_method():
     T_cw, T_gp, bad, _ = contaminated(4, 0.2)
     m = get_method("rasc-robust")
