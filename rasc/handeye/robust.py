@@ -51,14 +51,15 @@ consistent positions, or inliers that are degenerate, raise
 :class:`~rasc.errors.DegenerateDataError`: no number is returned that the data do not
 support.
 
-:func:`closed_form` is what ``rasc calibrate`` uses: RASC, or ``rasc-robust`` when the
-consistency checks of :mod:`rasc.handeye.advice` flag the RASC solution.
+:func:`rasc.handeye.robust_calibrate.closed_form` is what ``rasc calibrate`` uses: RASC,
+or ``rasc-robust`` when the consistency checks of :mod:`rasc.handeye.advice` flag the RASC
+solution.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from itertools import combinations
 from typing import Any
 
@@ -446,61 +447,3 @@ def solve_rasc_robust(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         rejected=rejected, sigma_rotation_deg=math.degrees(sigma_r),
         sigma_translation=sigma_t, threshold_rotation_deg=math.degrees(tau_r),
         threshold_translation=tau_t, n_hypotheses=S, seed=int(seed), limit_sigmas=limit)
-
-
-# ------------------------------------------------------------ rasc calibrate's hook
-
-@dataclass
-class ClosedForm:
-    """What :func:`closed_form` decided: the result and the notes for the user."""
-
-    result: HandEyeResult
-    notes: list[str] = field(default_factory=list)
-
-
-def contamination(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-                  result: HandEyeResult) -> list[str]:
-    """The consistency checks of :mod:`rasc.handeye.advice` that flag ``result``: a
-    quality (eq. 10) above the paper's limit and translations that contradict each other
-    (:func:`~rasc.handeye.advice.translation_warnings`). Empty: nothing flagged."""
-    from rasc.handeye.advice import QUALITY_UNUSABLE, translation_warnings
-
-    out = []
-    if result.quality > QUALITY_UNUSABLE:
-        out.append(f"quality {result.quality:.3g} > {QUALITY_UNUSABLE:g}")
-    if translation_warnings(T_cam_from_world, T_gaze_from_ptu, result.T_cam_from_gaze,
-                            scale_check=False):
-        out.append("the translations contradict each other")
-    return out
-
-
-def closed_form(method: str, T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-                names: list[str] | None = None) -> ClosedForm:
-    """The closed form of ``rasc calibrate``: ``method`` (any name
-    :func:`rasc.handeye.methods.get_method` resolves); for "rasc" (the paper's method, the
-    default), when :func:`contamination` flags its solution, ``rasc-robust`` instead —
-    kept when it rejects some position, with a note naming them and why, so that the
-    whole-head refinement starts from the inliers. A name the user chose other than
-    "rasc" is used as it is."""
-    from rasc.handeye.methods import solve
-
-    result = solve(method, T_cam_from_world, T_gaze_from_ptu)
-    if method != "rasc":
-        return ClosedForm(result)
-    flagged = contamination(T_cam_from_world, T_gaze_from_ptu, result)
-    if not flagged:
-        return ClosedForm(result)
-    try:
-        robust = solve_rasc_robust(T_cam_from_world, T_gaze_from_ptu)
-    except DegenerateDataError as exc:
-        return ClosedForm(result, [f"the data look contaminated ({'; '.join(flagged)}) but "
-                                   f"rasc-robust could not separate the bad positions "
-                                   f"({exc}); the closed form uses every position"])
-    if not robust.rejected:
-        return ClosedForm(result)
-    names = names or [f"positions[{k}]" for k in range(len(T_cam_from_world))]
-    which = "; ".join(f"{names[r.index]} ({r.reason})" for r in robust.rejected)
-    return ClosedForm(robust, [
-        f"the closed form's data look contaminated ({'; '.join(flagged)}): rasc-robust "
-        f"rejected {len(robust.rejected)} of {len(names)} positions: {which}; the closed "
-        f"form (and any refinement) starts from the {len(robust.inliers)} others"])

@@ -162,7 +162,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     """
     from rasc.handeye.advice import check_motions_match
     from rasc.handeye.methods import jackknife_uncertainty
-    from rasc.handeye.robust import closed_form
+    from rasc.handeye.robust_calibrate import closed_form
     from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics
 
     timer = timer or _Timer()
@@ -210,7 +210,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
         check_motions_match(T_cw, T_gp, other_unit=(other, T_other))
     except InputError as exc:
         raise InputError(f"{dataset.manifest_path}: {eye} pose images: {exc}") from None
-    try:  # RASC, or rasc-robust when the data ask for it (rasc.handeye.robust)
+    try:  # RASC, or rasc-robust when the data ask for it (robust_calibrate)
         closed = closed_form(options.method, T_cw, T_gp, names=files)
     except InputError:
         raise

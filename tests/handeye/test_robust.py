@@ -29,7 +29,8 @@ from rasc.handeye.corruption import (
 )
 from rasc.handeye.methods import get_method, jackknife_uncertainty, solve
 from rasc.handeye.noise import perturb_T_cam_from_world
-from rasc.handeye.robust import closed_form, solve_rasc_robust
+from rasc.handeye.robust import solve_rasc_robust
+from rasc.handeye.robust_calibrate import closed_form
 from rasc.handeye.robust_refine import refine_handeye
 from rasc.handeye.scale import solve_rasc_scaled
 from rasc.handeye.solver import solve_rasc
