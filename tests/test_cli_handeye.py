@@ -137,6 +137,9 @@ def test_method_names_match_the_solvers():
 #: ±10°); it may either fail cleanly or succeed. Every other method must succeed; they
 #: came within 0.17–0.19° and 1.2–1.9 mm of the truth, inside the RASC tolerances.
 MAY_FAIL = {"opencv-andreff"}
+#: Methods that must refuse the example: rasc-scale estimates the camera translations'
+#: scale from the unit's translations, and a pan-tilt unit has none.
+MUST_REFUSE = {"rasc-scale": "do not fix the scale"}
 
 
 @pytest.mark.parametrize("method", handeye_command.METHOD_NAMES)
@@ -146,6 +149,10 @@ def test_each_method_recovers_the_example_or_fails_cleanly(method, tmp_path, cap
     out = tmp_path / "result.json"
     rc, stdout, stderr = run_cli([EXAMPLE, "--method", method, "--out", out], capsys)
     assert stdout == ""
+    if method in MUST_REFUSE:
+        assert rc == 2 and MUST_REFUSE[method] in stderr and len(stderr.splitlines()) == 1
+        assert not out.exists()
+        return
     if rc != 0 and method in MAY_FAIL:
         assert rc == 2
         lines = stderr.splitlines()

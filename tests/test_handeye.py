@@ -616,7 +616,8 @@ def test_bad_options():
 def test_methods_table():
     from rasc.handeye import methods
 
-    assert set(methods.METHODS) == {"rasc", "rasc-inverse", "rasc-views", "li", "opencv-park",
+    assert set(methods.METHODS) == {"rasc", "rasc-inverse", "rasc-views", "rasc-robust",
+                                    "rasc-scale", "li", "opencv-park",
                                     "opencv-tsai", "opencv-horaud", "opencv-andreff",
                                     "opencv-daniilidis"}
     T_cw, T_gp = _data(PAPER_POSES_DEG)

@@ -231,7 +231,7 @@ BROKEN = {
                              "not a callable",
     "userplug:": "method 'userplug:': expected a method name or package.module:function",
     "no-such-method": "method 'no-such-method': unknown; expected one of rasc, li, "
-                      "rasc-inverse, rasc-views, opencv-park",
+                      "rasc-inverse, rasc-views, rasc-robust, rasc-scale, opencv-park",
 }
 
 

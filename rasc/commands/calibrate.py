@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
         r = cal.eyes[eye]
         T_gp = T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1])        # eq. 3
         for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True) \
-                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye.T_cam_from_gaze,
+                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye,
                                        names=list(r.pose_files)):
             print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:

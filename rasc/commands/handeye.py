@@ -32,7 +32,8 @@ RESULT_FORMAT = formats.HANDEYE_RESULT.tag
 
 #: The built-in names of rasc.handeye.methods.METHODS, listed here so that building the
 #: parser imports no solver (and no cv2); a test checks that they match.
-METHOD_NAMES = ("rasc", "li", "rasc-inverse", "rasc-views", "opencv-park", "opencv-tsai",
+METHOD_NAMES = ("rasc", "li", "rasc-inverse", "rasc-views", "rasc-robust", "rasc-scale",
+                "opencv-park", "opencv-tsai",
                 "opencv-horaud", "opencv-andreff", "opencv-daniilidis")
 
 #: --method's help, shared with ``rasc calibrate``.
@@ -57,6 +58,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     parser.add_argument("--home", metavar="K", type=int,
                         help="li only: index of the home position in 'positions' (default: "
                              "the position at pan = tilt = 0, else the first)")
+    parser.add_argument("--refine", action="store_true",
+                        help="refine the method's result on the pose residuals (rotation "
+                             "and translation jointly, robust loss) and report its "
+                             "covariance (rasc.handeye.robust_refine)")
     parser.add_argument("--out", metavar="FILE",
                         help="write the result JSON here (atomically) instead of stdout")
     parser.set_defaults(func=run)
@@ -99,6 +104,8 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
         "angle_unit": data.angle_unit,
         "length_unit": data.length_unit or "same as the input's T_cam_from_world translations",
         **({} if home is None else {"home": home}),
+        # rasc-robust's rejections, rasc-scale's scale, --refine's covariance
+        **{k: v for k, v in result.to_dict().items() if k in ("robust", "scale", "refinement")},
     }
 
 
@@ -126,6 +133,13 @@ def run(args: argparse.Namespace) -> int:
         raise DegenerateDataError(f"{source}: {exc}") from None
     except RascError as exc:
         raise RascError(f"{source}: {exc}") from None
+    if args.refine:
+        from rasc.handeye.robust_refine import refine_handeye
+
+        try:
+            result = refine_handeye(data.T_cam_from_world, data.T_gaze_from_ptu, result)
+        except RascError as exc:
+            raise type(exc)(f"{source}: --refine: {exc}") from None
     home, notes = None, []
     if args.method == "li":
         home = home_index(data.T_gaze_from_ptu) if args.home is None else args.home
@@ -139,9 +153,9 @@ def run(args: argparse.Namespace) -> int:
         write_stdout(dumps_json(doc))
     else:
         write_json_atomic(args.out, doc)
-    for warning in notes + input_warnings(data.T_cam_from_world) + solution_warnings(
-            result, uncertainty=uncertainty, pan_tilt=data.from_angles) + translation_warnings(
-            data.T_cam_from_world, data.T_gaze_from_ptu, result.T_cam_from_gaze):
+    for warning in notes + input_warnings(data.T_cam_from_world, data.T_gaze_from_ptu) + \
+            solution_warnings(result, uncertainty=uncertainty, pan_tilt=data.from_angles) + \
+            translation_warnings(data.T_cam_from_world, data.T_gaze_from_ptu, result):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 

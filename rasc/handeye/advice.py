@@ -85,12 +85,21 @@ def _motions_match(ratio: float) -> bool:
         <= MAX_MOTION_ANGLE_RATIO
 
 
-def input_warnings(T_cam_from_world: np.ndarray) -> list[str]:
+def input_warnings(T_cam_from_world: np.ndarray,
+                   T_gaze_from_ptu: np.ndarray | None = None) -> list[str]:
     """What looks wrong in the target poses themselves, one sentence each: the target's
     origin (a corner of the board, which the camera sees) behind most cameras, as when
-    T_world_from_cam is given for T_cam_from_world (a solver still returns an answer)."""
+    T_world_from_cam is given for T_cam_from_world (a solver still returns an answer).
+
+    With ``T_gaze_from_ptu``: no such sentence when the translations fit a solution with
+    an unknown scale far better (:func:`rasc.handeye.scale.scale_warning`): poses from
+    visual odometry or SfM have a world frame of their own, not a board in front of the
+    camera, and :func:`translation_warnings` names that cause instead."""
     z = np.asarray(T_cam_from_world, dtype=float)[:, 2, 3]
     behind = np.flatnonzero(z <= 0)
+    if 2 * behind.size > z.size and T_gaze_from_ptu is not None \
+            and _scale_explains(T_cam_from_world, T_gaze_from_ptu):
+        return []
     if 2 * behind.size > z.size:
         return [f"{behind.size} of {z.size} poses put the target's origin behind the camera "
                 f"(T_cam_from_world[{int(behind[0])}] has z = {z[behind[0]]:.3g}); a "
@@ -113,17 +122,40 @@ MAX_TRANSLATION_SCATTER = 0.1
 UNIT_RATIO = 3.0
 
 
+def _scale_explains(T_cam_from_world, T_gaze_from_ptu, R_cam_from_gaze=None) -> str | None:
+    """The unknown-scale sentence when the translations fit a scaled solution far better
+    (:func:`rasc.handeye.scale.scale_warning`; R_cam_from_gaze from RASC when not given),
+    else None."""
+    from rasc.errors import RascError
+    from rasc.handeye.scale import scale_warning
+    from rasc.handeye.solver import solve_rasc
+
+    if R_cam_from_gaze is None:
+        try:
+            R_cam_from_gaze = solve_rasc(T_cam_from_world, T_gaze_from_ptu,
+                                         check_rigid=False).T_cam_from_gaze[:3, :3]
+        except RascError:
+            return None
+    return scale_warning(T_cam_from_world, T_gaze_from_ptu, R_cam_from_gaze)
+
+
 def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-                         T_cam_from_gaze: np.ndarray,
-                         names: list[str] | None = None) -> list[str]:
+                         T_cam_from_gaze: np.ndarray | HandEyeResult,
+                         names: list[str] | None = None, *,
+                         scale_check: bool = True) -> list[str]:
     """Translations that contradict each other (one sentence, or none).
 
     Parameters
     ----------
     T_cam_from_world, T_gaze_from_ptu : ndarray, shape (n, 4, 4)
-    T_cam_from_gaze : ndarray, shape (4, 4)
-        The solution.
+    T_cam_from_gaze : ndarray, shape (4, 4), or a HandEyeResult
+        The solution. A ``rasc-robust`` result
+        (:class:`~rasc.handeye.robust.RobustHandEyeResult`) is checked on its inliers
+        only: the positions it rejected are named by its own result.
     names : how to name position k in the message (default ``positions[k]``)
+    scale_check : when the translations scatter, first ask whether a common scale of the
+        camera translations explains them (:func:`rasc.handeye.scale.scale_warning`):
+        then that is the sentence.
 
     The target's translation in the unit's frame (fixed for consistent data, see
     :data:`MAX_TRANSLATION_SCATTER`) scatters by more than MAX_TRANSLATION_SCATTER of the
@@ -133,8 +165,14 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     """
     T_cw = np.asarray(T_cam_from_world, dtype=float)
     T_gp = np.asarray(T_gaze_from_ptu, dtype=float)
-    X = np.asarray(T_cam_from_gaze, dtype=float)
     names = names or [f"positions[{k}]" for k in range(len(T_cw))]
+    inliers = getattr(T_cam_from_gaze, "inliers", None)
+    if inliers:
+        keep = list(inliers)
+        T_cw, T_gp, names = T_cw[keep], T_gp[keep], [names[k] for k in keep]
+    if isinstance(T_cam_from_gaze, HandEyeResult):
+        T_cam_from_gaze = T_cam_from_gaze.T_cam_from_gaze
+    X = np.asarray(T_cam_from_gaze, dtype=float)
     with np.errstate(all="ignore"):
         distance = np.linalg.norm(T_cw[:, :3, 3], axis=1)
         scale = float(np.median(distance))
@@ -149,6 +187,9 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
             return []
         ratio = distance / scale
         k = int(np.argmax(np.abs(np.log(np.where(ratio > 0, ratio, np.inf)))))
+    scaled = _scale_explains(T_cw, T_gp, X[:3, :3]) if scale_check else None
+    if scaled:
+        return [scaled]
     advice = ("give every T_cam_from_world translation in one length unit, and check that "
               "each belongs to the motion beside it")
     if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
@@ -158,7 +199,9 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
                 f"({np.linalg.norm(X[:3, 3]):.3g}) is then wrong; {advice}"]
     return [f"the translations contradict each other: the target, fixed while the unit "
             f"moves, lands {worst:.3g} apart in the unit's frame (target distance "
-            f"{scale:.3g}); the solution's translation is unreliable; {advice}"]
+            f"{scale:.3g}); the solution's translation is unreliable; {advice} (or solve "
+            "with --method rasc-robust, which leaves out the positions the others "
+            "contradict)"]
 
 
 def solution_warnings(result: HandEyeResult, *,
@@ -178,6 +221,11 @@ def solution_warnings(result: HandEyeResult, *,
       answer is the truth turned by 180°.
     """
     out = []
+    rejected = getattr(result, "rejected", ())
+    if rejected:        # rasc-robust (rasc.handeye.robust): which positions it left out
+        out.append(f"{len(rejected)} position(s) rejected as inconsistent with the others "
+                   "and left out: " + "; ".join(f"positions[{r.index}] ({r.reason})"
+                                                for r in rejected))
     if result.quality > QUALITY_UNUSABLE:
         out.append(f"quality {result.quality:.3g} > {QUALITY_UNUSABLE:g}; the paper found "
                    "such solutions unusable")

@@ -8,7 +8,10 @@ experiments and studies) the name is resolved by :func:`get_method`, in this ord
 
 1. a built-in name, a key of :data:`METHODS`: "rasc" (the paper's method), "li",
    "rasc-inverse" and "rasc-views" (RASC's rotation with other translations,
-   :mod:`rasc.handeye.inverse`) and OpenCV's five "opencv-<name>";
+   :mod:`rasc.handeye.inverse`), "rasc-robust" (consensus that rejects bad positions,
+   then RASC on the rest, :mod:`rasc.handeye.robust`), "rasc-scale" (the camera
+   translations' unknown scale estimated too, :mod:`rasc.handeye.scale`) and OpenCV's
+   five "opencv-<name>";
 2. ``package.module:function`` (any importable callable; the module is imported when
    the method is first resolved);
 3. a name registered by an installed package in the entry-point group ``rasc.methods``
@@ -30,7 +33,8 @@ resolved). ``check_rigid`` and ``min_rotation_rad`` are the wrapper's options (a
 
 Built-in entries are ``callable(T_cam_from_world, T_gaze_from_ptu, **options) ->
 HandEyeResult``; options are the solver's keywords (``check_rigid`` for all, ``pairs``
-for "rasc", ``home`` for "li"). The OpenCV entries import cv2 only when called.
+for "rasc", ``home`` for "li", ``seed`` and ``max_draws`` for "rasc-robust"). The
+OpenCV entries import cv2 only when called.
 """
 
 from __future__ import annotations
@@ -50,6 +54,8 @@ from rasc.geometry.transforms import RIGID_ATOL, rotvec_from_matrix
 from rasc.handeye.inverse import solve_rasc_inverse, solve_rasc_views
 from rasc.handeye.li import solve_li
 from rasc.handeye.opencv import CV_METHODS, solve_opencv
+from rasc.handeye.robust import solve_rasc_robust
+from rasc.handeye.scale import solve_rasc_scaled
 from rasc.handeye.solver import (
     MIN_PAIR_ROTATION_RAD,
     HandEyeResult,
@@ -68,6 +74,8 @@ METHODS: dict[str, Callable[..., HandEyeResult]] = {
     "li": solve_li,
     "rasc-inverse": solve_rasc_inverse,
     "rasc-views": solve_rasc_views,
+    "rasc-robust": solve_rasc_robust,
+    "rasc-scale": solve_rasc_scaled,
     **{f"opencv-{m}": functools.partial(solve_opencv, method=m) for m in CV_METHODS},
 }
 

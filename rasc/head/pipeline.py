@@ -162,7 +162,8 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     eye (and the image, when there is one).
     """
     from rasc.handeye.advice import check_motions_match
-    from rasc.handeye.methods import jackknife_uncertainty, solve
+    from rasc.handeye.methods import jackknife_uncertainty
+    from rasc.handeye.robust_calibrate import closed_form
     from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics
 
     timer = timer or _Timer()
@@ -210,14 +211,16 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
         check_motions_match(T_cw, T_gp, other_unit=(other, T_other))
     except InputError as exc:
         raise InputError(f"{dataset.manifest_path}: {eye} pose images: {exc}") from None
-    try:
-        he = solve(options.method, T_cw, T_gp)
+    try:  # RASC, or rasc-robust when the data ask for it (robust_calibrate)
+        closed = closed_form(options.method, T_cw, T_gp, names=files)
     except InputError:
         raise
     except RascError as exc:  # DegenerateDataError, SolverFailure: name the eye
         raise type(exc)(f"{dataset.manifest_path}: {eye} eye: {exc}") from None
-    uncertainty = jackknife_uncertainty(options.method, T_cw, T_gp, he)
-    warnings = []
+    he = closed.result
+    uncertainty = jackknife_uncertainty(
+        he.method if he.method == "rasc-robust" else options.method, T_cw, T_gp, he)
+    warnings = [f"{eye} eye: {note}" for note in closed.notes]
     if options.method == "li" and not has_home_pose(T_gp):
         warnings.append(f"{eye} eye: {NO_HOME_POSE}; add a pose view at (0, 0)")
     timer.add("hand-eye", time.perf_counter() - t0)
