@@ -32,6 +32,7 @@ import ast
 import dataclasses
 import functools
 import importlib
+import json
 import re
 import zlib
 from collections import defaultdict
@@ -52,7 +53,8 @@ def _text(value) -> nodes.Node:
     """A cell's content: ``("code", s)`` is an inline literal, anything else plain text."""
     if isinstance(value, tuple) and value and value[0] == "code":
         # a long dotted name may wrap after a dot (a zero-width space), not mid-word
-        return nodes.literal(text=str(value[1]).replace(".", ".\u200b"))
+        return nodes.literal(text=re.sub(r"(?<=[A-Za-z_])\.(?=[A-Za-z_])", ".\u200b",
+                                         str(value[1])))
     if isinstance(value, list):   # several pieces in one paragraph
         para = nodes.paragraph()
         for i, v in enumerate(value):
@@ -101,6 +103,17 @@ def section(directive: SphinxDirective, title: str, ident: str) -> nodes.section
 def _import(dotted: str):
     module, _, name = dotted.rpartition(".")
     return getattr(importlib.import_module(module), name)
+
+
+def _toml(value) -> str:
+    """A default as a study spec (TOML) writes it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
 
 
 def _show(value) -> str:
@@ -216,7 +229,7 @@ class StudyParamsDirective(SphinxDirective):
         for name, p in spec.PARAMS.items():
             default = getattr(p, "default", None)
             rows.append([("code", name), getattr(p, "kind", ""),
-                         "none" if default is None else ("code", _show(default)),
+                         "none" if default is None else ("code", _toml(default)),
                          getattr(p, "help", "")])
         return [table(["parameter", "kind", "default", "meaning"], rows, [2, 1, 1, 6])]
 
