@@ -566,14 +566,22 @@ def _drop_empty_globs(app, docname, source):
     source[0] = "".join(kept)
 
 
-def _hide_object_base(app, name, obj, options, bases):
-    """"Bases: object" says nothing: list a class's bases only when it has others."""
-    if object in bases:
-        bases.remove(object)
+def _add_bases(app, what, name, obj, options, lines):
+    """A class's bases at the end of its entry, when it has any besides ``object``
+    (autodoc's ``show-inheritance`` writes "Bases: object" on every class, or an empty
+    "Bases:" when the event removes it). Runs after numpydoc has rendered the sections."""
+    if what not in ("class", "exception") or not isinstance(obj, type):
+        return
+    bases = [b for b in obj.__bases__ if b is not object]
+    if not bases:
+        return
+    names = [f":class:`{b.__qualname__}`" if b.__module__ == "builtins"
+             else f":class:`~{b.__module__}.{b.__qualname__}`" for b in bases]
+    lines.extend(["", "*Bases:* " + ", ".join(names)])
 
 
 def setup(app):
-    app.connect("autodoc-process-bases", _hide_object_base)
+    app.connect("autodoc-process-docstring", _add_bases, priority=600)
     app.connect("autodoc-process-docstring", _tidy_docstring, priority=400)
     app.connect("source-read", _drop_empty_globs)
     app.add_directive("rasc-cli", CliDirective)
