@@ -13,9 +13,10 @@ on every build, so a page cannot drift from the program.
 ``rasc-study-params``
     The study parameters of :data:`rasc.study.spec.PARAMS` and the spec's top-level keys.
 ``rasc-formats``
-    Every ``rasc-NAME/N`` file format named in the package, found by parsing the sources:
-    where its name is declared, which functions write it (a ``"format": ...`` entry of a
-    dict) and which read it (a comparison with the name).
+    Every ``rasc-NAME/N`` file format: from the package's format registry
+    (``rasc.formats.FORMATS``) where it has one, else found by parsing the sources: where
+    its name is declared, which functions write it (a ``"format": ...`` entry of a dict)
+    and which read it (a comparison with the name).
 ``rasc-messages``
     The refusals (``raise InputError(...)`` and the other :class:`rasc.errors.RascError`
     subclasses) or the warnings (strings appended to a list of warnings, or passed to a
@@ -423,9 +424,10 @@ class MessagesDirective(SphinxDirective):
 
 # ------------------------------------------------------------------ rasc-formats
 
-def collect_formats() -> dict[str, dict[str, set[str]]]:
-    """{format: {"declared": {...}, "written": {...}, "read": {...}, "named": {...}}}."""
-    sources = _sources()
+def collect_formats(sources=None) -> dict[str, dict[str, set[str]]]:
+    """{format: {"declared": {...}, "written": {...}, "read": {...}, "named": {...}}}, by
+    scanning ``sources`` ((module, path, tree) triples; default: the package)."""
+    sources = _sources() if sources is None else sources
     constants: dict[tuple[str, str], str] = {}
     for module, _, tree in sources:
         for node in tree.body:
@@ -469,19 +471,52 @@ def collect_formats() -> dict[str, dict[str, set[str]]]:
     return {k: info[k] for k in sorted(info)}
 
 
+def format_rows() -> list[dict]:
+    """One dict per file format: ``tag``, ``what``, ``declared``, ``written``, ``read``
+    (lists of ``module.name``, relative to ``rasc.``).
+
+    From the format registry, ``rasc.formats.FORMATS`` (tag → an object with ``what``,
+    ``reader``, ``writer`` as ``"module:qualified.name"``), when the package has one; else
+    by scanning the sources for ``rasc-NAME/N`` strings (:func:`collect_formats`).
+    """
+    def short(ref: str) -> str:
+        return ref.replace(":", ".").removeprefix("rasc.")
+
+    try:
+        registry = importlib.import_module("rasc.formats").FORMATS
+    except (ImportError, AttributeError):
+        registry = None
+    if registry:
+        names = {id(v): k for k, v in vars(importlib.import_module("rasc.formats")).items()
+                 if not k.startswith("_")}
+        return [{"tag": tag, "what": getattr(f, "what", ""),
+                 "declared": [f"formats.{names[id(f)]}"] if id(f) in names else [],
+                 "written": [short(f.writer)] if getattr(f, "writer", "") else [],
+                 "read": [short(f.reader)] if getattr(f, "reader", "") else []}
+                for tag, f in sorted(registry.items())]
+    return [{"tag": tag, "what": "",
+             **{key: sorted(w.removeprefix("rasc.") for w in where.get(key, ()))
+                for key in ("declared", "written", "read")}}
+            for tag, where in collect_formats().items()]
+
+
 class FormatsDirective(SphinxDirective):
     def run(self):
         for path in PACKAGE.rglob("*.py"):
             self.env.note_dependency(str(path))
-        rows = []
-        for fmt, where in collect_formats().items():
-            def cell(key, where=where):
-                return [("code", w.removeprefix("rasc."))
-                        for w in sorted(where.get(key, ()))] or "—"
-            rows.append([("code", fmt), cell("declared"), cell("written"), cell("read")])
+        rows = format_rows()
+        with_what = any(r["what"] for r in rows)
+
+        def cell(names):
+            return [("code", n) for n in names] or "—"
+
+        body = [[("code", r["tag"]), *([r["what"]] if with_what else []),
+                 cell(r["declared"]), cell(r["written"]), cell(r["read"])] for r in rows]
+        headers = ["format", *(["what it holds"] if with_what else []), "declared as",
+                   "written by", "read by"]
+        widths = [2, *([4] if with_what else []), 2, 3, 3]
         note = nodes.paragraph(text="Names are relative to the package rasc.")
-        return [table(["format", "declared as", "written by", "checked by (reader)"],
-                      rows, [2, 3, 3, 3]), note]
+        return [table(headers, body, widths), note]
 
 
 # ------------------------------------------------------------------ docstrings
