@@ -56,7 +56,7 @@ autosummary_generate = True
 autosummary_imported_members = False
 # rasc/__main__.py runs the command line when imported: never import it for the listing
 autosummary_mock_imports = ["rasc.__main__"]
-autodoc_default_options = {"members": True, "show-inheritance": True}
+autodoc_default_options = {"members": True}   # bases: rasc_docs._add_bases
 autodoc_typehints = "none"            # numpydoc's Parameters section says the types
 autodoc_member_order = "bysource"
 numpydoc_show_class_members = False   # autosummary lists them

@@ -13,9 +13,10 @@ on every build, so a page cannot drift from the program.
 ``rasc-study-params``
     The study parameters of :data:`rasc.study.spec.PARAMS` and the spec's top-level keys.
 ``rasc-formats``
-    Every ``rasc-NAME/N`` file format named in the package, found by parsing the sources:
-    where its name is declared, which functions write it (a ``"format": ...`` entry of a
-    dict) and which read it (a comparison with the name).
+    Every ``rasc-NAME/N`` file format: from the package's format registry
+    (``rasc.formats.FORMATS``) where it has one, else found by parsing the sources: where
+    its name is declared, which functions write it (a ``"format": ...`` entry of a dict)
+    and which read it (a comparison with the name).
 ``rasc-messages``
     The refusals (``raise InputError(...)`` and the other :class:`rasc.errors.RascError`
     subclasses) or the warnings (strings appended to a list of warnings, or passed to a
@@ -32,6 +33,7 @@ import ast
 import dataclasses
 import functools
 import importlib
+import json
 import re
 import zlib
 from collections import defaultdict
@@ -52,7 +54,8 @@ def _text(value) -> nodes.Node:
     """A cell's content: ``("code", s)`` is an inline literal, anything else plain text."""
     if isinstance(value, tuple) and value and value[0] == "code":
         # a long dotted name may wrap after a dot (a zero-width space), not mid-word
-        return nodes.literal(text=str(value[1]).replace(".", ".\u200b"))
+        return nodes.literal(text=re.sub(r"(?<=[A-Za-z_])\.(?=[A-Za-z_])", ".\u200b",
+                                         str(value[1])))
     if isinstance(value, list):   # several pieces in one paragraph
         para = nodes.paragraph()
         for i, v in enumerate(value):
@@ -101,6 +104,17 @@ def section(directive: SphinxDirective, title: str, ident: str) -> nodes.section
 def _import(dotted: str):
     module, _, name = dotted.rpartition(".")
     return getattr(importlib.import_module(module), name)
+
+
+def _toml(value) -> str:
+    """A default as a study spec (TOML) writes it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
 
 
 def _show(value) -> str:
@@ -216,7 +230,7 @@ class StudyParamsDirective(SphinxDirective):
         for name, p in spec.PARAMS.items():
             default = getattr(p, "default", None)
             rows.append([("code", name), getattr(p, "kind", ""),
-                         "none" if default is None else ("code", _show(default)),
+                         "none" if default is None else ("code", _toml(default)),
                          getattr(p, "help", "")])
         return [table(["parameter", "kind", "default", "meaning"], rows, [2, 1, 1, 6])]
 
@@ -410,9 +424,10 @@ class MessagesDirective(SphinxDirective):
 
 # ------------------------------------------------------------------ rasc-formats
 
-def collect_formats() -> dict[str, dict[str, set[str]]]:
-    """{format: {"declared": {...}, "written": {...}, "read": {...}, "named": {...}}}."""
-    sources = _sources()
+def collect_formats(sources=None) -> dict[str, dict[str, set[str]]]:
+    """{format: {"declared": {...}, "written": {...}, "read": {...}, "named": {...}}}, by
+    scanning ``sources`` ((module, path, tree) triples; default: the package)."""
+    sources = _sources() if sources is None else sources
     constants: dict[tuple[str, str], str] = {}
     for module, _, tree in sources:
         for node in tree.body:
@@ -456,19 +471,52 @@ def collect_formats() -> dict[str, dict[str, set[str]]]:
     return {k: info[k] for k in sorted(info)}
 
 
+def format_rows() -> list[dict]:
+    """One dict per file format: ``tag``, ``what``, ``declared``, ``written``, ``read``
+    (lists of ``module.name``, relative to ``rasc.``).
+
+    From the format registry, ``rasc.formats.FORMATS`` (tag → an object with ``what``,
+    ``reader``, ``writer`` as ``"module:qualified.name"``), when the package has one; else
+    by scanning the sources for ``rasc-NAME/N`` strings (:func:`collect_formats`).
+    """
+    def short(ref: str) -> str:
+        return ref.replace(":", ".").removeprefix("rasc.")
+
+    try:
+        registry = importlib.import_module("rasc.formats").FORMATS
+    except (ImportError, AttributeError):
+        registry = None
+    if registry:
+        names = {id(v): k for k, v in vars(importlib.import_module("rasc.formats")).items()
+                 if not k.startswith("_")}
+        return [{"tag": tag, "what": getattr(f, "what", ""),
+                 "declared": [f"formats.{names[id(f)]}"] if id(f) in names else [],
+                 "written": [short(f.writer)] if getattr(f, "writer", "") else [],
+                 "read": [short(f.reader)] if getattr(f, "reader", "") else []}
+                for tag, f in sorted(registry.items())]
+    return [{"tag": tag, "what": "",
+             **{key: sorted(w.removeprefix("rasc.") for w in where.get(key, ()))
+                for key in ("declared", "written", "read")}}
+            for tag, where in collect_formats().items()]
+
+
 class FormatsDirective(SphinxDirective):
     def run(self):
         for path in PACKAGE.rglob("*.py"):
             self.env.note_dependency(str(path))
-        rows = []
-        for fmt, where in collect_formats().items():
-            def cell(key, where=where):
-                return [("code", w.removeprefix("rasc."))
-                        for w in sorted(where.get(key, ()))] or "—"
-            rows.append([("code", fmt), cell("declared"), cell("written"), cell("read")])
+        rows = format_rows()
+        with_what = any(r["what"] for r in rows)
+
+        def cell(names):
+            return [("code", n) for n in names] or "—"
+
+        body = [[("code", r["tag"]), *([r["what"]] if with_what else []),
+                 cell(r["declared"]), cell(r["written"]), cell(r["read"])] for r in rows]
+        headers = ["format", *(["what it holds"] if with_what else []), "declared as",
+                   "written by", "read by"]
+        widths = [2, *([4] if with_what else []), 2, 3, 3]
         note = nodes.paragraph(text="Names are relative to the package rasc.")
-        return [table(["format", "declared as", "written by", "checked by (reader)"],
-                      rows, [2, 3, 3, 3]), note]
+        return [table(headers, body, widths), note]
 
 
 # ------------------------------------------------------------------ docstrings
@@ -553,14 +601,22 @@ def _drop_empty_globs(app, docname, source):
     source[0] = "".join(kept)
 
 
-def _hide_object_base(app, name, obj, options, bases):
-    """"Bases: object" says nothing: list a class's bases only when it has others."""
-    if object in bases:
-        bases.remove(object)
+def _add_bases(app, what, name, obj, options, lines):
+    """A class's bases at the end of its entry, when it has any besides ``object``
+    (autodoc's ``show-inheritance`` writes "Bases: object" on every class, or an empty
+    "Bases:" when the event removes it). Runs after numpydoc has rendered the sections."""
+    if what not in ("class", "exception") or not isinstance(obj, type):
+        return
+    bases = [b for b in obj.__bases__ if b is not object]
+    if not bases:
+        return
+    names = [f":class:`{b.__qualname__}`" if b.__module__ == "builtins"
+             else f":class:`~{b.__module__}.{b.__qualname__}`" for b in bases]
+    lines.extend(["", "*Bases:* " + ", ".join(names)])
 
 
 def setup(app):
-    app.connect("autodoc-process-bases", _hide_object_base)
+    app.connect("autodoc-process-docstring", _add_bases, priority=600)
     app.connect("autodoc-process-docstring", _tidy_docstring, priority=400)
     app.connect("source-read", _drop_empty_globs)
     app.add_directive("rasc-cli", CliDirective)

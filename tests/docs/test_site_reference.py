@@ -42,14 +42,25 @@ def test_refusals_and_warnings_of_the_package():
     assert sum(map(len, refusals.values())) > 100
 
 
-@pytest.mark.slow   # parses every module of the package
+@pytest.mark.slow   # may parse every module of the package
 def test_formats_of_the_package():
-    formats = rasc_docs.collect_formats()
-    assert "rasc-handeye/1" in formats and "rasc-dataset/1" in formats
-    dataset = formats["rasc-dataset/1"]
-    assert dataset["declared"] == {"rasc.vision.dataset.FORMAT"}
-    assert dataset["written"] and dataset["read"]
-    assert all(rasc_docs.FORMAT_RE.match(name) for name in formats)
+    rows = {r["tag"]: r for r in rasc_docs.format_rows()}
+    assert "rasc-handeye/1" in rows and "rasc-dataset/1" in rows
+    assert all(rasc_docs.FORMAT_RE.match(tag) for tag in rows)
+    assert rows["rasc-dataset/1"]["written"] and rows["rasc-dataset/1"]["read"]
+
+
+def test_format_scan_finds_declaration_writer_and_reader():
+    source = (
+        'FORMAT = "rasc-thing/2"\n'
+        'def write(x):\n    return {"format": FORMAT, "x": x}\n'
+        'def read(doc):\n    if doc.get("format") != FORMAT:\n        raise ValueError\n'
+        'def other():\n    return {"format": "rasc-other/1"}\n')
+    found = rasc_docs.collect_formats([("rasc.thing", None, ast.parse(source))])
+    assert dict(found["rasc-thing/2"]) == {"declared": {"rasc.thing.FORMAT"},
+                                           "written": {"rasc.thing.write"},
+                                           "read": {"rasc.thing.read"}}
+    assert dict(found["rasc-other/1"]) == {"written": {"rasc.thing.other"}}
 
 
 def test_plain_field_lists_become_bullets_and_sections_stay():
