@@ -149,7 +149,7 @@ def run_case(task: tuple) -> dict:
     """Render (or project) one case, calibrate with both models, score. Seeded."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     case, fields, seed, synthetic = task
-    from rasc.head.pipeline import calibrate_dataset, refine_calibration
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, refine_calibration
 
     if synthetic:
         dataset, truth = _synthetic(fields, seed)
@@ -164,7 +164,7 @@ def run_case(task: tuple) -> dict:
                        quiet=True)
         dataset = load_dataset(Path(tmp.name) / "ds")
         truth = dataset.load_ground_truth()
-    cal_p = calibrate_dataset(dataset)
+    cal_p = calibrate_dataset(dataset, CalibrationOptions(model="paper"))
     cal_g = refine_calibration(cal_p, dataset)
     cal_h = refine_calibration(cal_p, dataset, scales="estimate")
     true = true_head(truth)

@@ -532,3 +532,73 @@ def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"{text}: cannot write: folder {parent} is not writable")
     return p
+
+
+def _probe_writable(folder: Path, what: str) -> None:
+    """Create and remove a temporary file in ``folder``: the atomic writers' first step.
+    ``os.access`` says yes to root everywhere, also in /proc and /sys, where nothing can
+    be created: this asks the file system itself."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".rasc-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError(f"{what}: cannot write: {exc.strerror or exc}") from None
+
+
+def check_outputs(outputs, *, inputs=(), input_folders=()) -> None:
+    """Every output of a command against every input, and against each other, before any
+    work (one mechanism for every command and option that writes).
+
+    Parameters
+    ----------
+    outputs : iterable of ``(flag, path, kind, files)``
+        ``kind`` "file" (written atomically) or "folder" (created if missing, then
+        ``files``, the names the command writes into it, each written atomically);
+        an entry whose path is None is skipped.
+    inputs, input_folders : as :func:`check_output`
+
+    Each output obeys :func:`check_output`; a folder's files are outputs too (an input
+    image named like one of them is never overwritten); two outputs may not be the same
+    path; the folder each output is written in must take a file (probed: a path under
+    /proc or /sys is refused here, not after the work). Raises :class:`InputError`.
+    """
+    seen: dict[str, str] = {}
+    folders: dict[str, str] = {}
+    for flag, path, kind, files in outputs:
+        if path is None:
+            continue
+        check_output(path, inputs=inputs, input_folders=input_folders, kind=kind, flag=flag)
+        targets = [Path(path)] if kind == "file" else [Path(path) / f for f in files]
+        for target in targets:
+            if kind == "folder" and Path(path).is_dir():
+                check_output(target, inputs=inputs, input_folders=input_folders,
+                             flag=f"{flag} {path}:")
+            real = os.path.realpath(target)
+            if real in folders:
+                raise InputError(f"{flag} {path}: is the output folder of "
+                                 f"{folders[real]}; give another path")
+            if real in seen:
+                raise InputError(f"{flag} {path}: would write {target}, which "
+                                 f"{seen[real]} also writes; give different paths")
+            seen[real] = f"{flag} {path}"
+        if kind == "folder":
+            real = os.path.realpath(path)
+            if real in seen:
+                raise InputError(f"{flag} {path}: is the output file of "
+                                 f"{seen[real]}; give a folder")
+            folders[real] = f"{flag} {path}"
+        folder = Path(path).parent if kind == "file" else Path(path)
+        if kind == "folder" and not folder.exists():
+            folder = folder.parent if str(folder.parent) else Path(".")
+            probe = Path(path)
+            try:      # make the folder now (a path under /proc is refused before work)
+                probe.mkdir()
+            except OSError as exc:
+                raise InputError(f"{flag} {path}: cannot create the folder: "
+                                 f"{exc.strerror or exc}") from None
+            try:
+                _probe_writable(probe, f"{flag} {path}")
+            finally:
+                probe.rmdir()
+            continue
+        _probe_writable(folder if str(folder) else Path("."), f"{flag} {path}")
