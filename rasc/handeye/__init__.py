@@ -7,3 +7,10 @@ in :mod:`~rasc.handeye.noise`, user advice in :mod:`~rasc.handeye.advice`, and t
 
 Importing the package imports nothing: the modules are imported by name.
 """
+
+
+def __getattr__(name: str):
+    """Names the old module ``rasc.handeye`` had: forwarded with a DeprecationWarning."""
+    from rasc import moved_attribute
+
+    return moved_attribute(__name__, name)
