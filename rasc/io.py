@@ -25,12 +25,13 @@ import re
 import stat
 import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rasc.errors import InputError
+from rasc.errors import DegenerateDataError, InputError
 
 
 def cache_root() -> Path | None:
@@ -220,12 +221,69 @@ _FLAT_NUMBER_ARRAY = re.compile(
     r"\[\n\s*(-?[0-9][-+0-9.eE]*(?:,\n\s*-?[0-9][-+0-9.eE]*)*)\n\s*\]")
 
 
+_native_stderr_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def native_stderr_captured():
+    """Redirect file descriptor 2 into a temporary file while the block runs: what C
+    libraries print there themselves (libpng's ``libpng error: Read Error`` before
+    OpenCV returns nothing) never reaches the user beside rasc's one line. Yields a list
+    that receives the captured text (decoded, stripped) when the block ends, for the
+    message. One block at a time in a process (a lock: the descriptor is process-wide)."""
+    said: list[str] = []
+    with _native_stderr_lock:
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError, AttributeError):   # no descriptor 2 to redirect
+            yield said
+            return
+        try:
+            with tempfile.TemporaryFile() as tmp:
+                os.dup2(tmp.fileno(), 2)
+                try:
+                    yield said
+                finally:
+                    os.dup2(saved, 2)
+                    tmp.seek(0)
+                    said.append(tmp.read(4096).decode("utf-8", "replace").strip())
+        finally:
+            os.close(saved)
+
+
+def _non_finite_field(obj: Any, path: str = "") -> str | None:
+    """The first field of ``obj`` (``a.b[3]``) holding NaN or infinity, else None."""
+    if isinstance(obj, dict):
+        for key in sorted(obj, key=str):
+            found = _non_finite_field(obj[key], f"{path}.{key}" if path else str(key))
+            if found:
+                return found
+        return None
+    if isinstance(obj, list | tuple | np.ndarray):
+        for i, value in enumerate(obj):
+            found = _non_finite_field(value, f"{path}[{i}]")
+            if found:
+                return found
+        return None
+    if isinstance(obj, float | np.floating) and not math.isfinite(obj):
+        return path or "value"
+    return None
+
+
 def dumps_json(obj: Any) -> str:
     """Deterministic JSON (sorted keys, fixed indentation): same data, same bytes.
 
     Arrays of plain numbers stay on one line, so a 4×4 matrix reads as four rows.
     """
-    text = json.dumps(obj, indent=2, sort_keys=True, default=to_jsonable, allow_nan=False)
+    try:
+        text = json.dumps(obj, indent=2, sort_keys=True, default=to_jsonable, allow_nan=False)
+    except ValueError:        # NaN or infinity: never written; say which field
+        where = _non_finite_field(obj)
+        if where is None:
+            raise
+        raise DegenerateDataError(f"the result's {where} is not a finite number: the data "
+                                  "do not determine it; nothing written") from None
     text = _FLAT_NUMBER_ARRAY.sub(lambda m: "[" + re.sub(r",\s+", ", ", m.group(1)) + "]", text)
     return text + "\n"
 

@@ -118,6 +118,9 @@ class Calibration:
             out["paper_model_fit"] = {eye: f.to_dict() for eye, f in self.model_fit.items()}
         if self.refinement is not None:
             out["refinement"] = self.refinement.to_dict()
+            for im in out["refinement"]["images"]:   # an image the refinement rejected
+                if not all(np.isfinite(im[k]) for k in ("rms", "max")):   # whole: marked
+                    im.update(rms=None, max=None, all_rejected=True)
             if self.seed is not None:
                 out["refinement"]["seed"] = self.seed
         if self.errors is not None:
@@ -428,6 +431,14 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
                     f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"
                     " from the refined "
                     "hand-eye" for eye in EYES) + ")")
+    gone = [im for im in res.images if not np.isfinite(im.rms)]
+    if gone:
+        cal.warnings.append(
+            f"the whole-head refinement rejected every corner of {len(gone)} image(s) ("
+            + ", ".join(f"{im.eye} {im.name}" for im in gone[:4])
+            + (", ..." if len(gone) > 4 else "") + "): they do not fit the head the other "
+            "images show; check that each pose image's pan/tilt reading is its own and the "
+            "manifest's angle_unit; they are marked all_rejected in refinement.images")
     ratio = res.rms_by_role["pose"] / res.rms_by_role["intrinsics"]
     if ratio > POSE_RMS_WARN_RATIO:
         cal.warnings.append(
