@@ -569,7 +569,8 @@ def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
                                                       and _identity(inp) == out_id)
         if same:
             also = "" if os.fspath(inp) == text else f" ({inp})"
-            raise InputError(f"{flag} {text} is the input file{also}; choose another path")
+            what = "folder" if Path(inp).is_dir() else "file"
+            raise InputError(f"{flag} {text} is the input {what}{also}; choose another path")
         if kind == "folder" and Path(inp).is_file() and \
                 os.path.realpath(inp).startswith(out_real.rstrip(os.sep) + os.sep):
             raise InputError(f"{flag} {text}: holds an input of this command ({inp}); "
