@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from rasc.errors import DegenerateDataError, InputError
 from rasc.io import check_outputs, dumps_json
@@ -223,3 +225,50 @@ def test_a_plugin_that_prints_does_not_corrupt_the_json(plugin, rasc_cli):
     assert status == 0
     assert json.loads(out)["method"] == "doorsplug:chatty"
     assert "solving with my plugin..." in err
+
+
+# ------------------------------------------------------------------- outputs, any spelling
+
+#: the files of a small tree: inputs are some of them; outputs are spelt through
+#: relative parts, "..", "." and a symbolic link to a folder
+_FILES = ("a/in.png", "a/b/in.json", "c/residuals_left.png")
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(target=st.sampled_from(_FILES + ("a/new.json", "c/new.png")),
+       spelling=st.sampled_from(("plain", "dots", "link")),
+       as_folder=st.booleans())
+def test_an_output_is_refused_exactly_when_it_is_an_input(tmp_path_factory, target, spelling,
+                                                          as_folder):
+    """Whatever way a path is spelt, check_outputs refuses it exactly when it (or, for a
+    --plots folder, a file it would write) is one of the inputs."""
+    root = tmp_path_factory.mktemp("tree")
+    for f in _FILES:
+        (root / f).parent.mkdir(parents=True, exist_ok=True)
+        (root / f).write_bytes(b"input")
+    (root / "link").symlink_to(root / "a")
+    inputs = [root / f for f in _FILES]
+    folder, name = target.rsplit("/", 1)
+    if spelling == "dots":
+        spelt = root / "c" / ".." / folder / "." / name
+    elif spelling == "link" and folder == "a":
+        spelt = root / "link" / name
+    else:
+        spelt = root / folder / name
+    if as_folder:                      # --plots FOLDER writing `name` into it
+        outputs = [("--plots", spelt.parent, "folder", (name,))]
+    else:
+        outputs = [("--out", spelt, "file", ())]
+    is_input = target in _FILES
+    try:
+        check_outputs(outputs, inputs=inputs)
+        refused = False
+    except InputError:
+        refused = True
+    if as_folder:
+        # a folder holding an input is refused whatever it would write
+        assert refused
+    else:
+        assert refused == is_input
+    assert all((root / f).read_bytes() == b"input" for f in _FILES)
