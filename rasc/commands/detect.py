@@ -45,7 +45,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="with --pair: the unit of its angles (written as given)")
     p.add_argument("--detector", default=calopts.default("detector"),
                    choices=calopts.DETECTORS, help="corner detector (default saddle)")
-    common.add_out(p)
+    p.add_argument("--out", metavar="FILE",
+                   help="write the points CSV here (atomically) instead of stdout")
     p.add_argument("--quiet", action="store_true", help="no per-image lines on stderr")
     p.set_defaults(func=run)
     return p
