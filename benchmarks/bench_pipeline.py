@@ -42,7 +42,7 @@ from rasc.geometry.frames import EYES  # noqa: E402
 from rasc.geometry.kinematics import T_gaze_from_ptu  # noqa: E402
 from rasc.geometry.transforms import rotation_error_deg  # noqa: E402
 from rasc.handeye.solver import solve_rasc  # noqa: E402
-from rasc.head.pipeline import calibrate_dataset  # noqa: E402
+from rasc.head.pipeline import CalibrationOptions, calibrate_dataset  # noqa: E402
 from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
 from rasc.vision.camera import estimate_extrinsics  # noqa: E402
 from rasc.vision.dataset import forget_detections, load_dataset  # noqa: E402
@@ -65,7 +65,7 @@ def run_once(folder: Path, options: RenderOptions) -> dict:
     forget_detections()   # time detection itself, not the detections kept from a run before
     t0 = time.perf_counter()
     dataset = load_dataset(folder)
-    cal = calibrate_dataset(dataset)
+    cal = calibrate_dataset(dataset, CalibrationOptions(model="paper"))
     t_cal = time.perf_counter() - t0
     truth = dataset.load_ground_truth()
     timings = {"rendering": t_render, **{s: cal.timings.get(s, 0.0) for s in STAGES}}

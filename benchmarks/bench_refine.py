@@ -41,7 +41,11 @@ sys.path.insert(0, str(REPO))
 
 from _markdown import run_main  # noqa: E402
 
-from rasc.head.pipeline import calibrate_dataset, refine_calibration  # noqa: E402
+from rasc.head.pipeline import (  # noqa: E402
+    CalibrationOptions,
+    calibrate_dataset,
+    refine_calibration,
+)
 from rasc.head.refine import observations_from_calibration, refine_head  # noqa: E402
 from rasc.sim.render import RenderOptions, render_dataset  # noqa: E402
 from rasc.sim.units import UnitBuild  # noqa: E402
@@ -74,7 +78,7 @@ def section_models(args, tmp: Path) -> Path:
         folder = render(tmp / f"ds{d:g}", d, args.seed)
         first = first or folder
         ds = load_dataset(folder)
-        cal_p = calibrate_dataset(ds)
+        cal_p = calibrate_dataset(ds, CalibrationOptions(model="paper"))
         cal_p.timings.pop("model-fit check", None)
         t_closed = sum(v for k, v in cal_p.timings.items() if k != "detection")
         t_ref, cpu_ref, cal_g = [], [], None
@@ -148,7 +152,7 @@ def _record(res) -> tuple[dict, dict]:
 def section_renoised(args, folder: Path) -> None:
     _REF.clear()
     ds = load_dataset(folder)
-    cal = calibrate_dataset(ds)
+    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     base = observations_from_calibration(cal, ds.board)
     sigma = refine_head(base).sigma
     rng = np.random.default_rng(args.seed + 1)
@@ -181,7 +185,8 @@ def section_rerenders(args, tmp: Path) -> None:
         folder = render(tmp / f"rr{k}", 30.0, args.seed + 100 + k, noise=2.0,
                         distance=float(rng.uniform(1.0, 1.06)))
         ds = load_dataset(folder)
-        cal = refine_calibration(calibrate_dataset(ds), ds, scales="estimate")
+        cal = refine_calibration(calibrate_dataset(ds, CalibrationOptions(model="paper")), ds,
+                                 scales="estimate")
         runs.append(_record(cal.refinement))
     spread_table(f"## 3. {args.rerenders} re-renders (30 mm head, --noise 2, seeds "
                  f"{args.seed + 100}.., board at 1.00-1.06 m; scales estimated)", runs)

@@ -122,7 +122,7 @@ def main() -> None:
     if args.rendered_samples > 0:
         from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
 
-        cal = calibrate_dataset(data.load(), CalibrationOptions())
+        cal = calibrate_dataset(data.load(), CalibrationOptions(model="paper"))
         sets = []
         for eye in ("left", "right"):
             e = cal.eyes[eye]

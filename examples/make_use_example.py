@@ -42,9 +42,10 @@ R_CAM_FROM_GAZE_NOMINAL = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.
 #: The example's base-frame points (m): x up, y forward, z left.
 POINTS = np.array([[0.10, 1.60, 0.05], [-0.05, 1.70, -0.10], [0.00, 1.80, 0.20],
                    [0.15, 1.90, -0.15]])
-#: The angles (deg) each eye is turned to for each point: (pan, tilt), left then right.
-ANGLES_DEG = np.array([[4.0, 3.0, -5.0, 3.0], [-1.0, -2.0, -8.0, -2.0], [10.0, 0.0, 2.0, 0.0],
-                       [-2.0, 4.0, -9.0, 4.0]])
+#: The angles (deg) each eye is turned to for each point: (pan, tilt), left then right;
+#: within the calibrated ±8° (outside it rasc triangulate and project warn).
+ANGLES_DEG = np.array([[4.0, 3.0, -5.0, 3.0], [-1.0, -2.0, -8.0, -2.0], [7.0, 0.0, 2.0, 0.0],
+                       [-2.0, 4.0, -7.5, 4.0]])
 
 
 def make_head() -> HeadCalibration:

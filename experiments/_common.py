@@ -447,7 +447,7 @@ class Context:
     def calibration(self):
         """The pipeline's calibration of the default dataset (rasc.head.pipeline.Calibration)."""
         if self._calibration is None:
-            from rasc.head.pipeline import calibrate_dataset
+            from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
             from rasc.vision.dataset import load_dataset
 
             folder = self.dataset_dir()
@@ -462,7 +462,7 @@ class Context:
                 ds = load_dataset(folder)
                 with stage("calibrate the default dataset (detection, intrinsics, "
                            "extrinsics, RASC, loop closure)"):
-                    cal = calibrate_dataset(ds)
+                    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
                 if cache is not None:
                     store_calibration(cache, key, cal)
             self._calibration = cal

@@ -15,6 +15,7 @@ def save_experiment_figure(fig, path_stem: Path, quick: bool) -> list[Path]:
     ``quick`` the same PNG alone (same dpi, same tight bounding box, no date)."""
     if not quick:
         return save_figure(fig, path_stem)
+    fig.draw_without_rendering()     # the layout engine first, then the box (not cropped)
     bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=120, metadata={"Software": None}, bbox_inches=bbox)

@@ -412,12 +412,17 @@ def plot_all_methods(summary: list[dict], folder: Path,
     import matplotlib.pyplot as plt
 
     methods = sorted({r["method"] for r in summary}, key=lambda m: (m != "rasc", m))
+    # a method without one solved sample has no curve: no legend entry, said instead
+    empty = [m for m in methods if not any(r["method"] == m and r["t_err_mean_mm"] != ""
+                                           for r in summary)]
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True, sharey="row")
     for col, eye in enumerate(EYES):
         for row, (key, ylabel) in enumerate((("t_err_mean_mm", "mean ‖Δt‖ (mm)"),
                                              ("R_deg_mean", "mean rotation error (°)"))):
             ax = axes[row, col]
             for k, m in enumerate(methods):
+                if m in empty:
+                    continue
                 sel = sorted((int(r["level"]), float(r[key])) for r in summary
                              if r["eye"] == eye and r["method"] == m and r[key] != "")
                 ax.plot([x for x, _ in sel], [y for _, y in sel], marker="osD^v<>px"[k % 9],
@@ -426,7 +431,9 @@ def plot_all_methods(summary: list[dict], folder: Path,
             ax.set_title(f"{eye} eye", fontsize=10)
             if col == 0:
                 ax.set_ylabel(ylabel)
-    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, title_fontsize=7,
+                      title=(f"no sample solved (not drawn): {', '.join(empty)}"
+                             if empty else None))
     fig.supxlabel("noise set k: σ_r = 0.005k rad, σ_t = k mm (exponential eq. 13)",
                   fontsize=10)
     fig.suptitle("E1 with every method: the same noisy samples", fontsize=11)

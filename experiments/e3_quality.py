@@ -198,7 +198,9 @@ def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list
         ax.set_ylabel(label)
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)
-    fig.colorbar(sc, ax=axes, label="noise set (0 none, 1–8 paper, 9–15 extended)")
+    # E1's names: set k is σ_r = 0.005k rad, σ_t = k mm (the column "level" holds k)
+    fig.colorbar(sc, ax=axes, label=f"noise set k: 0 none, 1–8 the paper's, "
+                                    f"{min(EXT_K)}–{max(EXT_K)} extended")
     fig.suptitle(f"E3: RASC quality measure against the true error ({variant} noise, "
                  "both eyes)", fontsize=11)
     files = save_figure(fig, folder / "e3_quality_vs_error",

@@ -367,6 +367,16 @@ def _crossing_text(summary: dict, variant: str, stats: dict) -> str:
     return f"{rot}; {tr}"
 
 
+def _set_name(sigma_r: float, sigma_t: float) -> str:
+    """A noise level by E1's names: set 0 (none), set k (the paper's k-th), or below set 1."""
+    if sigma_r == 0 and sigma_t == 0:
+        return "set 0"
+    for k, level in enumerate(PAPER_LEVELS):
+        if (sigma_r, sigma_t) == tuple(level):
+            return f"set {k + 1}"
+    return "below set 1"
+
+
 def markdown(ctx: Context, loop: dict, m_rot, m_tr, m_bl, stats: dict, summary: dict) -> str:
     res, fix = stats["resolved"], stats["fixed"]
     n_levels = len(res["sigma_r"])
@@ -379,16 +389,15 @@ def markdown(ctx: Context, loop: dict, m_rot, m_tr, m_bl, stats: dict, summary: 
             [f"ours: measured mounts, {len(m_rot)} draws (mean; max)",
              f"{_f(m_rot.mean())}; {_f(m_rot.max())}", f"{_f(m_tr.mean())}; {_f(m_tr.max())}",
              f"{_f(np.abs(m_bl).mean())}; {_f(np.abs(m_bl).max())} (absolute)"]]
-    in_paper = {tuple(lv) for lv in PAPER_LEVELS}
-    mc_rows = [[k, f"{res['sigma_r'][k]:g} / {res['sigma_t'][k]:g}"
-                + ("" if (res['sigma_r'][k], res['sigma_t'][k]) in in_paper
-                   or k == 0 else " (below the paper's)"),
+    mc_rows = [[_set_name(res['sigma_r'][k], res['sigma_t'][k]),
+                f"{res['sigma_r'][k]:g} / {res['sigma_t'][k]:g}",
                 f"{_f(res['rot_mean'][k], 3)} ± {_f(res['rot_std'][k], 3)}",
                 f"{_f(res['tr_mean'][k], 2)} ± {_f(res['tr_std'][k], 2)}",
                 f"{_f(fix['rot_mean'][k], 3)} ± {_f(fix['rot_std'][k], 3)}",
                 f"{_f(fix['tr_mean'][k], 2)} ± {_f(fix['tr_std'][k], 2)}"]
                for k in range(n_levels)]
     pe = summary["pose_error_max"]
+    sets = "the paper's sets 1–8" if n_levels == 11 else "a subset of the paper's sets"
     k1 = next((k for k in range(n_levels)
                if (res["sigma_r"][k], res["sigma_t"][k]) == paper_first), None)
     c = summary["crossings"]["resolved"]
@@ -406,14 +415,14 @@ def markdown(ctx: Context, loop: dict, m_rot, m_tr, m_bl, stats: dict, summary: 
         f"{MEASURED_TRANSLATION_MM[1]:g}] mm in a random direction, {len(m_rot)} seeded "
         f"draws. Monte-Carlo: the paper's eq. 13–14 noise (exponential form, so every pose "
         f"stays rigid) added to both eyes' nine `T_cam_from_world` (the pipeline's), "
-        f"{summary['n_samples']} samples per level, at level 0, two levels below the "
-        f"paper's range and {'its eight levels' if n_levels == 11 else 'a subset of its'}"
-        f"{'' if n_levels == 11 else ' levels (--quick)'}; then loop closure with the "
+        f"{summary['n_samples']} samples per level, at set 0 (no added noise), two levels "
+        f"below set 1 and {sets}"
+        f"{'' if n_levels == 11 else ' (--quick)'} (E1's names); then loop closure with the "
         f"hand-eye re-solved by RASC from the same noisy views, or held at the pipeline's.\n",
         "**Base-to-ptu errors beside the paper** (`T_ptuL_from_ptuR` against the truth):\n",
         md_table(["", "rotation (°)", "translation (mm)", "baseline length (mm)"], rows),
         "\n**Loop closure under the paper's noise model** (mean ± std over the samples):\n",
-        md_table(["level", "σ_r (rad) / σ_t (mm)", "rotation (°), hand-eye re-solved",
+        md_table(["noise set", "σ_r (rad) / σ_t (mm)", "rotation (°), hand-eye re-solved",
                   "translation (mm), re-solved", "rotation (°), hand-eye fixed",
                   "translation (mm), fixed"], mc_rows),
         f"\n![E5 base-to-ptu]({NAME}/fig_base_to_ptu.png)\n",
@@ -428,7 +437,7 @@ def markdown(ctx: Context, loop: dict, m_rot, m_tr, m_bl, stats: dict, summary: 
         f"paper's noise model ({paper_first[0]} rad, {paper_first[1]:g} mm). With that noise "
         f"model on the views, loop closure with the hand-eye re-solved from the same views "
         f"(what the method gives a user): {_crossing_text(summary, 'resolved', stats)}"
-        + (f"; at the paper's lowest level it is {_f(res['rot_mean'][k1])}° / "
+        + (f"; at set 1, the paper's lowest level, it is {_f(res['rot_mean'][k1])}° / "
            f"{_f(res['tr_mean'][k1], 1)} mm off" if k1 is not None else "")
         + f". With the hand-eye held fixed: {_crossing_text(summary, 'fixed', stats)}. "
         f"Most of the loop's error thus comes from the hand-eye, which ±8° motions "

@@ -244,8 +244,7 @@ def plot(summary_csv, stem, draft: bool = False) -> list:
     axes[0].legend(fontsize=7, loc="upper left")
     fig.suptitle("E6a: hand-eye error vs image corner noise (mean over samples; "
                  "sparse dots: RASC at σ = 0)", fontsize=10)
-    if not draft:
-        fig.tight_layout()
+    fig.tight_layout()     # also in a draft: without it the x labels run off the edge
     paths = save_figure(fig, stem, (".png",) if draft else (".png", ".svg"), draft)
     plt.close(fig)
     return paths
@@ -455,8 +454,8 @@ calibration procedure (image noise and errors in corner detection)" and models i
 13–14 on `T_cam_from_world`. The second column measures what σ px of corner noise does to
 the extrinsics, in the paper's own parameters (per-axis RMS of the rotation-error vector and
 of the translation error, over views, eyes and samples), which puts each row beside the
-paper's levels: level 1 = ({p1[0]:g} rad, {p1[1]:g} mm) … level 8 = ({p8[0]:g} rad,
-{p8[1]:g} mm).
+paper's noise sets (E1's names): set 1 = ({p1[0]:g} rad, {p1[1]:g} mm) … set 8 =
+({p8[0]:g} rad, {p8[1]:g} mm).
 
 Cells: rotation error (deg) ± std / translation error (mm) ± std.
 
@@ -472,12 +471,12 @@ perturbed by eq. 13–14 (exponential variant) at exactly the (σ_r, σ_t) of th
 alone) the errors grow in proportion to the corner noise: RASC {_g(sl['rasc_left_deg_per_px'])}
 / {_g(sl['rasc_right_deg_per_px'])} deg and {_g(sl['rasc_left_mm_per_px'])} /
 {_g(sl['rasc_right_mm_per_px'])} mm per pixel of σ (left / right eye; slope through the
-origin of the means). {ranking} The mapping to the paper's levels: for this camera
+origin of the means). {ranking} The mapping to the paper's noise sets: for this camera
 ({cam['image_size'][0]}×{cam['image_size'][1]}, fy ≈ {cam['fy']:.0f} px, a
 {cam['inner_corners'][0]}×{cam['inner_corners'][1]}-corner board of
-{1000 * cam['square_size']:g} mm squares at {cam['distance']:g} m) the paper's level 1
+{1000 * cam['square_size']:g} mm squares at {cam['distance']:g} m) the paper's set 1
 corresponds to about {_g(lvl['rotation'], 2)} px of corner noise by its rotation part and
-{_g(lvl['translation'], 2)} px by its translation part, so its eight levels span roughly
+{_g(lvl['translation'], 2)} px by its translation part, so its eight sets span roughly
 {_g(lo, 2)}–{_g(hi, 2)} px: far coarser than sub-pixel detection (the pipeline's saddle
 refinement has about 0.012 px RMS on these renders, rasc.vision.camera). {ratio_text}
 {model_text}

@@ -59,6 +59,27 @@ EXPERIMENTS = (
 )
 
 
+def source_revision() -> str:
+    """The code this report came from: the git commit of the checkout and whether its
+    tracked files differ from it ("dirty"), or why none can be named."""
+    import subprocess
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+
+    def git(*argv: str) -> str:
+        return subprocess.run(["git", "-C", str(repo), *argv], capture_output=True,
+                              text=True, timeout=30, check=True).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "HEAD")
+        dirty = bool(git("status", "--porcelain", "--untracked-files=no"))
+    except (OSError, subprocess.SubprocessError):
+        return "not a git checkout: no commit recorded"
+    return f"commit `{commit}`" + (", dirty (tracked files differ from it)" if dirty
+                                   else ", clean")
+
+
 def versions() -> dict[str, str]:
     import cv2
     import matplotlib
@@ -98,7 +119,7 @@ def pipeline_section(ctx: Context) -> Section:
         f"{lc.get('rotation_deg', float('nan')):.4f}° / "
         f"{1000 * lc.get('translation', float('nan')):.2f} mm. The paper reports no such "
         "figure for its real head; these are the floors every experiment below starts from "
-        "(its level 0).\n")
+        "(its noise set 0).\n")
     return Section("pipeline", "The calibrated head (shared by all experiments)", text,
                    summary={eye: e[eye]["T_cam_from_gaze"] for eye in ("left", "right")})
 
@@ -358,6 +379,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         "(ICRA 2002)\n",
         f"Command: `python -m experiments.reproduce{' --quick' if ctx.quick else ''} "
         f"--seed {ctx.seed} --workers {ctx.workers}` — {mode}; seed {ctx.seed}.\n",
+        f"Source: {source_revision()}.\n",
         "Everything below was computed from images rendered by the MuJoCo model of the "
         "head (`sim/models/`) and passed through the real pipeline (OpenCV detection, "
         "camera calibration, per-pose extrinsics) into the solvers. Raw results are in "

@@ -36,8 +36,8 @@ from rasc.errors import RascError
 from rasc.interrupt import Interrupted, exit_process, received, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study",
-            "import_recording", "report")
+COMMANDS = ("handeye", "render", "calibrate", "detect", "triangulate", "project", "look_at",
+            "study", "import_recording", "report")
 #: a command named otherwise than its module (``import`` is a Python keyword)
 COMMAND_NAMES = {"import_recording": "import"}
 

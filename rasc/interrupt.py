@@ -100,6 +100,12 @@ def exit_process(status: int, *, teardown: bool = True) -> None:
     all written and closed, and whose loaded libraries take long to free).
     """
     if status == 130 or not teardown:
+        if status != 130 and "multiprocessing.util" in sys.modules:
+            # what the interpreter's exit would do for multiprocessing: release the
+            # semaphores of finished pools, or the resource tracker prints "There appear
+            # to be N leaked semaphore objects" after the last line (make reproduce)
+            with contextlib.suppress(Exception):
+                sys.modules["multiprocessing.util"]._run_finalizers(0)
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):
                 stream.flush()

@@ -25,12 +25,13 @@ import re
 import stat
 import sys
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rasc.errors import InputError
+from rasc.errors import DegenerateDataError, InputError
 
 
 def cache_root() -> Path | None:
@@ -221,12 +222,69 @@ _FLAT_NUMBER_ARRAY = re.compile(
     r"\[\n\s*(-?[0-9][-+0-9.eE]*(?:,\n\s*-?[0-9][-+0-9.eE]*)*)\n\s*\]")
 
 
+_native_stderr_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def native_stderr_captured():
+    """Redirect file descriptor 2 into a temporary file while the block runs: what C
+    libraries print there themselves (libpng's ``libpng error: Read Error`` before
+    OpenCV returns nothing) never reaches the user beside rasc's one line. Yields a list
+    that receives the captured text (decoded, stripped) when the block ends, for the
+    message. One block at a time in a process (a lock: the descriptor is process-wide)."""
+    said: list[str] = []
+    with _native_stderr_lock:
+        try:
+            sys.stderr.flush()
+            saved = os.dup(2)
+        except (OSError, ValueError, AttributeError):   # no descriptor 2 to redirect
+            yield said
+            return
+        try:
+            with tempfile.TemporaryFile() as tmp:
+                os.dup2(tmp.fileno(), 2)
+                try:
+                    yield said
+                finally:
+                    os.dup2(saved, 2)
+                    tmp.seek(0)
+                    said.append(tmp.read(4096).decode("utf-8", "replace").strip())
+        finally:
+            os.close(saved)
+
+
+def _non_finite_field(obj: Any, path: str = "") -> str | None:
+    """The first field of ``obj`` (``a.b[3]``) holding NaN or infinity, else None."""
+    if isinstance(obj, dict):
+        for key in sorted(obj, key=str):
+            found = _non_finite_field(obj[key], f"{path}.{key}" if path else str(key))
+            if found:
+                return found
+        return None
+    if isinstance(obj, list | tuple | np.ndarray):
+        for i, value in enumerate(obj):
+            found = _non_finite_field(value, f"{path}[{i}]")
+            if found:
+                return found
+        return None
+    if isinstance(obj, float | np.floating) and not math.isfinite(obj):
+        return path or "value"
+    return None
+
+
 def dumps_json(obj: Any) -> str:
     """Deterministic JSON (sorted keys, fixed indentation): same data, same bytes.
 
     Arrays of plain numbers stay on one line, so a 4×4 matrix reads as four rows.
     """
-    text = json.dumps(obj, indent=2, sort_keys=True, default=to_jsonable, allow_nan=False)
+    try:
+        text = json.dumps(obj, indent=2, sort_keys=True, default=to_jsonable, allow_nan=False)
+    except ValueError:        # NaN or infinity: never written; say which field
+        where = _non_finite_field(obj)
+        if where is None:
+            raise
+        raise DegenerateDataError(f"the result's {where} is not a finite number: the data "
+                                  "do not determine it; nothing written") from None
     text = _FLAT_NUMBER_ARRAY.sub(lambda m: "[" + re.sub(r",\s+", ", ", m.group(1)) + "]", text)
     return text + "\n"
 
@@ -513,7 +571,8 @@ def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
                                                       and _identity(inp) == out_id)
         if same:
             also = "" if os.fspath(inp) == text else f" ({inp})"
-            raise InputError(f"{flag} {text} is the input file{also}; choose another path")
+            what = "folder" if Path(inp).is_dir() else "file"
+            raise InputError(f"{flag} {text} is the input {what}{also}; choose another path")
         if kind == "folder" and Path(inp).is_file() and \
                 os.path.realpath(inp).startswith(out_real.rstrip(os.sep) + os.sep):
             raise InputError(f"{flag} {text}: holds an input of this command ({inp}); "
@@ -534,6 +593,76 @@ def check_output(path: str | os.PathLike | None, *, inputs=(), input_folders=(),
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"{text}: cannot write: folder {parent} is not writable")
     return p
+
+
+def _probe_writable(folder: Path, what: str) -> None:
+    """Create and remove a temporary file in ``folder``: the atomic writers' first step.
+    ``os.access`` says yes to root everywhere, also in /proc and /sys, where nothing can
+    be created: this asks the file system itself."""
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".rasc-probe-"):
+            pass
+    except OSError as exc:
+        raise InputError(f"{what}: cannot write: {exc.strerror or exc}") from None
+
+
+def check_outputs(outputs, *, inputs=(), input_folders=()) -> None:
+    """Every output of a command against every input, and against each other, before any
+    work (one mechanism for every command and option that writes).
+
+    Parameters
+    ----------
+    outputs : iterable of ``(flag, path, kind, files)``
+        ``kind`` "file" (written atomically) or "folder" (created if missing, then
+        ``files``, the names the command writes into it, each written atomically);
+        an entry whose path is None is skipped.
+    inputs, input_folders : as :func:`check_output`
+
+    Each output obeys :func:`check_output`; a folder's files are outputs too (an input
+    image named like one of them is never overwritten); two outputs may not be the same
+    path; the folder each output is written in must take a file (probed: a path under
+    /proc or /sys is refused here, not after the work). Raises :class:`InputError`.
+    """
+    seen: dict[str, str] = {}
+    folders: dict[str, str] = {}
+    for flag, path, kind, files in outputs:
+        if path is None:
+            continue
+        check_output(path, inputs=inputs, input_folders=input_folders, kind=kind, flag=flag)
+        targets = [Path(path)] if kind == "file" else [Path(path) / f for f in files]
+        for target in targets:
+            if kind == "folder" and Path(path).is_dir():
+                check_output(target, inputs=inputs, input_folders=input_folders,
+                             flag=f"{flag} {path}:")
+            real = os.path.realpath(target)
+            if real in folders:
+                raise InputError(f"{flag} {path}: is the output folder of "
+                                 f"{folders[real]}; give another path")
+            if real in seen:
+                raise InputError(f"{flag} {path}: would write {target}, which "
+                                 f"{seen[real]} also writes; give different paths")
+            seen[real] = f"{flag} {path}"
+        if kind == "folder":
+            real = os.path.realpath(path)
+            if real in seen:
+                raise InputError(f"{flag} {path}: is the output file of "
+                                 f"{seen[real]}; give a folder")
+            folders[real] = f"{flag} {path}"
+        folder = Path(path).parent if kind == "file" else Path(path)
+        if kind == "folder" and not folder.exists():
+            folder = folder.parent if str(folder.parent) else Path(".")
+            probe = Path(path)
+            try:      # make the folder now (a path under /proc is refused before work)
+                probe.mkdir()
+            except OSError as exc:
+                raise InputError(f"{flag} {path}: cannot create the folder: "
+                                 f"{exc.strerror or exc}") from None
+            try:
+                _probe_writable(probe, f"{flag} {path}")
+            finally:
+                probe.rmdir()
+            continue
+        _probe_writable(folder if str(folder) else Path("."), f"{flag} {path}")
 
 
 # ----------------------------------------------------------------- checking values

@@ -272,11 +272,12 @@ def default_calibration(default_dataset, tmp_path_factory):
     with _locked(shared / "default_calibration.lock"):
         if path.is_file():
             return pickle.loads(path.read_bytes())
-        from rasc.head.pipeline import calibrate_dataset
+        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
         from rasc.io import write_bytes_atomic
         from rasc.vision.dataset import load_dataset
 
-        cal = calibrate_dataset(load_dataset(default_dataset))
+        cal = calibrate_dataset(load_dataset(default_dataset),
+                                CalibrationOptions(model="paper"))
         write_bytes_atomic(path, pickle.dumps(cal))
         return cal
 

@@ -77,11 +77,12 @@ def test_the_calibration_cache_keeps_within_its_budget(monkeypatch, tmp_path):
     """Two calibrations stored under a budget of one: the older goes, the newer stays
     and is read back."""
     from experiments._common import calibration_cache, load_cached_calibration, store_calibration
-    from rasc.head.pipeline import calibrate_dataset
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.synthetic import corner_dataset, default_head
 
     monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path))
-    cal = calibrate_dataset(corner_dataset(default_head(), seed=0, noise_px=0.0))
+    cal = calibrate_dataset(corner_dataset(default_head(), seed=0, noise_px=0.0),
+                            CalibrationOptions(model="paper"))
     keys = [{"format": "test", "n": k} for k in range(2)]
     first = calibration_cache(keys[0])
     store_calibration(first, keys[0], cal)

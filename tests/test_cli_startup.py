@@ -54,6 +54,7 @@ _ARGV = {
     "handeye": ["handeye", "{ws}/poses.json", "--out", "{ws}/out.json"],
     "render": ["render", "--out", "{ws}/ds", "--quiet"],
     "calibrate": ["calibrate", "{ws}/ds", "--out", "{ws}/out.json", "--quiet"],
+    "detect": ["detect", "{ws}/ds", "--out", "{ws}/points.csv", "--quiet"],
     "triangulate": ["triangulate", "{ws}/cal.json", "{ws}/pixels.csv", "--angle-unit", "deg",
                     "--out", "{ws}/out.json"],
     "project": ["project", "{ws}/cal.json", "{ws}/points.csv", "--angle-unit", "deg",

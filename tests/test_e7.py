@@ -61,6 +61,12 @@ def test_outputs(results, tmp_path):
         rows = list(csv.DictReader(f))
     assert len(rows) == 2 * 3 * 2 and {r["model"] for r in rows} == set(e7.MODELS)
     with open(tmp_path / "triangulation.csv", newline="") as f:
-        assert len(list(csv.DictReader(f))) == 2 * 3 * 3
+        tri = list(csv.DictReader(f))
+    # case × model × plane × gaze pose, both kinds of gaze (the home pose among them)
+    assert len(tri) == 2 * 3 * 3 * len(e7.GAZES)
+    assert {r["gaze_kind"] for r in tri} == {"parallel", "converging"}
+    assert "home" in {r["gaze"] for r in tri}
+    assert "![E7: hand-eye and triangulation error, paper model against the general " \
+           "model](e7/fig_model_mismatch.png)" in md
     assert (tmp_path / "fig_model_mismatch.png").stat().st_size > 1000
     assert md.startswith("## E7") and "not renders" in md

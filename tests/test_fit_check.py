@@ -47,7 +47,7 @@ def test_noise_free_exact_model_has_no_extra_residual():
     # 1e-6 px here), so F is a ratio of two convergence remainders and means nothing —
     # check the residuals themselves: 1e-4 px is 300x below any corner noise
     ds = corner_dataset(default_head(), seed=0, noise_px=0.0)
-    cal = calibrate_dataset(ds)
+    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     for eye in EYES:
         f = cal.model_fit[eye]
         assert f.rms_model < 1e-4 and f.rms_free < 1e-4

@@ -179,7 +179,7 @@ def test_predicted_std_matches_the_spread_of_20_renoised_refinements():
     values, stds = [], []
     # one closed-form calibration: each observations_from_calibration call builds fresh
     # dicts, and the re-noising below rebinds their entries (never writes into ``closed``)
-    closed = calibrate_dataset(base)
+    closed = calibrate_dataset(base, CalibrationOptions(model="paper"))
     for _ in range(20):
         obs = observations_from_calibration(closed, base.board)
         for eye in EYES:

@@ -37,7 +37,7 @@ def test_refine_calibration_is_calibrate_with_the_general_model(monkeypatch):
     real = fit.calibration_fit
     monkeypatch.setattr(fit, "calibration_fit",
                         lambda *a, **k: calls.append(1) or real(*a, **k))
-    closed = calibrate_dataset(ds)
+    closed = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     assert len(calls) == 1 and closed.model_fit is not None
     refined = refine_calibration(closed, ds)
     assert len(calls) == 1                      # the closed form's check, reused
@@ -72,7 +72,7 @@ def test_an_unreadable_ground_truth_is_refused_before_any_work(monkeypatch):
     ds.ground_truth = Path("ground_truth.json")
     ds.load_ground_truth = unreadable
     with pytest.raises(InputError, match="malformed JSON"):
-        calibrate_dataset(ds)
+        calibrate_dataset(ds, CalibrationOptions(model="paper"))
     assert calls == []
 
 
@@ -146,5 +146,5 @@ def test_a_ground_truth_of_the_wrong_shape_is_refused_before_any_work(case, monk
     ds.ground_truth = Path("gt.json")
     ds.load_ground_truth = lambda: truth
     with pytest.raises(InputError, match=rf"^gt\.json: {message}"):
-        calibrate_dataset(ds)
+        calibrate_dataset(ds, CalibrationOptions(model="paper"))
     assert calls == []

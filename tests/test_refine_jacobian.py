@@ -30,7 +30,7 @@ FORWARD_RTOL = 1e-5
 def _problem(dist_model: str, dist=(-0.05, 0.02, 0.0, 0.0, 0.0)):
     head = default_head(UNIT, dist=dist)
     ds = corner_dataset(head, seed=3, noise_px=0.02)
-    cal = calibrate_dataset(ds, CalibrationOptions(dist_model=dist_model))
+    cal = calibrate_dataset(ds, CalibrationOptions(dist_model=dist_model, model="paper"))
     obs = rf.observations_from_calibration(cal, ds.board)
     free, _ = rf._identifiable(obs)
     return rf._Problem(obs, free)

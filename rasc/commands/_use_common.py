@@ -51,11 +51,10 @@ def add_out(parser: argparse.ArgumentParser) -> None:
 
 
 def check_out(out: str | None, inputs: list[str]) -> None:
-    """Before any work: ``--out`` obeys the output rule (:func:`rasc.io.check_output`)."""
-    from rasc.io import check_output
+    """Before any work: ``--out`` obeys the output rule (:func:`rasc.io.check_outputs`)."""
+    from rasc.io import check_outputs
 
-    if out is not None:
-        check_output(out, inputs=inputs)
+    check_outputs([("--out", out, "file", ())], inputs=inputs)
 
 
 def write_result(doc: dict, out: str | None) -> None:

@@ -17,6 +17,7 @@ from rasc import formats
 from rasc.commands import loading
 from rasc.commands.handeye import METHOD_HELP
 from rasc.errors import InputError
+from rasc.head import options as calopts
 
 if TYPE_CHECKING:
     import numpy as np
@@ -35,10 +36,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "per eye (RASC) and base-to-ptu; write one JSON calibration.")
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (with manifest.json)")
     p.add_argument("--out", metavar="FILE", help="output JSON (default: stdout)")
-    p.add_argument("--method", metavar="M", default="rasc", help=METHOD_HELP)
-    p.add_argument("--detector", default="saddle", choices=("classic", "saddle", "sb"),
+    p.add_argument("--method", metavar="M", default=calopts.default("method"),
+                   help=METHOD_HELP + "; with --model general its closed form seeds the "
+                        "whole-head refinement (the calibration records it beside the "
+                        "refined result, refinement.seed)")
+    p.add_argument("--detector", default=calopts.default("detector"),
+                   choices=calopts.DETECTORS,
                    help="corner detector (default saddle: classic + saddle-point refinement)")
-    p.add_argument("--dist-model", default="k1k2", choices=("opencv5", "k1k2", "none"),
+    p.add_argument("--dist-model", default=calopts.default("dist_model"),
+                   choices=calopts.DIST_MODEL_NAMES,
                    help="lens distortion model (default k1k2)")
     p.add_argument("--keep-outliers", action="store_true",
                    help="keep intrinsics views flagged as outliers")
@@ -48,12 +54,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "board's square_size; optional \"format\": \"rasc-mounts/1\", "
                         "\"description\"); used instead of loop closure, and compared "
                         "with it")
-    p.add_argument("--model", default="general", choices=("paper", "general"),
+    p.add_argument("--model", default=calopts.default("model"), choices=calopts.MODELS,
                    help="pan-tilt model: 'paper' = the closed form with the paper's unit "
                         "(eq. 3); 'general' = the closed form refined over every corner "
                         "with a general unit per eye, each parameter with its standard "
                         "deviation (default general)")
-    p.add_argument("--scales", choices=("auto", "estimate", "hold"), default=None,
+    p.add_argument("--scales", choices=calopts.SCALES_MODES, default=None,
                    help="with --model general, the pan and tilt encoder scales: 'auto' "
                         "(default) holds them at 1 unless the corners reject 1 (an F "
                         "test), 'estimate', or 'hold' at 1")
@@ -83,47 +89,35 @@ def _read_mounts(path: str) -> np.ndarray:
     return validate_rigid_transform(obj["T_ptuL_from_ptuR"], name=f"{path}: T_ptuL_from_ptuR")
 
 
-def _length(value: float, unit: str | None) -> str:
-    """A length for a person: millimetres when the dataset is in metres, else its unit."""
-    if unit == "m":
-        return f"{1000 * value:.3f} mm"
-    return f"{value:.4g} {unit or '(unit of board.square_size)'}"
+#: how the options' fields are written on this command line (for the library's messages)
+FLAGS = {"method": "--method", "detector": "--detector", "dist_model": "--dist-model",
+         "model": "--model", "scales": "--scales", "T_ptuL_from_ptuR_measured": "--mounts",
+         "exclude_outliers": "--keep-outliers"}
 
 
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
-        from rasc.geometry.kinematics import T_gaze_from_ptu
-        from rasc.handeye.advice import solution_warnings, translation_warnings
-        from rasc.handeye.methods import get_method
-        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-        from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
+        from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, format_length
+        from rasc.head.plots import PLOT_FILES
+        from rasc.io import check_outputs, dumps_json, write_json_atomic, write_stdout
         from rasc.vision.dataset import load_dataset
 
-    if args.out is not None:            # the output rule, before any long work
-        check_output(args.out, inputs=[args.dataset, args.mounts])
-    if args.report is not None:
-        check_output(args.report, inputs=[args.dataset, args.mounts, args.out],
-                     input_folders=[args.dataset], flag="--report")
-    get_method(args.method)  # an unknown name or a broken plugin, before any image is read
-    if args.scales is not None and args.model != "general":
-        raise InputError("--scales: only the whole-head refinement estimates scales; "
-                         "use it with --model general")
     if args.plots and args.model != "general":
         raise InputError("--plots: residual plots come from the whole-head refinement; "
                          "use them with --model general")
-    if args.plots and Path(args.plots).exists() and not Path(args.plots).is_dir():
-        raise InputError(f"--plots {args.plots}: exists and is not a folder")
+    outputs = [("--out", args.out, "file", ()), ("--plots", args.plots, "folder", PLOT_FILES),
+               ("--report", args.report, "file", ())]
+    check_outputs(outputs, inputs=[args.dataset, args.mounts])   # before any long work
     mounts = _read_mounts(args.mounts) if args.mounts else None
-    dataset = load_dataset(Path(args.dataset))
-    if args.out is not None:
-        check_output(args.out, inputs=[dataset.manifest_path, dataset.ground_truth,
-                                       args.mounts, *(e.path for e in dataset.images)],
-                     input_folders=[dataset.root])
     options = CalibrationOptions(method=args.method, detector=args.detector,
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
                                  T_ptuL_from_ptuR_measured=mounts, model=args.model,
-                                 scales=args.scales or "auto")
+                                 scales=args.scales).validate(FLAGS)
+    dataset = load_dataset(Path(args.dataset))
+    check_outputs(outputs, inputs=[dataset.manifest_path, dataset.ground_truth, args.mounts,
+                                   *(e.path for e in dataset.images)],
+                  input_folders=[dataset.root])
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -148,13 +142,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"rasc calibrate: report: {v.line()}", file=sys.stderr)
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
-    for eye in ("left", "right"):
-        r = cal.eyes[eye]
-        T_gp = T_gaze_from_ptu(r.pan_tilt[:, 0], r.pan_tilt[:, 1])        # eq. 3
-        for warning in solution_warnings(r.handeye, uncertainty=r.uncertainty, pan_tilt=True) \
-                + translation_warnings(r.T_cam_from_world, T_gp, r.handeye,
-                                       names=list(r.pose_files)):
-            print(f"rasc calibrate: warning: {eye} eye: {warning}", file=sys.stderr)
     if not args.quiet:
         for eye in ("left", "right"):
             r = cal.eyes[eye]
@@ -163,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
             if cal.errors:
                 e = cal.errors[eye]["T_cam_from_gaze"]
                 line += (f", T_cam_from_gaze error {e['rotation_deg']:.4f} deg "
-                         f"{_length(e['translation'], cal.length_unit)}")
+                         f"{format_length(e['translation'], cal.length_unit)}")
             log(line)
         res = cal.refinement
         if res is not None:
@@ -175,8 +162,8 @@ def run(args: argparse.Namespace) -> int:
                 u = res.parameters[eye]
                 d, a = u.get("unit.tilt_point_y"), u.get("unit.axis_angle_deg")
                 if d and d["value"] is not None and a and a["value"] is not None:
-                    log(f"{eye} unit: axis distance {_length(d['value'], cal.length_unit)} "
-                        f"± {_length(d['std'], cal.length_unit)}, axis angle "
+                    log(f"{eye} unit: axis distance {format_length(d['value'], cal.length_unit)} "
+                        f"± {format_length(d['std'], cal.length_unit)}, axis angle "
                         f"{a['value']:.4f} ± {a['std']:.4f} deg")
             held = sorted({f"{x['eye']} {x['parameter']}" for x in res.not_identifiable})
             log("not identifiable (held at the gauge, not reported): " + ", ".join(held))

@@ -115,11 +115,11 @@ def run(args: argparse.Namespace) -> int:
         from rasc.handeye.document import load_handeye_input
         from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
         from rasc.handeye.methods import PluginError, jackknife_uncertainty
-        from rasc.io import check_output, dumps_json, write_json_atomic, write_stdout
+        from rasc.io import check_outputs, dumps_json, write_json_atomic, write_stdout
 
     source = args.poses
-    if args.out is not None:
-        check_output(args.out, inputs=[source])  # the output rule, before reading or solving
+    # the output rule, before reading or solving
+    check_outputs([("--out", args.out, "file", ())], inputs=[source])
     if args.home is not None and args.method != "li":
         raise InputError(f"--home {args.home}: only --method li uses a home position")
     solve = _solver(args.method)  # an unknown name or a broken plugin: before reading

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         import numpy as np
 
-        import rasc.head.use  # noqa: F401 (_fixate's look_at, loaded here)
+        from rasc.head.use import reading_warnings
         from rasc.progress import progress
 
     if not args.point and args.points is None:
@@ -77,11 +77,11 @@ def run(args: argparse.Namespace) -> int:
             targets.append((np.array([c["x"][i], c["y"][i], c["z"][i]]), table.where(i),
                             extra))
     unit = args.angle_unit
-    points, outside = [], []
+    points, fixed = [], []
     quiet = args.quiet or len(targets) < PROGRESS_MIN_POINTS
     with progress(total=len(targets), desc="look-at", unit="point", quiet=quiet) as bar:
         for p, where, extra in targets:
-            points.append(_fixate(cal, p, where, extra, unit, outside))
+            points.append(_fixate(cal, p, where, extra, unit, fixed))
             bar.update(1)
     recorded = None
     if cal.joint_range is not None:
@@ -91,24 +91,16 @@ def run(args: argparse.Namespace) -> int:
            "length_unit": cal.length_unit or "that of the calibration",
            "recorded_range": recorded, "points": points}
     common.write_result(doc, args.out)
-    for eye in EYES:
-        mine = [(where, fix) for where, e, fix in outside if e == eye]
-        if not mine:
-            continue
-        span = cal.joint_range[eye]
-        rng = ", ".join(f"{j} {common.angle_out(span[j][0], unit):g} to "
-                        f"{common.angle_out(span[j][1], unit):g}" for j in ("pan", "tilt"))
-        where, fix = mine[0]
-        more = f" ({len(mine)} points; first {where})" if len(mine) > 1 else f" ({where})"
-        common.warn("look-at", f"{eye} eye: pan {common.angle_out(fix.pan, unit):.4g}, tilt "
-                    f"{common.angle_out(fix.tilt, unit):.4g} {unit}{more} lies outside the "
-                    f"range the calibration was measured over ({rng} {unit}); the model is "
-                    "extrapolated there")
+    wheres = [where for _, where, _ in targets]
+    readings = {eye: ([fix.pan for w, e, fix in fixed if e == eye],
+                      [fix.tilt for w, e, fix in fixed if e == eye]) for eye in EYES}
+    for warning in reading_warnings(cal, readings, unit, where=wheres.__getitem__):
+        common.warn("look-at", warning)
     return 0
 
 
-def _fixate(cal, p, where: str, extra: dict, unit: str, outside: list) -> dict:
-    """One point's entry; appends (where, eye, fixation) to ``outside`` beyond the range."""
+def _fixate(cal, p, where: str, extra: dict, unit: str, fixed: list) -> dict:
+    """One point's entry; appends (where, eye, fixation) to ``fixed``."""
     from rasc.head.use import look_at, outside_range
 
     entry = {"p_base": p, **extra}
@@ -122,8 +114,7 @@ def _fixate(cal, p, where: str, extra: dict, unit: str, outside: list) -> dict:
             span = cal.joint_range[eye]
             within = not (outside_range(fix.pan, span["pan"])
                           or outside_range(fix.tilt, span["tilt"]))
-            if not within:
-                outside.append((where, eye, fix))
+        fixed.append((where, eye, fix))
         entry[eye] = {"pan": common.angle_out(fix.pan, unit),
                       "tilt": common.angle_out(fix.tilt, unit),
                       "residual_px": fix.residual_px, "depth": fix.depth,

@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         import numpy as np
 
-        from rasc.head.use import project_eye
+        from rasc.head.use import project_eye, reading_warnings
 
     common.check_out(args.out, [args.calibration, args.points])
     cal = common.read_calibration(args.calibration)
@@ -62,12 +62,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.points}: no eye to project into: give pan_left,tilt_left "
                          "and/or pan_right,tilt_right columns")
     p_base = np.c_[c["x"], c["y"], c["z"]]
-    views = {}
+    views, readings = {}, {}
     for eye in eyes:
         pan = common.angles_to_radians(c[f"pan_{eye}"], args.angle_unit, f"pan_{eye}",
                                        table.where)
         tilt = common.angles_to_radians(c[f"tilt_{eye}"], args.angle_unit, f"tilt_{eye}",
                                         table.where)
+        readings[eye] = (pan, tilt)
         try:
             views[eye] = project_eye(getattr(cal.head, eye), p_base, pan, tilt)
         except InputError as exc:
@@ -88,4 +89,6 @@ def run(args: argparse.Namespace) -> int:
            "image_size": {eye: list(getattr(cal.head, eye).image_size) for eye in eyes},
            "points": points}
     common.write_result(doc, args.out)
+    for warning in reading_warnings(cal, readings, args.angle_unit, where=table.where):
+        common.warn("project", warning)
     return 0

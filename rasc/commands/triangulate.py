@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         import numpy as np
 
-        from rasc.head.use import triangulate
+        from rasc.head.use import reading_warnings, triangulate
 
     common.check_out(args.out, [args.calibration, args.points])
     cal = common.read_calibration(args.calibration)
@@ -97,6 +97,10 @@ def run(args: argparse.Namespace) -> int:
            "length_unit": cal.length_unit or "that of the calibration",
            "frame": "base (x up, y forward, z left)", "uncertainty": unc_doc, "points": points}
     common.write_result(doc, args.out)
+    readings = {"left": (ang["pan_left"], ang["tilt_left"]),
+                "right": (ang["pan_right"], ang["tilt_right"])}
+    for warning in reading_warnings(cal, readings, args.angle_unit, where=table.where):
+        common.warn("triangulate", warning)
     for eye in ("left", "right"):
         behind = np.nonzero(~tri.in_front[eye])[0]
         if behind.size:

@@ -9,3 +9,10 @@ paper's noise model (eq. 13–14) in :mod:`~rasc.handeye.noise`, user advice in
 
 Importing the package imports nothing: the modules are imported by name.
 """
+
+
+def __getattr__(name: str):
+    """Names the old module ``rasc.handeye`` had: forwarded with a DeprecationWarning."""
+    from rasc import moved_attribute
+
+    return moved_attribute(__name__, name)

@@ -39,10 +39,12 @@ OpenCV entries import cv2 only when called.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
 import importlib.metadata
 import re
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -124,9 +126,14 @@ def _run_plugin(method: Method, T_cam_from_world, T_gaze_from_ptu, *,
                                        check_rigid=check_rigid)
     who = f"method {method.name}"
     try:
-        out = method.function(T_cw.copy(), T_gp.copy(), **options)
+        # what the plugin prints goes to stderr: stdout carries the result (a JSON document)
+        with contextlib.redirect_stdout(sys.stderr):
+            out = method.function(T_cw.copy(), T_gp.copy(), **options)
     except RascError as exc:  # the plugin's own one-line error keeps its class
         raise type(exc)(f"{who}: {exc}") from None
+    except SystemExit as exc:  # sys.exit() in a plugin ends the call, never the process
+        raise PluginError(f"{who} called sys.exit({exc.code!r}) instead of returning a "
+                          "result") from None
     except Exception as exc:  # noqa: BLE001 -- any failure of user code, in one line
         text = " ".join(str(exc).split())
         raise PluginError(f"{who} raised {type(exc).__name__}"

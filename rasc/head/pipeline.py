@@ -37,28 +37,13 @@ from rasc.head.base_to_ptu import (
 )
 from rasc.head.model import EyeCalibration, HeadCalibration
 
+# the options object and its validation (rasc.head.options, which the command line
+# imports without numpy), re-exported here where calibrate_dataset takes them
+from rasc.head.options import MODELS, SCALES_MODES, CalibrationOptions  # noqa: F401
+
 FORMAT = formats.CALIBRATION.tag
 
 
-@dataclass
-class CalibrationOptions:
-    method: str = "rasc"               # hand-eye method (rasc.handeye.methods.METHODS)
-    detector: str = "saddle"           # "classic" | "saddle" | "sb" (vision.camera.detect_corners)
-    # k1 k2 only: with 20 views the full five-term model over-fits (measured on renders:
-    # pose extrinsics 0.046° worst with "opencv5" against 0.012° with "k1k2")
-    dist_model: str = "k1k2"           # rasc.vision.camera.DIST_MODELS
-    exclude_outliers: bool = True      # drop intrinsics views flagged as outliers
-    T_ptuL_from_ptuR_measured: np.ndarray | None = None   # measured mounts (docs/METHOD.md §5)
-    #: "paper": the closed form (eq. 3 units); "general": the closed form refined over
-    #: every corner with a general unit per eye (rasc.head.refine)
-    model: str = "paper"
-    #: with model "general", the encoder scales: "auto" (held at 1 unless the corners
-    #: reject 1, see SCALES_F_ESTIMATE), "estimate", or "hold" (rasc.head.refine.SCALES
-    #: says what each costs)
-    scales: str = "auto"
-
-
-MODELS = ("paper", "general")
 
 
 @dataclass
@@ -93,6 +78,9 @@ class Calibration:
     length_unit: str | None = None     # the dataset's (the unit of board.square_size)
     model_fit: dict[str, Any] | None = None     # eye → rasc.head.fit.EyeFit (paper model)
     refinement: Any = None             # rasc.head.refine.RefinementResult (model "general")
+    #: model "general": the hand-eye method's closed form that seeded the refinement, per
+    #: eye its T_cam_from_gaze and its distance from the refined one (``refinement.seed``)
+    seed: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -124,19 +112,28 @@ class Calibration:
                "length_unit": self.length_unit or "that of the dataset's board.square_size",
                "head": self.head.to_dict(), "eyes": eyes,
                "base_to_ptu": self.base,
-               "options": {"method": self.options.method, "detector": self.options.detector,
-                           "dist_model": self.options.dist_model,
-                           "exclude_outliers": self.options.exclude_outliers,
-                           "model": self.options.model,
-                           "scales": self.options.scales},
+               "options": self.options.to_dict(),
+               "warnings": list(self.warnings),
                "timings_s": self.timings}
         if self.model_fit is not None:
             out["paper_model_fit"] = {eye: f.to_dict() for eye, f in self.model_fit.items()}
         if self.refinement is not None:
             out["refinement"] = self.refinement.to_dict()
+            for im in out["refinement"]["images"]:   # an image the refinement rejected
+                if not all(np.isfinite(im[k]) for k in ("rms", "max")):   # whole: marked
+                    im.update(rms=None, max=None, all_rejected=True)
+            if self.seed is not None:
+                out["refinement"]["seed"] = self.seed
         if self.errors is not None:
             out["errors_against_truth"] = self.errors
         return out
+
+
+def format_length(value: float, unit: str | None) -> str:
+    """A length for a person: millimetres when the dataset is in metres, else its unit."""
+    if unit == "m":
+        return f"{1000 * value:.3f} mm"
+    return f"{value:.4g} {unit or '(unit of board.square_size)'}"
 
 
 class _Timer:
@@ -161,7 +158,7 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     (otherwise every image header is read again). Every error names the manifest and the
     eye (and the image, when there is one).
     """
-    from rasc.handeye.advice import check_motions_match
+    from rasc.handeye.advice import check_motions_match, solution_warnings, translation_warnings
     from rasc.handeye.methods import jackknife_uncertainty
     from rasc.handeye.robust_calibrate import closed_form
     from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics
@@ -223,6 +220,9 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     warnings = [f"{eye} eye: {note}" for note in closed.notes]
     if options.method == "li" and not has_home_pose(T_gp):
         warnings.append(f"{eye} eye: {NO_HOME_POSE}; add a pose view at (0, 0)")
+    warnings += [f"{eye} eye: {w}" for w in
+                 solution_warnings(he, uncertainty=uncertainty, pan_tilt=True)
+                 + translation_warnings(T_cw, T_gp, he.T_cam_from_gaze, names=files)]
     timer.add("hand-eye", time.perf_counter() - t0)
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
@@ -255,19 +255,21 @@ MOUNTS_UNIT_RATIO = 3.0
 
 
 def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
-                    warnings: list[str]) -> dict[str, float]:
-    """Measured mounts against loop closure: refuse another length unit, warn on a large
+                    warnings: list[str] | None, against: str = "loop closure") -> dict[str, float]:
+    """Measured mounts against ``against`` (loop closure, or the whole-head refinement):
+    refuse another length unit, warn into ``warnings`` (None: record only) on a large
     disagreement (either may be wrong), return the differences for the output."""
     b_measured = float(np.linalg.norm(T_measured[:3, 3]))
     b_loop = float(np.linalg.norm(T_loop[:3, 3]))
     if b_loop > 0 and not (1 / MOUNTS_UNIT_RATIO <= b_measured / b_loop <= MOUNTS_UNIT_RATIO):
         raise InputError(f"--mounts: T_ptuL_from_ptuR puts the units {b_measured:.4g} apart "
-                         f"but loop closure measures {b_loop:.4g} (in the unit of "
+                         f"but {against} measures {b_loop:.4g} (in the unit of "
                          "board.square_size): give its translation in that unit")
     rot = float(rotation_error_deg(T_measured[:3, :3], T_loop[:3, :3]))
     trans = float(np.linalg.norm(T_measured[:3, 3] - T_loop[:3, 3]))
-    if rot > MOUNTS_WARN_ROTATION_DEG or trans > MOUNTS_WARN_TRANSLATION_FRACTION * b_loop:
-        warnings.append(f"the measured mounts and loop closure differ by {rot:.2g}° and "
+    if warnings is not None and (rot > MOUNTS_WARN_ROTATION_DEG
+                                 or trans > MOUNTS_WARN_TRANSLATION_FRACTION * b_loop):
+        warnings.append(f"the measured mounts and {against} differ by {rot:.2g}° and "
                         f"{trans:.3g} (baseline {b_loop:.3g}): one of them is wrong; check "
                         "the mounts' frames (T_ptuL_from_ptuR: the right unit's frame in the "
                         "left one) and the hand-eye warnings")
@@ -277,8 +279,14 @@ def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
 
 def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                       log: Callable[[str], None] = lambda s: None) -> Calibration:
-    """Calibrate the whole head from a :class:`rasc.vision.dataset.Dataset`."""
-    options = options or CalibrationOptions()
+    """Calibrate the whole head from a :class:`rasc.vision.dataset.Dataset`.
+
+    ``options`` (:class:`CalibrationOptions`, validated here before any image is read):
+    by default the general model, as ``rasc calibrate``. Every warning for the user (the
+    hand-eye's, the model fit's, the mounts', the refinement's) is computed here and
+    carried in ``Calibration.warnings``, once each.
+    """
+    options = (options or CalibrationOptions()).validate()
     timer = _Timer()
     sizes = dataset.validate()  # reads every image header once
     # a ground truth that cannot be read is refused now, not after the whole calibration
@@ -304,7 +312,10 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                                           name="measured T_ptuL_from_ptuR")
         base["source"] = "measured mounts"
         if loop is not None:
-            base["measured_vs_loop_closure"] = _compare_mounts(T_pLpR, loop[0], warnings)
+            # warned here under the paper model only: the general model's own estimate is
+            # compared after the refinement (one warning, naming what disagrees)
+            base["measured_vs_loop_closure"] = _compare_mounts(
+                T_pLpR, loop[0], warnings if options.model == "paper" else None)
     elif loop is not None:
         T_pLpR = loop[0]
         base["source"] = "loop closure"
@@ -326,8 +337,6 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
                       length_unit=dataset.length_unit)
     return _finish(cal, dataset, options, timer, log, sizes, truth=truth)
 
-
-SCALES_MODES = ("auto", "estimate", "hold")
 
 #: "auto" estimates the encoder scales when holding them at 1 costs more than the noise
 #: explains: F = [(RSS_held − RSS_estimated) / 4] / [RSS_estimated / dof] (four extra
@@ -364,6 +373,7 @@ def _finish(cal: Calibration, dataset, options: CalibrationOptions, timer: _Time
     the refinement (:func:`_check_and_refine`), the stage timings, and the errors against
     the dataset's ground truth when it has one (``truth``: that document, already read)."""
     _check_and_refine(cal, dataset, options, timer, log, sizes, model_fit)
+    cal.warnings = list(dict.fromkeys(cal.warnings))    # each warning once
     cal.timings = dict(timer.timings)
     if dataset.ground_truth is not None:
         cal.errors = errors_against_truth(
@@ -381,8 +391,6 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
     from rasc.head.fit import calibration_fit, misfit_warning
     from rasc.head.refine import observations_from_calibration, refine_head
 
-    if options.model not in MODELS:
-        raise InputError(f"model: expected one of {', '.join(MODELS)}, got {options.model!r}")
     if model_fit is None:
         t0 = time.perf_counter()
         model_fit = calibration_fit(cal, dataset.board.object_points())
@@ -395,12 +403,9 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         return
     log("whole-head refinement (model general)")
     t0 = time.perf_counter()
-    if options.scales not in SCALES_MODES:
-        raise InputError(f"scales: expected one of {', '.join(SCALES_MODES)}, "
-                         f"got {options.scales!r}")
     obs = observations_from_calibration(cal, dataset.board)
     try:
-        if options.scales == "auto":
+        if options.scales_mode == "auto":
             res_h = refine_head(obs, estimate_scales=False)
             res_e = refine_head(obs, estimate_scales=True, start=res_h)
             F = _scales_F(res_h, res_e)
@@ -410,12 +415,34 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
             log(f"encoder scales {'estimated' if res is res_e else 'held at 1'} "
                 f"(F = {F:.3g} against {SCALES_F_ESTIMATE:g})")
         else:
-            res = refine_head(obs, estimate_scales=options.scales == "estimate")
-            res.scales = {"mode": options.scales, "estimated": options.scales == "estimate"}
+            res = refine_head(obs, estimate_scales=options.scales_mode == "estimate")
+            res.scales = {"mode": options.scales_mode,
+                          "estimated": options.scales_mode == "estimate"}
     except RascError as exc:
         raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
     timer.add("refinement", time.perf_counter() - t0)
     cal.refinement = res
+    cal.seed = {"method": options.method,
+                "what": "the method's closed form (eq. 3 units) seeded the refinement; "
+                        "distance from the refined hand-eye in the gauge both share"}
+    for eye in EYES:
+        closed = cal.eyes[eye].handeye.T_cam_from_gaze
+        cal.seed[eye] = {"T_cam_from_gaze": closed.tolist(),
+                         "quality": float(cal.eyes[eye].handeye.quality),
+                         "vs_refined": transform_error(closed, res.T_cam_from_gaze[eye])}
+    log(f"hand-eye method {options.method}: its closed form seeded the refinement ("
+        + ", ".join(f"{eye} {cal.seed[eye]['vs_refined']['rotation_deg']:.3g} deg, "
+                    f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"
+                    " from the refined "
+                    "hand-eye" for eye in EYES) + ")")
+    gone = [im for im in res.images if not np.isfinite(im.rms)]
+    if gone:
+        cal.warnings.append(
+            f"the whole-head refinement rejected every corner of {len(gone)} image(s) ("
+            + ", ".join(f"{im.eye} {im.name}" for im in gone[:4])
+            + (", ..." if len(gone) > 4 else "") + "): they do not fit the head the other "
+            "images show; check that each pose image's pan/tilt reading is its own and the "
+            "manifest's angle_unit; they are marked all_rejected in refinement.images")
     ratio = res.rms_by_role["pose"] / res.rms_by_role["intrinsics"]
     if ratio > POSE_RMS_WARN_RATIO:
         cal.warnings.append(
@@ -427,7 +454,8 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
     if options.T_ptuL_from_ptuR_measured is not None:
         cal.base["measured_vs_refinement"] = _compare_mounts(
             validate_rigid_transform(options.T_ptuL_from_ptuR_measured,
-                                     name="measured T_ptuL_from_ptuR"), T_pLpR, cal.warnings)
+                                     name="measured T_ptuL_from_ptuR"), T_pLpR, cal.warnings,
+            against="the whole-head refinement")
     cal.base["refinement"] = {"T_ptuL_from_ptuR": T_pLpR.tolist()}
     cal.base["T_ptuL_from_ptuR"] = T_pLpR.tolist()
     cal.base["source"] = "whole-head refinement (initialised by " + cal.base["source"] + ")"
@@ -449,13 +477,14 @@ def refine_calibration(cal: Calibration, dataset,
     change :class:`CalibrationOptions` fields (e.g. ``scales="hold"``)."""
     import copy
 
-    options = dataclasses.replace(cal.options, model="general", **overrides)
+    options = dataclasses.replace(cal.options, model="general", **overrides).validate()
     out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
                       options=options, warnings=list(cal.warnings),
                       length_unit=cal.length_unit)
     # the paper model's misfit warning is answered by the refinement: drop it
     from rasc.head.fit import REMEDY
-    out.warnings = [w for w in out.warnings if not w.endswith(REMEDY)]
+    out.warnings = [w for w in out.warnings if not w.endswith(REMEDY)
+                    and not w.startswith("the measured mounts and loop closure")]
     timer = _Timer()
     timer.timings = dict(cal.timings)
     if cal.model_fit is None:         # (a calibration read back without its check)

@@ -16,6 +16,9 @@ import numpy as np
 from rasc.geometry.frames import EYES
 from rasc.io import write_bytes_atomic
 
+#: the files :func:`residual_plots` writes into its folder (checked as outputs first)
+PLOT_FILES = tuple(f"residuals_{eye}.png" for eye in EYES)
+
 
 def residual_plots(result, folder: str | Path) -> list[Path]:
     """Write one residual plot per eye of a :class:`rasc.head.refine.RefinementResult`
@@ -58,7 +61,7 @@ def residual_plots(result, folder: str | Path) -> list[Path]:
         fig.tight_layout()
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=100, metadata={"Software": None})
-        path = folder / f"residuals_{eye}.png"
+        path = folder / PLOT_FILES[EYES.index(eye)]
         write_bytes_atomic(path, buf.getvalue())
         out.append(path)
     return out

@@ -75,12 +75,17 @@ class CalibrationFile:
         calibration's pose views spanned (``rasc-calibration/1`` only), else None.
     source : str
         The path as given.
+    paper_fit : dict or None
+        Per eye the paper model's fit check (``paper_model_fit``: ``F``, ``threshold_F``)
+        when the file's head IS the paper model (``rasc-calibration/1`` without a
+        whole-head refinement), else None: what :func:`reading_warnings` reads.
     """
 
     head: HeadCalibration
     length_unit: str | None
     joint_range: dict[str, dict[str, tuple[float, float]]] | None
     source: str
+    paper_fit: dict[str, dict[str, float]] | None = None
 
 
 def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
@@ -147,6 +152,24 @@ def _joint_range(eyes: Any) -> dict | None:
     return out
 
 
+def _paper_fit(fits: Any) -> dict | None:
+    """``paper_model_fit`` of a ``rasc-calibration/1`` (per eye F and its threshold)."""
+    if fits is None:
+        return None
+    if not isinstance(fits, dict):
+        raise InputError("paper_model_fit: expected an object with 'left' and 'right'")
+    out = {}
+    for eye in EYES:
+        f = fits.get(eye)
+        if f is None:
+            continue
+        if not isinstance(f, dict):
+            raise InputError(f"paper_model_fit.{eye}: expected an object")
+        out[eye] = {key: finite_number(f.get(key), f"paper_model_fit.{eye}.{key}")
+                    for key in ("F", "threshold_F")}
+    return out or None
+
+
 def calibration_from_document(doc: Any, source: str = "calibration") -> CalibrationFile:
     """A parsed ``rasc-calibration/1`` or ``rasc-head/1`` document → :class:`CalibrationFile`.
 
@@ -169,7 +192,8 @@ def calibration_from_document(doc: Any, source: str = "calibration") -> Calibrat
         unit = doc.get("length_unit")
         if unit is not None and not isinstance(unit, str):
             raise InputError(f"length_unit: expected text, got {json.dumps(unit)[:40]}")
-        return CalibrationFile(head, unit, _joint_range(doc.get("eyes")), source)
+        fit = None if "refinement" in doc else _paper_fit(doc.get("paper_model_fit"))
+        return CalibrationFile(head, unit, _joint_range(doc.get("eyes")), source, fit)
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
 
@@ -493,3 +517,91 @@ def look_at(eye: EyeCalibration, p_base, *, tol_px: float = LOOK_AT_TOL_PX) -> F
 def outside_range(angle: float, span: tuple[float, float], margin: float = 1e-9) -> bool:
     """Whether ``angle`` lies outside the closed interval ``span`` (radians)."""
     return angle < span[0] - margin or angle > span[1] + margin
+
+
+# --------------------------------------------------------------------------------------
+# what a user of a calibration is told (rasc triangulate, project and look-at alike)
+
+
+def _angle_text(radians: float, unit: str) -> float:
+    return math.degrees(radians) if unit == "deg" else float(radians)
+
+
+def reading_warnings(cal: CalibrationFile, readings: dict[str, tuple[Any, Any]],
+                     unit: str = "deg", where=None) -> list[str]:
+    """Warnings for answers computed at these pan-tilt readings, one sentence each.
+
+    * per eye, readings outside the pan/tilt range the calibration's pose views spanned
+      (``cal.joint_range``; the model is extrapolated there: on a unit the paper model
+      does not fit, 10 mm errors with 0.02 px residuals);
+    * a calibration whose head is the paper model and whose pose views that model does
+      not fit (``cal.paper_fit``: F above its threshold): every answer carries the misfit.
+
+    Parameters
+    ----------
+    cal : CalibrationFile
+    readings : ``{eye: (pan, tilt)}``, radians, scalars or (N,) arrays (the eyes used)
+    unit : "deg" or "rad", how angles are written in the messages
+    where : ``where(i)`` names reading i (a file and line); default ``reading i``
+    """
+    where = where or (lambda i: f"reading {i}")
+    out = []
+    if cal.joint_range is not None:
+        for eye in EYES:
+            if eye not in readings:
+                continue
+            pan, tilt = (np.atleast_1d(np.asarray(a, dtype=float)) for a in readings[eye])
+            pan, tilt = np.broadcast_arrays(pan, tilt)
+            span = cal.joint_range[eye]
+            bad = np.array([outside_range(p, span["pan"]) or outside_range(t, span["tilt"])
+                            for p, t in zip(pan, tilt, strict=True)], dtype=bool)
+            if not bad.any():
+                continue
+            first = int(np.argmax(bad))
+            n = int(bad.sum())
+            more = f" ({n} points; first {where(first)})" if n > 1 else f" ({where(first)})"
+            rng = ", ".join(f"{j} {_angle_text(span[j][0], unit):g} to "
+                            f"{_angle_text(span[j][1], unit):g}" for j in ("pan", "tilt"))
+            out.append(f"{eye} eye: pan {_angle_text(pan[first], unit):.4g}, tilt "
+                       f"{_angle_text(tilt[first], unit):.4g} {unit}{more} lies outside the "
+                       f"range the calibration was measured over ({rng} {unit}); the model "
+                       "is extrapolated there")
+    if cal.paper_fit:
+        bad = {eye: f for eye, f in cal.paper_fit.items() if f["F"] > f["threshold_F"]}
+        if bad:
+            from rasc.head.fit import REMEDY
+
+            fs = ", ".join(f"{eye} F = {f['F']:.3g}" for eye, f in bad.items())
+            out.append(f"the calibration {cal.source} uses the paper's pan-tilt model, which "
+                       f"does not fit its pose views ({fs}, above "
+                       f"{next(iter(bad.values()))['threshold_F']:g}): its answers may be off "
+                       f"by millimetres; recalibrate ({REMEDY})")
+    return out + calibration_warnings(cal)
+
+
+#: the two units' distances from the base origin differ by more than this factor: a
+#: length in another unit (mm among metres is 1000). ``rasc calibrate`` puts the base
+#: midway between the units (the cyclopean base, eq. 13-14): the ratio is 1 there; a
+#: hand-made base off the middle by a third of the baseline stays within 2.
+BASE_DISTANCE_RATIO_WARN = 3.0
+
+
+def calibration_warnings(cal: CalibrationFile) -> list[str]:
+    """What the numbers of a calibration contradict, one sentence each: in a file that
+    ``rasc calibrate`` wrote (``rasc-calibration/1``, whose base is cyclopean), the units'
+    distances from the base (``T_ptu_from_base`` translations) differing by more than
+    :data:`BASE_DISTANCE_RATIO_WARN` times (a translation in another length unit). A bare
+    ``rasc-head/1`` may put its base anywhere (at one unit, say): not checked."""
+    if cal.joint_range is None:
+        return []
+    d = {eye: float(np.linalg.norm(getattr(cal.head, eye).T_ptu_from_base[:3, 3]))
+         for eye in EYES}
+    lo, hi = sorted(d.values())
+    if hi > 0 and (lo == 0 or hi / lo > BASE_DISTANCE_RATIO_WARN):
+        far = max(d, key=d.get)
+        unit = cal.length_unit or "the calibration's unit"
+        return [f"{cal.source}: the {far} unit is {d[far]:.4g} from the base origin, the "
+                f"other {lo:.4g} ({unit}): {far}.T_ptu_from_base's translation looks like "
+                "another length unit (millimetres among metres?); answers are wrong until "
+                "it is fixed"]
+    return []

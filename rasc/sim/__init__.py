@@ -17,3 +17,10 @@ def models_dir(package: str | Path | None = None) -> Path:
 
 #: The MJCF models (``stereo_head.xml``, ``scene.xml``) and their README.
 MODELS_DIR = models_dir()
+
+
+def __getattr__(name: str):
+    """Names the old module ``rasc.sim`` had: forwarded with a DeprecationWarning."""
+    from rasc import moved_attribute
+
+    return moved_attribute(__name__, name)

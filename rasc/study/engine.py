@@ -208,7 +208,7 @@ def render_task(task: dict) -> dict:
     Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
     """
     worker_environment()
-    from rasc.head.pipeline import calibrate_dataset
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.render import RenderOptions, render_dataset
     from rasc.vision.dataset import load_dataset
 
@@ -226,7 +226,7 @@ def render_task(task: dict) -> dict:
             render_dataset(folder, options, model_path=task["model_path"], quiet=True,
                            units=unit_builds(r))
             ds = load_dataset(folder)
-            cal = calibrate_dataset(ds)
+            cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
         except RascError as exc:     # name the cell's render parameters, not a CLI flag
             what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
             raise type(exc)(f"the dataset for {what}: "
@@ -243,12 +243,12 @@ def folder_task(task: dict) -> dict:
     its ``ground_truth.json``, when present, is the reference (else the measured RASC
     solution, see :func:`dataset_document`)."""
     worker_environment()
-    from rasc.head.pipeline import calibrate_dataset
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
     folder = Path(task["folder"])
     ds = load_dataset(folder)
-    cal = calibrate_dataset(ds)
+    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     gt = folder / "ground_truth.json"
     truth = json.loads(gt.read_text()) if gt.is_file() else None
     doc = dataset_document(cal, ds.board, truth, key=task["key"])

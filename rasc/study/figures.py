@@ -22,6 +22,8 @@ def save_figure(fig, path_stem: Path, formats: tuple[str, ...] = (".png", ".svg"
     is computed once; a ``draft`` (the experiments' --quick) skips it and uses 72 dpi."""
     import matplotlib
 
+    if not draft:   # a layout engine (constrained layout) runs at draw: let it run first,
+        fig.draw_without_rendering()     # or the box is the unlaid figure's (cropped)
     bbox = None if draft else fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     dpi = 72 if draft else 120
     paths = []

@@ -30,6 +30,7 @@ import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import make_transform
+from rasc.io import native_stderr_captured
 from rasc.vision.board import (  # noqa: F401  (Board, MIN_INTRINSICS_VIEWS re-exported)
     MIN_INTRINSICS_VIEWS,
     Board,
@@ -95,14 +96,17 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     if not path.is_file():
         raise InputError(f"{path}: image file does not exist")
     try:
-        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        with native_stderr_captured() as said:   # libpng's own lines: into the message
+            image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     except cv2.error as exc:   # e.g. more pixels than CV_IO_MAX_IMAGE_PIXELS (2**30)
         why = ("more pixels than OpenCV reads (CV_IO_MAX_IMAGE_PIXELS, 2**30 by default)"
                if "CV_IO_MAX_IMAGE_PIXELS" in str(exc) else
                str(exc).strip().splitlines()[-1] if str(exc).strip() else "OpenCV error")
         raise InputError(f"{path}: cannot read image: {why}") from None
     if image is None or image.size == 0:
-        raise InputError(f"{path}: cannot read image (not a format OpenCV reads, or corrupt)")
+        why = " ".join(" ".join(said).split())[:200]
+        raise InputError(f"{path}: cannot read image (not a format OpenCV reads, or corrupt"
+                         + (f": {why})" if why else ")"))
     return image
 
 

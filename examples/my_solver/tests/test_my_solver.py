@@ -53,7 +53,7 @@ def test_rendered_images_end_to_end(rasc_dataset):
     this solver for the hand-eye step, against the model's ground truth. rasc's own
     solver was 0.013° / 0.27 mm (left) and 0.007° / 0.04 mm (right) off on this dataset,
     this one 0.012° / 0.42 mm and 0.011° / 0.19 mm; 0.2° / 5 mm catches a broken solver."""
-    cal = calibrate_dataset(rasc_dataset.load(), CalibrationOptions(method=METHOD))
+    cal = calibrate_dataset(rasc_dataset.load(), CalibrationOptions(method=METHOD, model="paper"))
     for eye in ("left", "right"):
         assert cal.eyes[eye].handeye.method == METHOD
         assert_handeye_close(cal.eyes[eye].handeye, rasc_dataset.T_cam_from_gaze(eye),
