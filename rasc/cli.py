@@ -36,7 +36,8 @@ from rasc.errors import RascError
 from rasc.interrupt import Interrupted, exit_process, received, signals_as_interrupt
 
 #: sub-command modules, in the order ``rasc --help`` lists them
-COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study")
+COMMANDS = ("handeye", "render", "calibrate", "triangulate", "project", "look_at", "study",
+            "plan")
 
 
 class _Parser(argparse.ArgumentParser):
