@@ -56,6 +56,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="with --model general, the pan and tilt encoder scales: 'auto' "
                         "(default) holds them at 1 unless the corners reject 1 (an F "
                         "test), 'estimate', or 'hold' at 1")
+    p.add_argument("--min-corners", type=int, default=8, metavar="N",
+                   help="a target seen in part (ChArUco): the fewest corners a view must "
+                        "show to be used; views with fewer are skipped (default 8)")
     p.add_argument("--plots", metavar="DIR",
                    help="with --model general: write residual plots residuals_left.png, "
                         "residuals_right.png into DIR")
@@ -117,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
                                  T_ptuL_from_ptuR_measured=mounts, model=args.model,
-                                 scales=args.scales or "auto")
+                                 scales=args.scales or "auto", min_corners=args.min_corners)
 
     def log(msg: str) -> None:
         if not args.quiet:

@@ -136,3 +136,18 @@ def test_positions_file_round_trip(tmp_path):
     bad.write_text("pan,tilt\n1,2\n3;4\n")
     with pytest.raises(InputError, match="line 3"):
         read_positions(bad)
+
+
+def test_manifest_names_its_target(tmp_path):
+    from rasc.vision.dataset import load_dataset, write_manifest
+
+    (tmp_path / "a.png").write_bytes(b"")
+    write_manifest(tmp_path, BOARD, [{"file": "a.png", "eye": "left", "role": "intrinsics"}])
+    ds = load_dataset(tmp_path)
+    assert ds.board == BOARD and ds.to_manifest()["board"]["type"] == "charuco"
+    bad = ds.to_manifest()
+    bad["board"]["dictionary"] = "DICT_9X9_1"
+    import json
+    (tmp_path / "manifest.json").write_text(json.dumps(bad))
+    with pytest.raises(InputError, match="manifest.json: board: .*dictionary"):
+        load_dataset(tmp_path)
