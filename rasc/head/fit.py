@@ -90,14 +90,17 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
     T_cg0 = np.asarray(T_cam_from_gaze, float)
     A = T_cg0 @ T_gp                                                 # (n, 4, 4)
 
-    def project(T_cw):
-        pc = np.einsum("nij,kj->nki", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
-        return lens.project_points(pc.reshape(-1, 3), K, dist).reshape(n, N, 2)
-
-    # corners not seen (NaN rows of a partial view) take no part
+    # corners not seen (NaN rows of a partial view) take no part, nor are they projected
+    # (at wide motions some lie behind the camera)
     seen = np.all(np.isfinite(corners), axis=-1)
     m_seen = int(seen.sum())
-    free = (project(np.asarray(T_cam_from_world, float)) - corners)[seen]
+    want = corners[seen]
+
+    def project(T_cw):
+        pc = np.einsum("nij,kj->nki", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
+        return lens.project_points(pc[seen], K, dist)
+
+    free = project(np.asarray(T_cam_from_world, float)) - want
     rss_free = float(np.sum(free ** 2))
     # X: the board in the ptu frame, started from the first view's estimate
     X0 = np.linalg.inv(A[0]) @ T_cam_from_world[0]
@@ -106,7 +109,7 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
     def residuals(x):
         X = make_transform(matrix_from_rotvec(x[:3]) @ R0, x[3:6])
         T_cg = make_transform(matrix_from_rotvec(x[6:9]) @ T_cg0[:3, :3], x[9:])
-        return (project(T_cg @ T_gp @ X) - corners)[seen].ravel()
+        return (project(T_cg @ T_gp @ X) - want).ravel()
 
     x0 = np.concatenate([np.zeros(3), X0[:3, 3], np.zeros(3), T_cg0[:3, 3]])
     res = least_squares(residuals, x0, method="lm", xtol=1e-12, ftol=1e-12)

@@ -124,6 +124,22 @@ def _project(head, eye, T_cw, P, size):
     return uv
 
 
+def _project_many(head, eye, T_cw, P, size):
+    """:func:`_project` for a stack of poses (M, 4, 4): (M, N, 2)."""
+    from rasc.geometry import lens
+
+    p = np.einsum("mij,nj->mni", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
+    uv = np.full(p.shape[:2] + (2,), np.nan)
+    front = p[..., 2] > 0.05
+    if front.any():
+        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
+    w, h = size
+    with np.errstate(invalid="ignore"):
+        out = ~front | np.any(~(uv >= 0), axis=-1) | (uv[..., 0] > w - 1) | (uv[..., 1] > h - 1)
+    uv[out] = np.nan
+    return uv
+
+
 class _Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
@@ -140,16 +156,16 @@ class _Information:
         T_bw = T_base_from_world_facing(board, distance=setup.distance)
         partial = getattr(board, "partial_views", False)
         need = setup.min_corners if partial else board.n_corners
-        feasible, pose_corners = [], {eye: [] for eye in EYES}
-        for pan, tilt in candidates:
-            uvs = {}
-            for eye in EYES:
-                T_cw = head.T_cam_from_base(eye, np.radians(pan), np.radians(tilt)) @ T_bw
-                uvs[eye] = _project(head, eye, T_cw, P, setup.image_size)
-            if all(int(np.isfinite(uvs[e][:, 0]).sum()) >= need for e in EYES):
-                feasible.append((float(pan), float(tilt)))
-                for eye in EYES:
-                    pose_corners[eye].append(uvs[eye])
+        # every candidate at once: (M, N, 2) pixels per eye, NaN where not seen
+        pan, tilt = np.radians(candidates[:, 0]), np.radians(candidates[:, 1])
+        uv_all = {}
+        for eye in EYES:
+            T_cw = (head.T_cam_from_gaze[eye] @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
+                    @ head.T_ptu_from_base[eye] @ T_bw)                   # (M, 4, 4)
+            uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size)
+        ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
+        feasible = [(float(a), float(b)) for a, b in candidates[ok]]
+        pose_corners = {eye: list(uv_all[eye][ok]) for eye in EYES}
         if len(feasible) < 3:
             raise DegenerateDataError(
                 f"plan: only {len(feasible)} candidate position(s) show the target to both "
