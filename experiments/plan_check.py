@@ -12,7 +12,13 @@ measured RMS over captures is set beside the predicted σ (root sum of the three
 components' σ for the translation). Projected corners, not renders: the prediction's
 noise model is then exact, so the comparison tests the prediction itself.
 
-    python experiments/plan_check.py [--captures N] [--out DIR]
+    python experiments/plan_check.py [--captures N] [--out DIR] [--rendered]
+
+``--rendered``: each capture is rendered instead (``rasc.sim.render.render_dataset``,
+its own seed, Gaussian pixel noise of ``RENDER_NOISE`` grey levels so that the corner
+errors differ between captures) and calibrated from its images; the prediction is made
+for the renderer's true head (its ground truth) with the corner noise the refinement
+measured on the first capture (``sigma_px``), as a user would.
 
 Writes ``<out>/plan_check/plan_check.csv`` and prints it.
 """
@@ -30,7 +36,48 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 NOISE_PX = 0.05
+RENDER_NOISE = 2.0            # grey levels
 EYES = ("left", "right")
+
+
+def measure_rendered(poses, seed: int) -> dict:
+    import tempfile
+
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.sim.render import RenderOptions, render_dataset
+    from rasc.vision.dataset import load_dataset
+
+    with tempfile.TemporaryDirectory(prefix="rasc-plan-check-") as tmp:
+        render_dataset(Path(tmp) / "ds", RenderOptions(seed=seed, poses_deg=tuple(poses),
+                                                       noise_sigma=RENDER_NOISE), quiet=True)
+        ds = load_dataset(Path(tmp) / "ds")
+        truth = ds.load_ground_truth()
+        cal = calibrate_dataset(ds, CalibrationOptions(model="general", scales="hold"))
+    out = {"sigma_px": cal.refinement.sigma, "truth": truth}
+    for eye in EYES:
+        out[f"{eye}.handeye_translation_mm"] = \
+            1e3 * cal.errors[eye]["T_cam_from_gaze"]["translation"]
+        out[f"{eye}.axis_distance_mm"] = 1e3 * float(
+            cal.refinement.parameters[eye]["unit.tilt_point_y"]["value"])
+    return out
+
+
+def head_from_truth(truth: dict):
+    """The renderer's true head (canonical gauge) as the planner's head model."""
+    from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge
+    from rasc.sim.synthetic import SyntheticHead
+
+    parts = {}
+    for eye in EYES:
+        t = truth[eye]
+        parts[eye] = canonical_gauge(PanTiltUnit.from_dict(t["unit"]),
+                                     np.asarray(t["T_cam_from_gaze"], float),
+                                     np.asarray(t["T_ptu_from_base"], float))
+    return SyntheticHead(K={e: np.asarray(truth[e]["K"], float) for e in EYES},
+                         dist={e: np.asarray(truth[e]["dist"], float) for e in EYES},
+                         T_cam_from_gaze={e: parts[e][1] for e in EYES},
+                         T_ptu_from_base={e: parts[e][2] for e in EYES},
+                         unit={e: parts[e][0] for e in EYES})
 
 
 def measure(poses, seed: int) -> dict:
@@ -54,12 +101,23 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     p.add_argument("--captures", type=int, default=8)
     p.add_argument("--out", type=Path, default=REPO / "out")
+    p.add_argument("--rendered", action="store_true", help="render the captures")
     args = p.parse_args(argv)
     from rasc.geometry.kinematics import PAPER_POSES_DEG
     from rasc.io import write_text_atomic
     from rasc.plan import _Information, candidate_grid, nominal_setup, plan, predict
 
     setup = nominal_setup(noise_px=NOISE_PX)
+    first = None
+    if args.rendered:
+        from rasc.plan import PlanSetup
+        from rasc.vision.board import DEFAULT_BOARD
+
+        first = measure_rendered(PAPER_POSES_DEG, 100)
+        setup = PlanSetup(head=head_from_truth(first["truth"]), board=DEFAULT_BOARD,
+                          noise_px=first["sigma_px"])
+        print(f"rendered: corner noise measured by the refinement {first['sigma_px']:.4f} "
+              "px", file=sys.stderr, flush=True)
     planned = plan(setup, 9, workspace_depth=None)
     info = _Information(setup, candidate_grid(setup))
     rng = np.random.default_rng(1)
@@ -69,7 +127,11 @@ def main(argv=None) -> int:
     rows = []
     for name, poses in sets.items():
         pred = predict(setup, poses, info=info, workspace_depth=None).summary
-        meas = [measure(poses, 100 + s) for s in range(args.captures)]
+        if args.rendered:
+            meas = [first if (name == "paper" and s == 0) else measure_rendered(poses, 100 + s)
+                    for s in range(args.captures)]
+        else:
+            meas = [measure(poses, 100 + s) for s in range(args.captures)]
         for key in ("left.handeye_translation_mm", "right.handeye_translation_mm",
                     "left.axis_distance_mm", "right.axis_distance_mm"):
             v = np.array([m[key] for m in meas])
@@ -84,7 +146,7 @@ def main(argv=None) -> int:
     w.writerow(["positions", "quantity", "predicted_sigma", "measured_rms", "ratio",
                 "captures", "positions_deg"])
     w.writerows(rows)
-    folder = args.out / "plan_check"
+    folder = args.out / ("plan_check_rendered" if args.rendered else "plan_check")
     folder.mkdir(parents=True, exist_ok=True)
     write_text_atomic(folder / "plan_check.csv", buf.getvalue())
     print(buf.getvalue())

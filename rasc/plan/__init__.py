@@ -23,7 +23,8 @@ the best subset; in practice it matches exhaustive search on small grids.
 
 **Candidates.** Every position of a grid (``step_deg``, default 2°) over the joint
 ranges at which both eyes see at least ``min_corners`` corners (all corners, for a
-chessboard, which must be seen whole).
+chessboard, which must be seen whole, each at least ``rasc render``'s margin of
+:data:`rasc.sim.render.MARGIN_PX` pixels inside the image).
 """
 
 from __future__ import annotations
@@ -124,8 +125,9 @@ def _project(head, eye, T_cw, P, size):
     return uv
 
 
-def _project_many(head, eye, T_cw, P, size):
-    """:func:`_project` for a stack of poses (M, 4, 4): (M, N, 2)."""
+def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
+    """:func:`_project` for a stack of poses (M, 4, 4): (M, N, 2); corners closer than
+    ``margin`` pixels to the image border count as not seen."""
     from rasc.geometry import lens
 
     p = np.einsum("mij,nj->mni", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
@@ -135,7 +137,8 @@ def _project_many(head, eye, T_cw, P, size):
         uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
     w, h = size
     with np.errstate(invalid="ignore"):
-        out = ~front | np.any(~(uv >= 0), axis=-1) | (uv[..., 0] > w - 1) | (uv[..., 1] > h - 1)
+        out = ~front | np.any(~(uv >= margin), axis=-1) | (uv[..., 0] > w - 1 - margin) \
+            | (uv[..., 1] > h - 1 - margin)
     uv[out] = np.nan
     return uv
 
@@ -147,7 +150,7 @@ class _Information:
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.geometry.transforms import invert_transform
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
-        from rasc.sim.render import intrinsics_board_poses
+        from rasc.sim.render import MARGIN_PX, intrinsics_board_poses
         from rasc.sim.scene import T_base_from_world_facing
 
         head, board = setup.head, setup.board
@@ -162,7 +165,10 @@ class _Information:
         for eye in EYES:
             T_cw = (head.T_cam_from_gaze[eye] @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
                     @ head.T_ptu_from_base[eye] @ T_bw)                   # (M, 4, 4)
-            uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size)
+            # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
+            # it refuses positions without); ChArUco corners count anywhere in the image
+            uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size,
+                                        0.0 if partial else MARGIN_PX)
         ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
         feasible = [(float(a), float(b)) for a, b in candidates[ok]]
         pose_corners = {eye: list(uv_all[eye][ok]) for eye in EYES}
