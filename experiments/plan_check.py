@@ -126,7 +126,7 @@ def main(argv=None) -> int:
     sets = {"planned": planned.positions, "paper": list(PAPER_POSES_DEG), "random": random9}
     rows = []
     for name, poses in sets.items():
-        pred = predict(setup, poses, info=info, workspace_depth=None).summary
+        pred = predict(setup, poses, workspace_depth=None).summary
         if args.rendered:
             meas = [first if (name == "paper" and s == 0) else measure_rendered(poses, 100 + s)
                     for s in range(args.captures)]

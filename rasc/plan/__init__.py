@@ -146,7 +146,7 @@ def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
 class _Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
-    def __init__(self, setup: PlanSetup, candidates: np.ndarray):
+    def __init__(self, setup: PlanSetup, candidates: np.ndarray, margin: float | None = None):
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.geometry.transforms import invert_transform
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
@@ -167,8 +167,10 @@ class _Information:
                     @ head.T_ptu_from_base[eye] @ T_bw)                   # (M, 4, 4)
             # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
             # it refuses positions without); ChArUco corners count anywhere in the image
+            # (``margin`` overrides: positions a user gives are taken as they are)
             uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size,
-                                        0.0 if partial else MARGIN_PX)
+                                        margin if margin is not None
+                                        else 0.0 if partial else MARGIN_PX)
         ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
         feasible = [(float(a), float(b)) for a, b in candidates[ok]]
         pose_corners = {eye: list(uv_all[eye][ok]) for eye in EYES}
@@ -360,10 +362,11 @@ def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
 
 def predict(setup: PlanSetup, positions, info: _Information | None = None,
             workspace_depth: float | None = 1.5) -> Plan:
-    """The prediction for given positions (degrees): each must be a usable candidate
-    position (it is added to the candidate set)."""
+    """The prediction for given positions (degrees), each showing the target to both eyes
+    (a chessboard whole, without :func:`plan`'s margin); ``info``: the information of
+    a candidate set that holds them (else computed for them alone)."""
     positions = np.asarray(positions, float).reshape(-1, 2)
-    info = info or _Information(setup, positions)
+    info = info or _Information(setup, positions, margin=0.0)
     idx = []
     for p in positions:
         hit = np.flatnonzero(np.all(np.abs(info.feasible - p) < 1e-9, axis=1))
