@@ -304,13 +304,13 @@ def parse_target(text: str) -> Target:
                 raise ValueError
             return CharucoBoard(tuple(pair), float(parts[1]), float(parts[2]),
                                 names[0] if names else "DICT_5X5_100", legacy)
+        except InputError as exc:
+            raise InputError(f"--target {text!r}: {exc}") from None
         except (ValueError, IndexError):
             form = ("chessboard:NXxNY,SQUARE (e.g. chessboard:9x6,0.05)" if kind == "chessboard"
                     else "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] (e.g. "
                          "charuco:12x9,0.06,0.045,DICT_5X5_100)")
             raise InputError(f"--target {text!r}: expected {form}") from None
-        except InputError as exc:
-            raise InputError(f"--target {text!r}: {exc}") from None
     if os.path.isfile(text):
         from rasc.io import read_json_document
 

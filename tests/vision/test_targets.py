@@ -151,3 +151,15 @@ def test_manifest_names_its_target(tmp_path):
     (tmp_path / "manifest.json").write_text(json.dumps(bad))
     with pytest.raises(InputError, match="manifest.json: board: .*dictionary"):
         load_dataset(tmp_path)
+
+
+@pytest.mark.parametrize("spec, msg", [
+    ("charuco:12x9,0.06", "expected charuco:SXxSY"),
+    ("charuco:40x40,0.06,0.045", "need 800 markers"),
+    ("chessboard:9x7,0.05", "nx \\+ ny even"),
+    ("nope", "or a JSON file"),
+])
+def test_target_option_refusals_are_one_line(spec, msg):
+    with pytest.raises(InputError, match=msg) as e:
+        parse_target(spec)
+    assert "\n" not in str(e.value) and spec in str(e.value)
