@@ -199,7 +199,7 @@ def figure(results: list[dict], folder: Path) -> Path:
 
     heads = [h for h, _, _ in HEADS if any(r["head"] == h for r in results)]
     labels = {h: lab for h, lab, _ in HEADS}
-    fig = Figure(figsize=(5.2 * len(heads), 7.6))
+    fig = Figure(figsize=(5.2 * len(heads), 8.6))
     axes = fig.subplots(2, len(heads), squeeze=False)
     for col, h in enumerate(heads):
         rs = [r for r in results if r["head"] == h]
@@ -235,8 +235,10 @@ def figure(results: list[dict], folder: Path) -> Path:
             ax.set_ylabel(what, fontsize=9)
             ax.set_title(labels[h], fontsize=10)
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7)
-    fig.tight_layout()
+    # one legend for all panels, below them (inside, it hid points)
+    handles, names = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.09, 1, 1))
     from rasc.io import write_bytes_atomic
 
     buf = io.BytesIO()
