@@ -61,6 +61,7 @@ _ARGV = {
     "look_at": ["look-at", "{ws}/cal.json", "--point", "0,1,0", "--angle-unit", "deg",
                 "--out", "{ws}/out.json"],
     "study": ["study", "{ws}/spec.toml", "--out", "{ws}/study", "--quiet"],
+    "plan": ["plan", "--out", "{ws}/positions.csv"],
 }
 
 

@@ -23,6 +23,7 @@ FLOORS = {
     "sim": 3,
     "head": 3,
     "study": 4,
+    "plan": 4,        # rasc plan: capture planning on the refinement (head) and sim
     "testing": 5,
     "commands": 5,
     "cli": 6,
