@@ -56,6 +56,7 @@ def test_prediction_matches_the_refinements_own_covariance():
             assert got == pytest.approx(want, rel=0.2), (eye, name)
 
 
+@pytest.mark.slow
 def test_plan_command_writes_a_positions_file_render_reads(tmp_path):
     from rasc.sim.render import parse_poses
 
