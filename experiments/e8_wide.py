@@ -28,8 +28,8 @@ the same board and positions) instead of renders.
 
 Run::
 
-    python experiments/e8_wide.py [--seed S] [--quick] [--out DIR] [--workers N]
-                                  [--synthetic]
+    python experiments/e8_wide.py [--seed S] [--seeds N] [--quick] [--out DIR]
+                                  [--workers N] [--synthetic]
 
 Writes ``<out>/e8/``: ``cases.csv`` (one row per head × protocol × model × eye),
 ``triangulation.csv``, ``summary.json``, then from those ``fig_wide_motions.png`` and
@@ -158,6 +158,34 @@ def _synthetic(fields: dict, seed: int, board, poses, n_intr):
 
 # ----------------------------------------------------------------------------- outputs
 
+def combine(results: list[dict]) -> list[dict]:
+    """One entry per head × protocol (in run order) over its seeds: hand-eye errors the
+    RMS over the seeds (per eye), triangulation errors the mean over the seeds (per
+    plane), positions used the fewest; ``seeds`` the number merged."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in results:
+        groups.setdefault((r["head"], r["protocol"]), []).append(r)
+    out = []
+    for rs in groups.values():
+        c = {k: rs[0][k] for k in ("head", "protocol", "target", "amplitude_deg")}
+        c["seeds"] = len(rs)
+        c["positions_used"] = {e: min(r["positions_used"][e] for r in rs) for e in EYES}
+        c["models"] = {}
+        for m in MODELS:
+            he = {e: {q: float(np.sqrt(np.mean([r["models"][m]["handeye"][e][q] ** 2
+                                                 for r in rs])))
+                      for q in ("rotation_deg", "translation_mm")} for e in EYES}
+            tri = [{"depth_m": t["depth_m"], "points": t["points"],
+                    "mean_mm": float(np.mean([r["models"][m]["triangulation"][i]["mean_mm"]
+                                              for r in rs])),
+                    "rms_mm": float(np.mean([r["models"][m]["triangulation"][i]["rms_mm"]
+                                             for r in rs]))}
+                   for i, t in enumerate(rs[0]["models"][m]["triangulation"])]
+            c["models"][m] = {"handeye": he, "triangulation": tri}
+        out.append(c)
+    return out
+
+
 def _he(r: dict, model: str) -> float:
     """Hand-eye translation error (mm), mean of the two eyes."""
     return float(np.mean([r["models"][model]["handeye"][e]["translation_mm"] for e in EYES]))
@@ -176,17 +204,17 @@ def write_raw(results: list[dict], folder: Path) -> None:
         for model in MODELS:
             for eye in EYES:
                 h = r["models"][model]["handeye"][eye]
-                rows.append([r["head"], r["protocol"], r["target"], r["amplitude_deg"], model,
-                             eye, r["positions_used"][eye], f"{h['rotation_deg']:.6g}",
-                             f"{h['translation_mm']:.6g}"])
-    _csv(folder / "cases.csv", ["head", "protocol", "target", "amplitude_deg", "model", "eye",
-                                "positions_used", "handeye_rotation_deg",
+                rows.append([r["head"], r["protocol"], r["target"], r["amplitude_deg"],
+                             r["seed"], model, eye, r["positions_used"][eye],
+                             f"{h['rotation_deg']:.6g}", f"{h['translation_mm']:.6g}"])
+    _csv(folder / "cases.csv", ["head", "protocol", "target", "amplitude_deg", "seed", "model",
+                                "eye", "positions_used", "handeye_rotation_deg",
                                 "handeye_translation_mm"], rows)
-    rows = [[r["head"], r["protocol"], model, t["depth_m"], t["points"], f"{t['mean_mm']:.6g}",
-             f"{t['rms_mm']:.6g}"]
+    rows = [[r["head"], r["protocol"], r["seed"], model, t["depth_m"], t["points"],
+             f"{t['mean_mm']:.6g}", f"{t['rms_mm']:.6g}"]
             for r in results for model in MODELS for t in r["models"][model]["triangulation"]]
-    _csv(folder / "triangulation.csv", ["head", "protocol", "model", "depth_m", "points",
-                                        "mean_mm", "rms_mm"], rows)
+    _csv(folder / "triangulation.csv", ["head", "protocol", "seed", "model", "depth_m",
+                                        "points", "mean_mm", "rms_mm"], rows)
     write_text_atomic(folder / "summary.json", json.dumps(results, indent=1, sort_keys=True)
                       + "\n")
 
@@ -254,7 +282,9 @@ def markdown(results: list[dict], args, folder: Path) -> str:
               if args.synthetic else "rendered MuJoCo heads")
     b = CHARUCO
     lines = ["## E8 — beyond the paper: wide motions with a ChArUco board seen in part", "",
-             f"Seed {args.seed}; {source}; "
+             (f"Seeds {args.seed}…{args.seed + n - 1} (hand-eye: RMS over the seeds; "
+              f"triangulation: mean over the seeds)" if (n := results[0].get("seeds", 1)) > 1
+              else f"Seed {args.seed}") + f"; {source}; "
              + ("--quick (ideal head, ChArUco ±8° and ±30°, 8 intrinsics views per eye); "
                 if args.quick else "")
              + f"ChArUco {b['squares'][0]}×{b['squares'][1]} squares of "
@@ -288,9 +318,14 @@ def markdown(results: list[dict], args, folder: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool) -> list[dict]:
+def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool,
+            seeds: int = 1) -> list[dict]:
+    """Every head × protocol for seeds ``seed`` … ``seed + seeds − 1`` (each seed its own
+    intrinsics views and, with pixel noise, its own noise); raw CSV/JSON in ``folder``,
+    one row per seed. Returns the per-seed results (:func:`combine` merges them)."""
     n_intr = N_INTRINSICS_QUICK if quick else N_INTRINSICS
-    tasks = [(h, f, p, kind, amp, seed, n_intr, synthetic)
+    tasks = [(h, f, p, kind, amp, seed + k, n_intr, synthetic)
+             for k in range(seeds)
              for h, _, f in HEADS if not quick or h in QUICK_HEADS
              for p, kind, amp in PROTOCOLS if not quick or p in QUICK_PROTOCOLS]
     if workers > 1:
@@ -299,7 +334,7 @@ def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool)
     else:
         results = []
         for t in tasks:
-            print(f"e8: {t[0]} {t[2]}", file=sys.stderr, flush=True)
+            print(f"e8: {t[0]} {t[2]} seed {t[5]}", file=sys.stderr, flush=True)
             results.append(run_case(t))
     write_raw(results, folder)
     return results
@@ -310,7 +345,7 @@ def run(ctx):
     from experiments._common import Section
 
     folder = ctx.dir(NAME)
-    results = compute(folder, ctx.seed, ctx.quick, ctx.workers, synthetic=ctx.quick)
+    results = combine(compute(folder, ctx.seed, ctx.quick, ctx.workers, synthetic=ctx.quick))
     fig = figure(results, folder)
     args = argparse.Namespace(seed=ctx.seed, synthetic=ctx.quick, quick=ctx.quick)
     text = markdown(results, args, folder)
@@ -328,10 +363,13 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     p.add_argument("--synthetic", action="store_true",
                    help="projected corners instead of renders")
+    p.add_argument("--seeds", type=int, default=1,
+                   help="seeds per case, from --seed on (default 1)")
     args = p.parse_args(argv)
     folder = args.out / NAME
     folder.mkdir(parents=True, exist_ok=True)
-    results = compute(folder, args.seed, args.quick, args.workers, args.synthetic)
+    results = combine(compute(folder, args.seed, args.quick, args.workers, args.synthetic,
+                              seeds=args.seeds))
     figure(results, folder)
     from rasc.io import write_text_atomic
 

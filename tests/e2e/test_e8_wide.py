@@ -16,14 +16,16 @@ def test_e8_quick_synthetic(tmp_path):
 
     folder = tmp_path / "e8"
     folder.mkdir()
-    results = e8_wide.compute(folder, seed=0, quick=True, workers=1, synthetic=True)
+    raw = e8_wide.compute(folder, seed=0, quick=True, workers=1, synthetic=True, seeds=2)
+    results = e8_wide.combine(raw)
+    assert len(raw) == 2 * len(results) and all(r["seeds"] == 2 for r in results)
     assert [r["protocol"] for r in results] == list(e8_wide.QUICK_PROTOCOLS)
     fig = e8_wide.figure(results, folder)
     text = e8_wide.markdown(results, argparse.Namespace(seed=0, synthetic=True, quick=True),
                             folder)
     assert fig.is_file() and "ChArUco ±30° / charuco8" in text
     rows = list(csv.DictReader((folder / "cases.csv").read_text().splitlines()))
-    assert len(rows) == 2 * 2 * 2          # protocols x models x eyes
+    assert len(rows) == 2 * 2 * 2 * 2      # seeds x protocols x models x eyes
     for r in results:
         if r["amplitude_deg"] == 8.0:
             assert r["positions_used"] == {"left": 9, "right": 9}
