@@ -51,6 +51,8 @@ ROOMS = (
     Room("rasc/recordings/", 3, "`rasc import`'s readers: ROS 1 / ROS 2 bags (rosbags) and "
          "image folders with a CSV of angles, into rasc-dataset/1 folders"),
     Room("rasc/report/", 4, "`rasc report`: the calibration report (PDF) and its verdict"),
+    Room("rasc/plan/", 4, "`rasc plan`: capture planning (greedy D-/A-optimal pan-tilt "
+         "positions on the refinement's information matrix)"),
     Room("rasc/study/", 4, "declarative studies: `spec` (TOML), `engine`, `executors`, "
          "`figures`"),
     Room("rasc/testing.py", 5, "the pytest plugin: noisy pose sets, rendered datasets, "

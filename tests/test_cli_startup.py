@@ -64,6 +64,7 @@ _ARGV = {
     "study": ["study", "{ws}/spec.toml", "--out", "{ws}/study", "--quiet"],
     "import_recording": ["import", "{ws}/rec.bag", "--out", "{ws}/ds", "--quiet"],
     "report": ["report", "{ws}/cal.json", "--out", "{ws}/report.pdf"],
+    "plan": ["plan", "--out", "{ws}/positions.csv"],
 }
 
 

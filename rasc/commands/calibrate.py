@@ -63,6 +63,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="with --model general, the pan and tilt encoder scales: 'auto' "
                         "(default) holds them at 1 unless the corners reject 1 (an F "
                         "test), 'estimate', or 'hold' at 1")
+    p.add_argument("--min-corners", type=int, default=calopts.default("min_corners"), metavar="N",
+                   help="a target seen in part (ChArUco): the fewest corners a view must "
+                        "show to be used; views with fewer are skipped (default 8)")
     p.add_argument("--plots", metavar="DIR",
                    help="with --model general: write residual plots residuals_left.png, "
                         "residuals_right.png into DIR")
@@ -92,7 +95,7 @@ def _read_mounts(path: str) -> np.ndarray:
 #: how the options' fields are written on this command line (for the library's messages)
 FLAGS = {"method": "--method", "detector": "--detector", "dist_model": "--dist-model",
          "model": "--model", "scales": "--scales", "T_ptuL_from_ptuR_measured": "--mounts",
-         "exclude_outliers": "--keep-outliers"}
+         "exclude_outliers": "--keep-outliers", "min_corners": "--min-corners"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -113,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
                                  T_ptuL_from_ptuR_measured=mounts, model=args.model,
-                                 scales=args.scales).validate(FLAGS)
+                                 scales=args.scales,
+                                 min_corners=args.min_corners).validate(FLAGS)
     dataset = load_dataset(Path(args.dataset))
     check_outputs(outputs, inputs=[dataset.manifest_path, dataset.ground_truth, args.mounts,
                                    *(e.path for e in dataset.images)],

@@ -74,8 +74,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="output folder, new or empty: an existing dataset is never replaced "
                         "(default ./dataset)")
     p.add_argument("--poses", default="paper", metavar="LIST",
-                   help="pan,tilt pairs in degrees separated by ';' (default: 'paper', the "
-                        "nine positions (±8, ±8), (±8, 0), (0, ±8), (0, 0))")
+                   help="pan,tilt pairs in degrees separated by ';', or a positions file "
+                        "(.csv: pan,tilt a line; .toml: positions = [[pan, tilt], ...]; "
+                        "what rasc plan writes) (default: 'paper', the nine positions "
+                        "(±8, ±8), (±8, 0), (0, ±8), (0, 0))")
+    p.add_argument("--target", default=None, metavar="SPEC",
+                   help="the calibration target, drawn from its description: "
+                        "chessboard:NXxNY,SQUARE (inner corners), "
+                        "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] (squares; "
+                        "seen in part at wide motions), or a JSON file of the manifest's "
+                        "board object; lengths in metres (default: the model's 9x6 "
+                        "chessboard of 50 mm squares)")
     p.add_argument("--intrinsics-views", type=int, default=20, metavar="N",
                    help="intrinsics views per eye (default 20)")
     p.add_argument("--distance", type=float, default=1.0, metavar="M",
@@ -124,6 +133,7 @@ def _check_out(out: str, model: str | None) -> Path:
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         from rasc.sim.render import RenderOptions, parse_poses, render_dataset
+        from rasc.vision.board import parse_target
 
     out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():
@@ -133,6 +143,10 @@ def run(args: argparse.Namespace) -> int:
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
                             dist=_floats(args.distortion, "--distortion"))
     units = _units(args)
+    board = None if args.target is None else parse_target(args.target)
+    if board is not None and args.model is not None:
+        raise InputError("--target draws the target around the stock head: give --target or "
+                         "--model, not both")
     t0 = time.perf_counter()
     parent = out.parent if str(out.parent) else Path(".")
     try:
@@ -145,7 +159,8 @@ def run(args: argparse.Namespace) -> int:
         umask = os.umask(0)
         os.umask(umask)
         tmp.chmod(0o777 & ~umask)
-        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units)
+        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units,
+                       board=board)
         try:
             # atomic: replaces an empty folder, fails on a non-empty one, so two renders
             # into one --out cannot mix their files

@@ -92,11 +92,17 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
     T_cg0 = np.asarray(T_cam_from_gaze, float)
     A = T_cg0 @ T_gp                                                 # (n, 4, 4)
 
+    # corners not seen (NaN rows of a partial view) take no part, nor are they projected
+    # (at wide motions some lie behind the camera)
+    seen = np.all(np.isfinite(corners), axis=-1)
+    m_seen = int(seen.sum())
+    want = corners[seen]
+
     def project(T_cw):
         pc = np.einsum("nij,kj->nki", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
-        return lens.project_points(pc.reshape(-1, 3), K, dist).reshape(n, N, 2)
+        return lens.project_points(pc[seen], K, dist)
 
-    free = project(np.asarray(T_cam_from_world, float)) - corners
+    free = project(np.asarray(T_cam_from_world, float)) - want
     rss_free = float(np.sum(free ** 2))
     # X: the board in the ptu frame, started from the first view's estimate
     X0 = np.linalg.inv(A[0]) @ T_cam_from_world[0]
@@ -105,16 +111,16 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
     def residuals(x):
         X = make_transform(matrix_from_rotvec(x[:3]) @ R0, x[3:6])
         T_cg = make_transform(matrix_from_rotvec(x[6:9]) @ T_cg0[:3, :3], x[9:])
-        return (project(T_cg @ T_gp @ X) - corners).ravel()
+        return (project(T_cg @ T_gp @ X) - want).ravel()
 
     x0 = np.concatenate([np.zeros(3), X0[:3, 3], np.zeros(3), T_cg0[:3, 3]])
     res = least_squares(residuals, x0, method="lm", xtol=1e-12, ftol=1e-12)
     rss_model = float(np.sum(res.fun ** 2))
-    df_extra, df_free = 6 * n - 12, 2 * N * n - 6 * n
+    df_extra, df_free = 6 * n - 12, 2 * m_seen - 6 * n
     F = ((rss_model - rss_free) / df_extra) / (rss_free / df_free) if rss_free > 0 \
         else float("inf")
-    return EyeFit(F=float(F), rms_model=float(np.sqrt(rss_model / (n * N))),
-                  rms_free=float(np.sqrt(rss_free / (n * N))), views=n)
+    return EyeFit(F=float(F), rms_model=float(np.sqrt(rss_model / m_seen)),
+                  rms_free=float(np.sqrt(rss_free / m_seen)), views=n)
 
 
 def calibration_fit(cal, board_points: np.ndarray) -> dict[str, EyeFit]:

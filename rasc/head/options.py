@@ -58,6 +58,10 @@ class CalibrationOptions:
     scales : {"auto", "estimate", "hold"} or None
         Under the general model, the encoder scales; None means "auto" (held at 1 unless
         the corners reject 1). Refused under the paper model, which has none.
+    min_corners : int
+        A target seen in part (ChArUco): the fewest corners a view must show to be used
+        (default 8, :data:`rasc.vision.board.MIN_VIEW_CORNERS`); views with fewer are
+        skipped, and the log says so.
     """
 
     method: str = "rasc"
@@ -67,6 +71,7 @@ class CalibrationOptions:
     T_ptuL_from_ptuR_measured: np.ndarray | None = None
     model: str = "general"
     scales: str | None = None
+    min_corners: int = 8
 
     @property
     def scales_mode(self) -> str:
@@ -99,6 +104,10 @@ class CalibrationOptions:
             if self.model != "general":
                 raise InputError(f"{name('scales')}: only the whole-head refinement "
                                  f"estimates scales; use it with {name('model')} general")
+        if isinstance(self.min_corners, bool) or not isinstance(self.min_corners, int) \
+                or self.min_corners < 4:
+            raise InputError(f"{name('min_corners')}: expected a whole number of at least 4 "
+                             f"(a pose needs 4 corners), got {self.min_corners!r}")
         if not isinstance(self.exclude_outliers, bool):
             raise InputError(f"{name('exclude_outliers')}: expected true or false, got "
                              f"{self.exclude_outliers!r}")
@@ -116,7 +125,8 @@ class CalibrationOptions:
         """The options as the calibration file records them."""
         return {"method": self.method, "detector": self.detector,
                 "dist_model": self.dist_model, "exclude_outliers": self.exclude_outliers,
-                "model": self.model, "scales": self.scales_mode}
+                "model": self.model, "scales": self.scales_mode,
+                "min_corners": self.min_corners}
 
 
 def default(field: str) -> Any:

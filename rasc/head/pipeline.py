@@ -167,11 +167,13 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     board = dataset.board
     size = dataset.image_size(eye) if size is None else size
     t0 = time.perf_counter()
-    det_i = dataset.detect(eye, "intrinsics", method=options.detector)
-    det_p = dataset.detect(eye, "pose", method=options.detector, board_seen=True)
+    det_i = dataset.detect(eye, "intrinsics", method=options.detector,
+                           min_corners=options.min_corners, log=log)
+    det_p = dataset.detect(eye, "pose", method=options.detector, board_seen=True,
+                           min_corners=options.min_corners, log=log)
     timer.add("detection", time.perf_counter() - t0)
     for kind, det in (("intrinsics", det_i), ("pose", det_p)):
-        if det.not_found:
+        if det.not_found and not getattr(board, "partial_views", False):
             log(f"{eye}: board not found in {len(det.not_found)} {kind} image(s), left out: "
                 + ", ".join(det.not_found))
     t0 = time.perf_counter()

@@ -35,12 +35,15 @@ from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import write_json_atomic
 from rasc.progress import progress
-from rasc.vision.board import Board
+from rasc.vision.board import MIN_VIEW_CORNERS, Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
 INTRINSICS_DISTANCE_M = (0.6, 1.2)
 INTRINSICS_TILT_DEG = (20.0, 45.0)
 INTRINSICS_TURN_DEG = 30.0
+#: the printed extent (longer side, m) of the board the distance range above was set for
+#: (the default 9x6 chessboard of 50 mm squares: 10 squares)
+INTRINSICS_REFERENCE_EXTENT_M = 0.5
 #: the whole board with its quiet zone stays this many pixels inside the image
 MARGIN_PX = 12.0
 #: below this many pixels per square in a pose view, ``rasc render`` warns: measured with
@@ -112,9 +115,13 @@ def _finite(value) -> bool:
 
 
 def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
-    """``"0,0;8,8;-8,0"`` → ((0, 0), (8, 8), (-8, 0)) degrees; ``"paper"`` → the nine."""
+    """``"0,0;8,8;-8,0"`` → ((0, 0), (8, 8), (-8, 0)) degrees; ``"paper"`` → the nine; the
+    name of a positions file (:func:`read_positions`, ``.csv`` or ``.toml``) → its
+    positions."""
     if text.strip() == "paper":
         return PAPER_POSES_DEG
+    if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).is_file():
+        return read_positions(text.strip())
     poses = []
     for k, item in enumerate(text.split(";")):
         parts = item.split(",")
@@ -124,6 +131,71 @@ def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
             raise InputError(f"--poses: item {k} {item!r} is not 'pan,tilt' in degrees") from None
         poses.append((pan, tilt))
     return tuple(poses)
+
+
+POSITIONS_HEADER = "# rasc positions: pan,tilt in degrees (encoder readings), one a line"
+
+
+def read_positions(path: str | Path) -> tuple[tuple[float, float], ...]:
+    """Pan-tilt positions (degrees) from a positions file: CSV, one ``pan,tilt`` a line
+    (``#`` comments, blank lines and a ``pan,tilt`` header allowed), or TOML with
+    ``positions = [[pan, tilt], ...]`` (an optional ``angle_unit = "deg"`` or ``"rad"``).
+    What ``rasc plan`` writes and ``rasc render --poses FILE`` reads. Raises
+    :class:`InputError` naming the file, line or item."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: positions file not found")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the positions file ({exc})") from None
+    poses: list[tuple[float, float]] = []
+    if path.suffix.lower() == ".toml":
+        import tomllib
+
+        try:
+            doc = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"{path}: not TOML ({exc})") from None
+        unit = doc.get("angle_unit", "deg")
+        if unit not in ("deg", "rad"):
+            raise InputError(f"{path}: angle_unit must be 'deg' or 'rad', got {unit!r}")
+        items = doc.get("positions")
+        if not isinstance(items, list):
+            raise InputError(f"{path}: missing field 'positions' (a list of [pan, tilt])")
+        k = 180.0 / math.pi if unit == "rad" else 1.0
+        for i, item in enumerate(items):
+            if not (isinstance(item, list) and len(item) == 2 and all(_finite(v) for v in item)):
+                raise InputError(f"{path}: positions[{i}] = {item!r} is not [pan, tilt], two "
+                                 "finite numbers")
+            poses.append((float(item[0]) * k, float(item[1]) * k))
+    else:
+        for n, line in enumerate(text.splitlines(), 1):
+            line = line.split("#", 1)[0].strip()
+            if not line or line.replace(" ", "").lower() == "pan,tilt":
+                continue
+            parts = line.split(",")
+            try:
+                pan, tilt = (float(p) for p in parts)
+            except ValueError:
+                raise InputError(f"{path}: line {n} {line!r} is not 'pan,tilt' in "
+                                 "degrees") from None
+            if not (math.isfinite(pan) and math.isfinite(tilt)):
+                raise InputError(f"{path}: line {n}: pan and tilt must be finite")
+            poses.append((pan, tilt))
+    if not poses:
+        raise InputError(f"{path}: no positions")
+    return tuple(poses)
+
+
+def format_positions(poses_deg, comment: str = "") -> str:
+    """The CSV text of a positions file (:func:`read_positions` reads it back exactly:
+    ``repr`` of each float)."""
+    lines = [POSITIONS_HEADER]
+    lines += [f"# {c}" for c in comment.splitlines() if c.strip()]
+    lines.append("pan,tilt")
+    lines += [f"{float(p)!r},{float(t)!r}" for p, t in poses_deg]
+    return "\n".join(lines) + "\n"
 
 
 def _outline(board: Board, per_side: int = 16) -> np.ndarray:
@@ -163,7 +235,27 @@ def _square_px(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray) -> flo
                      np.linalg.norm(np.diff(uv, axis=1), axis=2).min()))
 
 
-def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> float:
+def visible_corners(T_cam_from_world: np.ndarray, board, K: np.ndarray,
+                    size: tuple[int, int], dist=None) -> tuple[np.ndarray, np.ndarray]:
+    """The board's corners inside the (distorted) image, in front of the camera: their ids
+    (M,) and true pixels (M, 2) (the ground truth of a partial view)."""
+    from rasc.geometry.lens import project_points
+
+    P = board.object_points()
+    p = P @ T_cam_from_world[:3, :3].T + T_cam_from_world[:3, 3]
+    front = p[:, 2] > 0.05
+    uv = np.full((len(P), 2), np.nan)
+    if front.any():
+        uv[front] = project_points(p[front], K, dist)
+    w, h = size
+    inside = front & np.all(np.isfinite(uv), axis=1) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) \
+        & (uv[:, 0] <= w - 1) & (uv[:, 1] <= h - 1)
+    ids = np.flatnonzero(inside)
+    return ids, uv[ids]
+
+
+def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
+                     log=None) -> float:
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
@@ -184,6 +276,7 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
         sim.set_angles(eye, 0.0, 0.0)
     for eye in EYES:
         sim.check_ground_truth(eye, "home (the intrinsics views)")
+    partial = getattr(board, "partial_views", False)
     for k, (pan, tilt) in enumerate(options.poses_deg):
         for eye in EYES:
             try:
@@ -193,6 +286,15 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None) -> fl
         for eye in EYES:
             sim.check_ground_truth(eye, f"--poses item {k}")
             T = sim.T_cam_from_world(eye)
+            if partial:     # a target seen in part: any share of it may leave the image
+                ids, _ = visible_corners(T, board, sim.K(eye), size, dist)
+                if len(ids) >= MIN_VIEW_CORNERS:
+                    smallest = min(smallest, _square_px(T, board, sim.K(eye)))
+                elif log is not None:
+                    log(f"--poses item {k} ({pan:g}, {tilt:g}) deg: the {eye} eye sees "
+                        f"{len(ids)} corner(s) of the target, fewer than {MIN_VIEW_CORNERS}: "
+                        "rendered, and skipped when calibrating")
+                continue
             if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
                 if dist is not None and _visible(T, board, sim.K(eye), size, None,
                                                  board.object_points()):
@@ -223,11 +325,15 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     centre_w = np.array([(nx - 1) / 2, (ny - 1) / 2, 0.0]) * board.square_size
     K_inv = np.linalg.inv(K)
     w, h = size
+    # a board larger than the default's printed 0.5 m is waved proportionally farther
+    # (the same draws, scaled: the default board's views are unchanged)
+    extent = (max(nx, ny) + 1) * board.square_size
+    far = max(1.0, extent / INTRINSICS_REFERENCE_EXTENT_M)
     poses = []
     for _ in range(200 * n):
         if len(poses) == n:
             break
-        d = rng.uniform(*INTRINSICS_DISTANCE_M)
+        d = far * rng.uniform(*INTRINSICS_DISTANCE_M)
         psi = rng.uniform(0, 2 * np.pi)
         tilt = np.radians(rng.uniform(*INTRINSICS_TILT_DEG))
         turn = np.radians(rng.uniform(-INTRINSICS_TURN_DEG, INTRINSICS_TURN_DEG))
@@ -285,7 +391,7 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                    model_path: str | Path | None = None, quiet: bool = False,
-                   units: dict | None = None) -> Path:
+                   units: dict | None = None, board=None) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
 
     ``units`` ({eye: :class:`rasc.sim.units.UnitBuild`}) makes the pan-tilt units
@@ -293,6 +399,12 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     rendered pose the ground truth is checked against MuJoCo's camera frame; a
     disagreement raises :class:`InputError` before ``ground_truth.json`` is written.
     Returns the manifest path. Images are written as 8-bit grey PNG.
+
+    ``board`` (a :class:`rasc.vision.board.Board` or
+    :class:`~rasc.vision.board.CharucoBoard`): the target, drawn from its description
+    around the stock head (:func:`rasc.sim.scene.scene_xml`), instead of the model's; not
+    with ``model_path``. For a ChArUco target every view's ground truth also lists the
+    corners inside the image, by id (``views.<file>.corners``: ``ids``, ``uv`` in pixels).
     """
     from rasc.sim.scene import (
         StereoHeadSim,
@@ -309,7 +421,10 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         raise InputError(f"{out}: output folder exists and is not empty")
     rng = np.random.default_rng(options.seed)
     with contextlib.ExitStack() as stack:
-        sim = stack.enter_context(StereoHeadSim(model_path, units=units))
+        if board is not None and model_path is not None:
+            raise InputError("render_dataset: give model_path or board (the target), not both")
+        sim = stack.enter_context(StereoHeadSim(model_path, units=units) if board is None
+                                  else StereoHeadSim(board=board, units=units))
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "
@@ -322,7 +437,9 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             gt[eye]["dist"] = dist.tolist()
         # fail on bad positions or distances before rendering anything
         sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
-        square_px = check_pose_views(sim, options, dist if distorted else None)
+        square_px = check_pose_views(
+            sim, options, dist if distorted else None,
+            log=None if quiet else (lambda line: print(f"render: {line}", file=sys.stderr)))
         if square_px < MIN_DETECTABLE_SQUARE_PX:
             raise InputError(f"--distance {options.target_distance:g}: board squares would be "
                              f"only {square_px:.1f} px in the pose views, where corner "
@@ -352,6 +469,10 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
                            **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
+            if getattr(board, "partial_views", False):
+                ids, uv = visible_corners(sim.T_cam_from_world(eye), board, sim.K(eye), size,
+                                          dist if distorted else None)
+                views[name]["corners"] = {"ids": ids.tolist(), "uv": uv.tolist()}
             bar.set_postfix_str(name, refresh=False)
             bar.update(1)
 

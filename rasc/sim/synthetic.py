@@ -26,7 +26,7 @@ from rasc.geometry.kinematics import IDEAL, PAPER_POSES_DEG, PanTiltUnit
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.sim.render import intrinsics_board_poses
 from rasc.sim.scene import T_base_from_world_facing
-from rasc.vision.board import Board
+from rasc.vision.board import MIN_VIEW_CORNERS, Board
 from rasc.vision.dataset import Detections, ImageEntry
 
 IMAGE_SIZE = (1280, 960)
@@ -100,7 +100,8 @@ class CornerDataset:
         return self.sizes[eye]
 
     def detect(self, eye: str, role: str, method: str = "classic", order_by=None,
-               min_found=None, board_seen: bool = False) -> Detections:
+               min_found=None, board_seen: bool = False, min_corners: int | None = None,
+               log=None) -> Detections:
         """The projected (noisy) corners of the eye's ``role`` views, as
         :meth:`rasc.vision.dataset.Dataset.detect` returns detections; the options are accepted
         and ignored (nothing is detected)."""
@@ -110,9 +111,13 @@ class CornerDataset:
 def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                    noise_px: float = 0.03, n_intrinsics: int = 20,
                    poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
-                   board: Board = BOARD) -> CornerDataset:
+                   board: Board = BOARD, min_corners: int = MIN_VIEW_CORNERS) -> CornerDataset:
     """Project the board through ``head`` (default :func:`default_head`) with seeded
     noise N(0, noise_px²) on both coordinates of every corner.
+
+    A target seen in part (ChArUco, :class:`rasc.vision.board.CharucoBoard`) keeps the
+    corners inside the image (NaN rows for the others, as detection gives them); a pose
+    view with fewer than ``min_corners`` is left out (``not_found``).
 
     The intrinsics views' poses and the noise are drawn from
     ``np.random.default_rng(seed)``; the same seed gives the same corners.
@@ -123,10 +128,26 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
     det: dict[tuple[str, str], Detections] = {}
     T_bw = T_base_from_world_facing(board, distance=target_distance)
 
+    partial = getattr(board, "partial_views", False)
+
     def project(eye, T_cw):
         p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
-        uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
-        return uv + rng.normal(0.0, noise_px, uv.shape)
+        if not partial:
+            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+            return uv + rng.normal(0.0, noise_px, uv.shape)
+        # a target seen in part: the corners inside the image, NaN the rest
+        front = p_cam[:, 2] > 0.05
+        uv = np.full((len(P), 2), np.nan)
+        if front.any():
+            uv[front] = lens.project_points(p_cam[front], head.K[eye], head.dist[eye])
+        uv = uv + rng.normal(0.0, noise_px, uv.shape)
+        w, h = IMAGE_SIZE
+        with np.errstate(invalid="ignore"):
+            out = ~front | np.any(~(uv >= 0), axis=1) | (uv[:, 0] > w - 1) | (uv[:, 1] > h - 1)
+        uv[out] = np.nan
+        if int((~out).sum()) < min_corners:
+            return None
+        return uv
 
     index = 0
     for eye in EYES:
@@ -141,18 +162,22 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
         det[(eye, "intrinsics")] = Detections(corners=corners, not_found=[], entries=entries)
     views = {}
     for eye in EYES:
-        corners, entries = {}, {}
+        corners, entries, not_found = {}, {}, []
         for k, (pan_deg, tilt_deg) in enumerate(poses_deg):
             pan, tilt = np.radians(pan_deg), np.radians(tilt_deg)
             view = f"{k:02d}"
             views[view] = T_bw
             T_cw = head.T_cam_from_base(eye, pan, tilt) @ T_bw
             f = f"poses/{eye}_{k:02d}.png"
-            corners[f] = project(eye, T_cw)
+            uv = project(eye, T_cw)
+            if uv is None:
+                not_found.append(f)
+                continue
+            corners[f] = uv
             entries[f] = ImageEntry(index=index, file=f, path=Path(f), eye=eye, role="pose",
                                     pan=float(pan), tilt=float(tilt), view=view)
             index += 1
-        det[(eye, "pose")] = Detections(corners=corners, not_found=[], entries=entries)
+        det[(eye, "pose")] = Detections(corners=corners, not_found=not_found, entries=entries)
     return CornerDataset(board=board, detections=det, truth=head,
                          sizes={eye: IMAGE_SIZE for eye in EYES},
                          views_T_base_from_world=views)

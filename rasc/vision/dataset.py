@@ -3,7 +3,10 @@
 ::
 
     {"format": "rasc-dataset/1",
-     "board": {"inner_corners": [9, 6], "square_size": 0.05},
+     "board": {"inner_corners": [9, 6], "square_size": 0.05},        (a chessboard, or
+              {"type": "charuco", "squares": [12, 9], "square_size": 0.06,
+               "marker_size": 0.045, "dictionary": "DICT_5X5_100",
+               "legacy_pattern": false}                               a ChArUco board)
      "length_unit": "m",                      (optional: the unit of square_size, echoed)
      "angle_unit": "deg",                                             ("deg" | "rad")
      "images": [
@@ -41,7 +44,13 @@ from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.io import finite_number, read_json_document, to_jsonable, write_json_atomic
-from rasc.vision.board import MIN_INTRINSICS_VIEWS, Board
+from rasc.vision.board import (
+    MIN_INTRINSICS_VIEWS,
+    MIN_VIEW_CORNERS,
+    Board,
+    CharucoBoard,
+    board_from_dict,
+)
 
 FORMAT = formats.DATASET.tag
 MANIFEST = "manifest.json"
@@ -84,7 +93,7 @@ class Dataset:
     images with their pan/tilt readings (the format in the module docstring)."""
     root: Path
     manifest_path: Path
-    board: Board
+    board: Board | CharucoBoard              # the target (rasc.vision.board)
     angle_unit: str
     images: tuple[ImageEntry, ...]
     ground_truth: Path | None = None
@@ -147,9 +156,17 @@ class Dataset:
 
     def detect(self, eye: str, role: str, method: str = "classic",
                order_by: str | None = "colour", min_found: int | None = None,
-               board_seen: bool = False) -> Detections:
+               board_seen: bool = False, min_corners: int = MIN_VIEW_CORNERS,
+               log=None) -> Detections:
         """Detect the board in every image of ``eye`` and ``role``: the one detection path
         of a dataset (the pipeline keeps what it returns).
+
+        A target seen in part (ChArUco) keeps every image with at least ``min_corners``
+        corners (NaN rows for the others, :func:`rasc.vision.camera.detect_charuco`); an
+        image with fewer is left out like one without the board, and ``log`` (a callable
+        taking one line), when given, is told so once per image. Such a target is refused
+        only when fewer than ``min_found`` images remain (never for the fraction found:
+        wide motions leave the board by design).
 
         Raises :class:`InputError` when there are no such images, when the board is missing
         from most images (the manifest's ``inner_corners`` is the likely error, unless
@@ -177,21 +194,38 @@ class Dataset:
                              f"'{role}': views of the board moved in front of the fixed camera)")
         corners: dict[str, np.ndarray] = {}
         not_found: list[str] = []
+        partial = getattr(self.board, "partial_views", False)
         for e in entries:
             digest = _content_digest(e.path)
             key = (None if digest is None
-                   else (digest, self.board.inner_corners, method, order_by))
+                   else (digest, self.board.inner_corners, method, order_by) if not partial
+                   else (digest, self.board, min_corners))
             found, c = _remembered(key)
             if not found:
-                c = detect_corners(self.read(e), self.board, method=method, order_by=order_by)
+                c = detect_corners(self.read(e), self.board, method=method, order_by=order_by,
+                                   min_corners=min_corners)
                 # kept only if the file still holds the bytes it held before it was read
                 if key is not None and _content_digest(e.path) == digest:
                     _remember(key, c)
             if c is None:
                 not_found.append(e.file)
+                if partial and log is not None:
+                    at = "" if e.pan is None else \
+                        f" (pan {math.degrees(e.pan):.4g}, tilt {math.degrees(e.tilt):.4g} deg)"
+                    log(f"{eye} {role} image {e.file}{at}: fewer than {min_corners} "
+                        "corners of the target seen, skipped")
             else:
                 corners[e.file] = c
         nx, ny = self.board.inner_corners
+        if partial:
+            if len(corners) < min_found:
+                task = "intrinsics need" if role == "intrinsics" else "hand-eye needs"
+                raise InputError(
+                    f"{where}: {self.board.describe()} seen with at least {min_corners} "
+                    f"corners in {len(corners)} of {len(entries)}; {task} at least "
+                    f"{min_found} {need_text(role)}")
+            return Detections(corners=corners, not_found=not_found,
+                              entries={e.file: e for e in entries})
         need = ("views with the board tilted 20-45 degrees about different axes"
                 if role == "intrinsics" else
                 "pan-tilt positions with rotations about two different axes")
@@ -230,6 +264,12 @@ class Dataset:
                               None if self.ground_truth is None
                               else self.ground_truth.relative_to(self.root).as_posix(),
                               self.length_unit)
+
+
+def need_text(role: str) -> str:
+    return ("views with the board tilted 20-45 degrees about different axes"
+            if role == "intrinsics" else
+            "pan-tilt positions with rotations about two different axes")
 
 
 # ------------------------------------------------------------------ detections kept
@@ -318,13 +358,15 @@ def _relative_file(value, where: str, field: str) -> str:
     return p.as_posix()
 
 
-def _parse_board(obj, where: str) -> Board:
+def _parse_board(obj, where: str) -> Board | CharucoBoard:
     if "board" not in obj:
         raise InputError(f"{where}: missing field 'board' "
                          '(e.g. {"inner_corners": [9, 6], "square_size": 0.05})')
     b = obj["board"]
     if not isinstance(b, dict):
         raise InputError(f"{where}: field 'board' must be an object, got {type(b).__name__}")
+    if b.get("type", "chessboard") != "chessboard":
+        return board_from_dict(b, f"{where}: board")
     for key in ("inner_corners", "square_size"):
         if key not in b:
             raise InputError(f"{where}: board: missing field {key!r}")

@@ -140,7 +140,12 @@ class _Problem(_JacobianMixin):
         self.pan, self.tilt = np.array(pan), np.array(tilt)
         self.corners = np.array(corners, dtype=float)          # (n_img, N, 2)
         self.P = np.asarray(P, float)
-        self.mask = np.ones(self.corners.shape[:2], bool)
+        # a partial view (ChArUco) marks the corners it does not show with NaN rows: they
+        # are never part of the fit (``seen``); ``mask`` is the seen corners still kept
+        self.seen = np.all(np.isfinite(self.corners), axis=-1)
+        if not self.seen.all():
+            self.corners[~self.seen] = 0.0
+        self.mask = self.seen.copy()
         self.pose_images = {ei: np.flatnonzero((self.img_eye == ei) & (self.img_role == 1))
                             for ei in range(2)}
         # results of pure functions of a few parameters (rotations, unit motions), by the

@@ -162,9 +162,13 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     prob = _Problem(obs, free)
     x0 = np.zeros(len(prob.names))
     r0 = prob.all_residuals(x0)
-    rms_before = float(np.sqrt(np.mean(np.sum(r0 ** 2, axis=-1))))
-    if sigma0 is None:
+    if prob.seen.all():
+        rms_before = float(np.sqrt(np.mean(np.sum(r0 ** 2, axis=-1))))
         intr = r0[prob.img_role == 0]
+    else:                        # partial views: only the corners they show
+        rms_before = float(np.sqrt(np.mean(np.sum(r0[prob.seen] ** 2, axis=-1))))
+        intr = r0[prob.seen & (prob.img_role == 0)[:, None]]
+    if sigma0 is None:
         sigma0 = float(np.sqrt(np.mean(intr ** 2))) if intr.size else 0.1
     sigma0 = max(sigma0, 1e-3)
     iterations = 0
@@ -254,7 +258,7 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
             eye=eye, role="intrinsics" if prob.img_role[i] == 0 else "pose", name=name,
             rms=float(np.sqrt(np.mean(nrm ** 2))) if len(nrm) else float("nan"),
             max=float(nrm.max()) if len(nrm) else float("nan"),
-            rejected=[int(k) for k in np.flatnonzero(~keep)]))
+            rejected=[int(k) for k in np.flatnonzero(~keep & prob.seen[i])]))
     rms_after = float(np.sqrt(np.mean(np.sum(rk.reshape(-1, 2) ** 2, axis=-1))))
     rms_role = {}
     for role, code in (("intrinsics", 0), ("pose", 1)):
@@ -272,7 +276,8 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         unit={eye: unit_from_parameters(s[eye]["unit"]) for eye in EYES},
         T_ptuL_from_ptuR=s["T_ptuL_from_ptuR"], parameters=params,
         not_identifiable=dropped, rms_before=rms_before, rms_after=rms_after, sigma=sigma,
-        images=images, n_corners=int(prob.mask.size), n_rejected=int((~prob.mask).sum()),
+        images=images, n_corners=int(prob.seen.sum()),
+        n_rejected=int((prob.seen & ~prob.mask).sum()),
         iterations=iterations, seconds=time.perf_counter() - t_start, gauge=GAUGE,
         residuals={eye: np.concatenate(v) if v else np.zeros((0, 2))
                    for eye, v in residuals.items()},

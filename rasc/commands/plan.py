@@ -1,0 +1,104 @@
+"""``rasc plan``: choose the pan-tilt positions to record, and predict the accuracy.
+
+Parses, calls :func:`rasc.plan.plan`, prints the prediction and writes the positions
+file ``rasc render --poses FILE`` reads (:func:`rasc.sim.render.format_positions`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from rasc.commands import loading
+from rasc.errors import InputError
+
+
+def _pair(text: str, flag: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"{flag}: expected MIN,MAX in degrees, got {text!r}") from None
+    return a, b
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "plan", help="choose pan-tilt positions minimising the predicted uncertainty",
+        description="Choose k pan-tilt positions (greedy D- or A-optimal design on the "
+                    "whole-head refinement's information matrix over a grid of positions "
+                    "where the target is seen), print the predicted standard deviation of "
+                    "the calibrated parameters and of triangulated points, and write the "
+                    "positions file rasc render --poses reads.")
+    p.add_argument("--calibration", metavar="FILE",
+                   help="the head to plan for: a rasc calibrate JSON (default: the simulated "
+                        "head's nominal model)")
+    p.add_argument("--target", default="chessboard:9x6,0.05", metavar="SPEC",
+                   help="the target, as rasc render --target (default chessboard:9x6,0.05)")
+    p.add_argument("--distance", type=float, default=1.0, metavar="M",
+                   help="the target's centre ahead of the head, metres (default 1.0)")
+    p.add_argument("--pan-range", default="-60,60", metavar="MIN,MAX",
+                   help="pan joint range, degrees (default -60,60)")
+    p.add_argument("--tilt-range", default="-45,30", metavar="MIN,MAX",
+                   help="tilt joint range, degrees (default -45,30)")
+    p.add_argument("--step", type=float, default=2.0, metavar="DEG",
+                   help="candidate grid step, degrees (default 2)")
+    p.add_argument("-k", "--positions", type=int, default=9, metavar="K",
+                   help="positions to choose (default 9)")
+    p.add_argument("--criterion", choices=("D", "A"), default="D",
+                   help="D: log det of the information; A: trace of the hand-eye and unit "
+                        "covariance (default D)")
+    p.add_argument("--min-corners", type=int, default=8, metavar="N",
+                   help="fewest corners a ChArUco view must show (default 8)")
+    p.add_argument("--noise", type=float, default=0.05, metavar="PX",
+                   help="corner noise per coordinate, pixels (default 0.05)")
+    p.add_argument("--workspace-depth", type=float, default=1.5, metavar="M",
+                   help="depth of the 0.6 m square plane of points whose triangulation error "
+                        "is predicted (default 1.5)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the intrinsics views and "
+                   "of the triangulation samples (default 0)")
+    p.add_argument("--out", metavar="FILE", default="positions.csv",
+                   help="positions file to write (default positions.csv)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    with loading():
+        from rasc.io import check_output, write_text_atomic
+        from rasc.plan import PlanSetup, head_from_calibration, plan
+        from rasc.sim.render import format_positions
+        from rasc.sim.synthetic import default_head
+        from rasc.vision.board import parse_target
+
+    out = check_output(args.out, inputs=[p for p in (args.calibration,) if p])
+    board = parse_target(args.target)
+    head = head_from_calibration(args.calibration) if args.calibration else default_head()
+    setup = PlanSetup(head=head, board=board, distance=args.distance,
+                      pan_range=_pair(args.pan_range, "--pan-range"),
+                      tilt_range=_pair(args.tilt_range, "--tilt-range"),
+                      step_deg=args.step, min_corners=args.min_corners, noise_px=args.noise,
+                      seed=args.seed)
+    result = plan(setup, args.positions, args.criterion, args.workspace_depth)
+    print(f"plan: {len(result.positions)} of {result.candidates} usable positions "
+          f"({args.step:g} deg grid), criterion {args.criterion}, "
+          f"{result.seconds:.1f} s; corner noise {args.noise:g} px")
+    for p in result.positions:
+        print(f"  pan {p[0]:+7.2f}  tilt {p[1]:+7.2f}")
+    print("predicted standard deviations:")
+    for k, v in result.summary.items():
+        print(f"  {k:34s} {v:.4g}")
+    t = result.triangulation
+    if t:
+        print(f"  triangulation, {t['side_m']:g} m plane at {t['depth_m']:g} m: RMS "
+              f"{t['rms_mm']:.3g} mm, 95% {t['p95_mm']:.3g} mm")
+    print("every parameter (px, m, deg for rotations, 1 for unit axes):")
+    for k, v in result.std.items():
+        if not k.startswith("board["):
+            print(f"  {k:34s} {v:.4g}")
+    comment = (f"rasc plan: target {board.describe()} at {args.distance:g} m, "
+               f"criterion {args.criterion}, predicted hand-eye translation sigma "
+               f"{result.summary['left.handeye_translation_mm']:.3g} / "
+               f"{result.summary['right.handeye_translation_mm']:.3g} mm (left / right)")
+    write_text_atomic(out, format_positions(result.positions, comment))
+    print(f"plan: wrote {out}", file=sys.stderr)
+    return 0

@@ -1,0 +1,423 @@
+"""Capture planning: which pan-tilt positions to record, and the accuracy to expect.
+
+Given a head (the nominal simulated head, or a calibration), a target and where it
+stands, the joint ranges and a number of positions k, :func:`plan` chooses the k
+positions that minimise the predicted uncertainty of the whole-head refinement
+(:mod:`rasc.head.refine`, docs/METHOD.md §10) and predicts the standard deviation of
+every calibrated parameter and of triangulated points in a stated workspace.
+
+**Model.** The refinement's Jacobian J at the head itself (corners projected without
+noise: the prediction assumes the model is right and the noise is independent with
+``noise_px`` per coordinate) gives the information matrix JᵀJ; the covariance of the
+estimate is ``noise_px² (JᵀJ)⁻¹`` — exactly what the refinement reports after the fit.
+The intrinsics views (drawn as ``rasc render`` draws them, seeded) contribute a fixed
+information ``I₀`` after their board poses are eliminated (Schur complement); each
+candidate position c contributes ``A_c = J_cᵀ J_c`` over the global parameters
+(intrinsics, hand-eye, unit, mounts) and the shared board pose of the pose views.
+
+**Design.** Greedy: starting from ``I₀``, add the candidate that most increases
+``log det`` of the information (D-optimal, the default) or most decreases the trace of
+the covariance of the hand-eye and unit parameters (A-optimal), until k are chosen.
+Greedy selection of a monotone submodular objective (log det) is within (1 − 1/e) of
+the best subset; in practice it matches exhaustive search on small grids.
+
+**Candidates.** Every position of a grid (``step_deg``, default 2°) over the joint
+ranges at which both eyes see at least ``min_corners`` corners (all corners, for a
+chessboard, which must be seen whole, each at least ``rasc render``'s margin of
+:data:`rasc.sim.render.MARGIN_PX` pixels inside the image).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.frames import EYES
+from rasc.vision.board import MIN_VIEW_CORNERS
+
+#: the unit parameters planned for (the ones the refinement always determines with free
+#: mounts; the scales are held, as ``--scales auto`` does unless the data reject 1)
+PLAN_UNIT_PARAMETERS = ("tilt_axis_x", "tilt_point_y")
+#: joint ranges of the simulated head (rasc/sim/models/stereo_head.xml), degrees
+DEFAULT_PAN_RANGE = (-60.0, 60.0)
+DEFAULT_TILT_RANGE = (-45.0, 30.0)
+CRITERIA = ("D", "A")
+
+
+@dataclass
+class PlanSetup:
+    """What a plan is made for. Angles in degrees, lengths in metres, pixels."""
+
+    head: Any                                    # rasc.sim.synthetic.SyntheticHead
+    board: Any                                   # rasc.vision.board target
+    distance: float = 1.0                        # the target's centre ahead of the base
+    pan_range: tuple[float, float] = DEFAULT_PAN_RANGE
+    tilt_range: tuple[float, float] = DEFAULT_TILT_RANGE
+    step_deg: float = 2.0
+    min_corners: int = MIN_VIEW_CORNERS
+    noise_px: float = 0.05                       # corner noise per coordinate
+    n_intrinsics: int = 20
+    seed: int = 0
+    image_size: tuple[int, int] = (1280, 960)
+
+    def __post_init__(self):
+        for name, r in (("pan range", self.pan_range), ("tilt range", self.tilt_range)):
+            if len(r) != 2 or not all(np.isfinite(r)) or not r[0] < r[1]:
+                raise InputError(f"{name}: expected MIN,MAX with MIN < MAX, got {r!r}")
+        if not (np.isfinite(self.step_deg) and 0.1 <= self.step_deg <= 30):
+            raise InputError(f"step: expected 0.1 to 30 degrees, got {self.step_deg!r}")
+        if not (np.isfinite(self.noise_px) and self.noise_px > 0):
+            raise InputError(f"noise: expected a positive number of pixels, got "
+                             f"{self.noise_px!r}")
+        if not (np.isfinite(self.distance) and self.distance > 0):
+            raise InputError(f"distance: expected a positive number of metres, got "
+                             f"{self.distance!r}")
+
+
+@dataclass
+class Plan:
+    """The chosen positions (degrees, in choice order) and the prediction."""
+
+    positions: list[tuple[float, float]]
+    criterion: str
+    std: dict[str, float]                        # parameter → predicted σ (natural units)
+    summary: dict[str, float]                    # hand-eye/unit σ in readable units
+    triangulation: dict[str, float] = field(default_factory=dict)
+    candidates: int = 0
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"positions_deg": [list(p) for p in self.positions],
+                "criterion": self.criterion, "candidates": self.candidates,
+                "predicted_std": self.std, "summary": self.summary,
+                "triangulation": self.triangulation, "seconds": self.seconds}
+
+
+def candidate_grid(setup: PlanSetup) -> np.ndarray:
+    """(M, 2) pan, tilt (degrees) on the step grid over the joint ranges, home included
+    when inside them."""
+    def axis(lo, hi):
+        k0, k1 = int(np.ceil(lo / setup.step_deg - 1e-9)), int(np.floor(hi / setup.step_deg
+                                                                       + 1e-9))
+        return np.arange(k0, k1 + 1) * setup.step_deg
+
+    p, t = np.meshgrid(axis(*setup.pan_range), axis(*setup.tilt_range), indexing="ij")
+    return np.stack([p.ravel(), t.ravel()], axis=1)
+
+
+def _project(head, eye, T_cw, P, size):
+    """Noise-free pixels of board points, NaN outside the image or behind the camera."""
+    from rasc.geometry import lens
+
+    p = P @ T_cw[:3, :3].T + T_cw[:3, 3]
+    uv = np.full((len(P), 2), np.nan)
+    front = p[:, 2] > 0.05
+    if front.any():
+        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
+    w, h = size
+    with np.errstate(invalid="ignore"):
+        out = ~front | np.any(~(uv >= 0), axis=1) | (uv[:, 0] > w - 1) | (uv[:, 1] > h - 1)
+    uv[out] = np.nan
+    return uv
+
+
+def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
+    """:func:`_project` for a stack of poses (M, 4, 4): (M, N, 2); corners closer than
+    ``margin`` pixels to the image border count as not seen."""
+    from rasc.geometry import lens
+
+    p = np.einsum("mij,nj->mni", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
+    uv = np.full(p.shape[:2] + (2,), np.nan)
+    front = p[..., 2] > 0.05
+    if front.any():
+        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
+    w, h = size
+    with np.errstate(invalid="ignore"):
+        out = ~front | np.any(~(uv >= margin), axis=-1) | (uv[..., 0] > w - 1 - margin) \
+            | (uv[..., 1] > h - 1 - margin)
+    uv[out] = np.nan
+    return uv
+
+
+class _Information:
+    """The refinement's information over the candidates (see the module docstring)."""
+
+    def __init__(self, setup: PlanSetup, candidates: np.ndarray, margin: float | None = None):
+        from rasc.geometry.kinematics import canonical_gauge
+        from rasc.geometry.transforms import invert_transform
+        from rasc.head.refine import EyeObservations, HeadObservations, _Problem
+        from rasc.sim.render import MARGIN_PX, intrinsics_board_poses
+        from rasc.sim.scene import T_base_from_world_facing
+
+        head, board = setup.head, setup.board
+        P = board.object_points()
+        rng = np.random.default_rng(setup.seed)
+        T_bw = T_base_from_world_facing(board, distance=setup.distance)
+        partial = getattr(board, "partial_views", False)
+        need = setup.min_corners if partial else board.n_corners
+        # every candidate at once: (M, N, 2) pixels per eye, NaN where not seen
+        pan, tilt = np.radians(candidates[:, 0]), np.radians(candidates[:, 1])
+        uv_all = {}
+        for eye in EYES:
+            T_cw = (head.T_cam_from_gaze[eye] @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
+                    @ head.T_ptu_from_base[eye] @ T_bw)                   # (M, 4, 4)
+            # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
+            # it refuses positions without); ChArUco corners count anywhere in the image
+            # (``margin`` overrides: positions a user gives are taken as they are)
+            uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size,
+                                        margin if margin is not None
+                                        else 0.0 if partial else MARGIN_PX)
+        ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
+        feasible = [(float(a), float(b)) for a, b in candidates[ok]]
+        pose_corners = {eye: list(uv_all[eye][ok]) for eye in EYES}
+        if len(feasible) < 3:
+            raise DegenerateDataError(
+                f"plan: only {len(feasible)} candidate position(s) show the target to both "
+                f"eyes ({'at least ' + str(need) if partial else 'whole'}); place the target "
+                "farther or use a ChArUco target, which counts when seen in part")
+        self.feasible = np.array(feasible)
+        eyes = {}
+        gauge = {eye: canonical_gauge(head.unit[eye], head.T_cam_from_gaze[eye],
+                                      head.T_ptu_from_base[eye]) for eye in EYES}
+        T_pLpR = gauge["left"][2] @ invert_transform(gauge["right"][2])
+        for eye in EYES:
+            unit, T_cg, T_pb = gauge[eye]
+            intr, T_intr = {}, {}
+            for k, T_cw in enumerate(intrinsics_board_poses(
+                    rng, board, head.K[eye], setup.image_size, setup.n_intrinsics,
+                    head.dist[eye])):
+                intr[f"i{k:03d}"] = _project(head, eye, T_cw, P, setup.image_size)
+                T_intr[f"i{k:03d}"] = T_cw
+            T_pL = gauge["left"][2]
+            T_bw_pL = T_pL @ T_bw                     # the board in the left ptu frame
+            pose, pan_tilt, view, T_pose = {}, {}, {}, {}
+            T_ptu_from_ptuL = T_pb @ invert_transform(T_pL)
+            for c, (pan, tilt) in enumerate(feasible):
+                f = f"c{c:05d}"
+                pose[f] = pose_corners[eye][c]
+                pan_tilt[f] = (np.radians(pan), np.radians(tilt))
+                view[f] = f
+                T_pose[f] = T_cg @ unit.T_gaze_from_ptu(*pan_tilt[f]) @ T_ptu_from_ptuL \
+                    @ T_bw_pL
+            eyes[eye] = EyeObservations(
+                K=head.K[eye], dist=np.asarray(head.dist[eye], float),
+                image_size=tuple(setup.image_size), intrinsics=intr,
+                T_cam_from_world_intrinsics=T_intr, pose=pose, pan_tilt=pan_tilt, view=view,
+                T_cam_from_world_pose=T_pose, T_cam_from_gaze=T_cg)
+        obs = HeadObservations(board_points=P, eyes=eyes, T_ptuL_from_ptuR=T_pLpR,
+                               dist_model="k1k2")
+        prob = _Problem(obs, {eye: list(PLAN_UNIT_PARAMETERS) for eye in EYES})
+        # forward differences for the kinematic columns: their error (~1e-6 relative)
+        # is far below what a design choice or a predicted σ can notice
+        J = prob.jacobian(np.zeros(len(prob.names)), central=False).tocsr()
+        rows = prob._rows_of_images()
+        ng = prob.n_global
+        keep = list(range(ng)) + list(range(len(prob.names) - 6, len(prob.names)))
+        self.names = [prob.names[j] for j in keep]
+        self.scale = prob.scale[keep]
+        p = len(keep)
+        I0 = np.zeros((p, p))
+        A = np.zeros((len(feasible), p, p))
+        for i in range(len(prob.img_name)):
+            Ji = J[rows[i]]
+            G = Ji[:, keep].toarray()
+            if prob.img_role[i] == 0:
+                k = ng + 6 * int(prob.img_pose[i])
+                B = Ji[:, k:k + 6].toarray()
+                GB = G.T @ B
+                I0 += G.T @ G - GB @ np.linalg.solve(B.T @ B, GB.T)
+            else:
+                c = int(prob.img_name[i][1:])
+                A[c] += G.T @ G
+        self.I0, self.A = I0, A
+        self.prob = prob
+        self.T_pLpR = T_pLpR
+
+    def covariance(self, chosen, noise_px: float) -> np.ndarray:
+        """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`."""
+        info = self.I0 + self.A[list(chosen)].sum(axis=0)
+        d = np.sqrt(np.diag(info))
+        d = np.where(d > 0, d, 1.0)
+        cov = np.linalg.inv(info / np.outer(d, d)) / np.outer(d, d)
+        return noise_px ** 2 * cov * np.outer(self.scale, self.scale)
+
+
+def _interest(names) -> np.ndarray:
+    """Indices of the hand-eye and unit parameters (the A-optimal criterion's)."""
+    return np.array([j for j, n in enumerate(names)
+                     if ".T_cam_from_gaze." in n or ".unit." in n])
+
+
+def greedy(I0: np.ndarray, A: np.ndarray, k: int, criterion: str = "D",
+           interest: np.ndarray | None = None) -> list[int]:
+    """Indices of ``k`` candidates chosen greedily (module docstring); ties go to the
+    lower index, so the result is deterministic."""
+    if criterion not in CRITERIA:
+        raise InputError(f"criterion: expected D or A, got {criterion!r}")
+    M, p = A.shape[0], A.shape[1]
+    if not 1 <= k <= M:
+        raise InputError(f"k: expected 1 to {M} (the usable candidates), got {k}")
+    d = np.sqrt(np.maximum(np.diag(I0) + A.sum(axis=0).diagonal(), 1e-300))
+    Dn = np.outer(d, d)
+    I0n, An = I0 / Dn, A / Dn
+    # a ridge of 1e-9 (relative, after normalisation) keeps the first steps defined
+    # when the pose views' parameters are not yet determined
+    info = I0n + 1e-9 * np.eye(p)
+    chosen: list[int] = []
+    for _ in range(k):
+        trial = info[None] + An
+        if criterion == "D":
+            sign, logdet = np.linalg.slogdet(trial)
+            score = np.where(sign > 0, logdet, -np.inf)
+        else:
+            inv = np.linalg.inv(trial)
+            idx = interest if interest is not None else np.arange(p)
+            score = -np.einsum("mii->m", inv[:, idx][:, :, idx] / Dn[idx][:, idx][None])
+        score[chosen] = -np.inf
+        c = int(np.argmax(score))
+        chosen.append(c)
+        info = info + An[c]
+    return chosen
+
+
+def summarise(names, cov: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
+    """Every parameter's σ (natural units: px, m, rad; rotations as small angles in
+    degrees) and per eye the hand-eye rotation and translation σ (deg, mm: the root sum
+    of the three components') and the unit's axis distance (mm) and angle (deg)."""
+    s = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    std = {}
+    for n, v in zip(names, s, strict=True):
+        std[n] = float(np.degrees(v)) if ".rot" in n else float(v)
+    summary = {}
+    for eye in EYES:
+        rot = [std[f"{eye}.T_cam_from_gaze.rot{a}"] for a in "xyz"]
+        tr = [std[f"{eye}.T_cam_from_gaze.t{a}"] for a in "xyz"]
+        summary[f"{eye}.handeye_rotation_deg"] = float(np.sqrt(np.sum(np.square(rot))))
+        summary[f"{eye}.handeye_translation_mm"] = 1e3 * float(np.sqrt(np.sum(np.square(tr))))
+        summary[f"{eye}.axis_distance_mm"] = 1e3 * std[f"{eye}.unit.tilt_point_y"]
+        summary[f"{eye}.axis_angle_deg"] = float(np.degrees(std[f"{eye}.unit.tilt_axis_x"]))
+    tr = [std[f"T_ptuL_from_ptuR.t{a}"] for a in "xyz"]
+    summary["mounts_translation_mm"] = 1e3 * float(np.sqrt(np.sum(np.square(tr))))
+    return std, summary
+
+
+#: the stated workspace for the triangulation prediction: a square plane facing the
+#: head, its side and points per side, at ``workspace_depth`` metres
+WORKSPACE_SIDE_M = 0.6
+WORKSPACE_POINTS = 7
+TRIANGULATION_SAMPLES = 200
+
+
+def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
+                      depth: float, seed: int = 0) -> dict[str, float]:
+    """Predicted error of triangulated points (mm): heads drawn from the predicted
+    covariance (seeded, :data:`TRIANGULATION_SAMPLES`), each triangulating the points of a
+    :data:`WORKSPACE_SIDE_M` square plane at ``depth`` (base frame, verging on its
+    centre) projected through the true head; the RMS and 95th percentile of the 3-D
+    deviation over samples and points."""
+    from rasc.head.base_to_ptu import cyclopean_base
+    from rasc.head.model import EyeCalibration, HeadCalibration
+    from rasc.head.refine import unit_from_parameters
+
+    prob = info.prob
+    n = len(prob.names)
+    keep_idx = list(range(prob.n_global)) + list(range(n - 6, n))
+    rng = np.random.default_rng(seed)
+    cov_x = cov / np.outer(info.scale, info.scale)
+    L = np.linalg.cholesky(cov_x + 1e-30 * np.eye(len(cov_x)))
+
+    def head_at(xk):
+        x = np.zeros(n)
+        x[keep_idx] = xk
+        s = prob.unpack(x)
+        T_pb = dict(zip(EYES, cyclopean_base(s["T_ptuL_from_ptuR"]), strict=True))
+        eyes = {}
+        for eye in EYES:
+            fx, fy, cx, cy = s[eye]["K"]
+            eyes[eye] = EyeCalibration(
+                K=np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]]), dist=s[eye]["dist"],
+                T_cam_from_gaze=s[eye]["T_cam_from_gaze"], T_ptu_from_base=T_pb[eye],
+                image_size=tuple(setup.image_size), unit=unit_from_parameters(s[eye]["unit"]))
+        return HeadCalibration(**eyes)
+
+    true = head_at(np.zeros(len(keep_idx)))
+    g = np.linspace(-WORKSPACE_SIDE_M / 2, WORKSPACE_SIDE_M / 2, WORKSPACE_POINTS)
+    x, z = np.meshgrid(g, g, indexing="ij")
+    pts = np.stack([x.ravel(), np.full(x.size, depth), z.ravel()], axis=1)
+    half = float(np.linalg.norm(true.T_ptuL_from_ptuR()[:3, 3])) / 2
+    verge = float(np.arctan2(half, depth))
+    uvL = true.left.project(pts, -verge, 0.0)
+    uvR = true.right.project(pts, verge, 0.0)
+    errs = []
+    for _ in range(TRIANGULATION_SAMPLES):
+        h = head_at(L @ rng.standard_normal(len(keep_idx)))
+        q = h.triangulate(uvL, uvR, -verge, 0.0, verge, 0.0)
+        errs.append(np.linalg.norm(q - pts, axis=1))
+    e = np.concatenate(errs) * 1e3
+    return {"depth_m": float(depth), "side_m": WORKSPACE_SIDE_M,
+            "rms_mm": float(np.sqrt(np.mean(e ** 2))), "p95_mm": float(np.percentile(e, 95))}
+
+
+def predict(setup: PlanSetup, positions, info: _Information | None = None,
+            workspace_depth: float | None = 1.5) -> Plan:
+    """The prediction for given positions (degrees), each showing the target to both eyes
+    (a chessboard whole, without :func:`plan`'s margin); ``info``: the information of
+    a candidate set that holds them (else computed for them alone)."""
+    positions = np.asarray(positions, float).reshape(-1, 2)
+    info = info or _Information(setup, positions, margin=0.0)
+    idx = []
+    for p in positions:
+        hit = np.flatnonzero(np.all(np.abs(info.feasible - p) < 1e-9, axis=1))
+        if not len(hit):
+            raise InputError(f"plan: position ({p[0]:g}, {p[1]:g}) deg does not show the "
+                             "target to both eyes")
+        idx.append(int(hit[0]))
+    cov = info.covariance(idx, setup.noise_px)
+    std, summary = summarise(info.names, cov)
+    tri = {} if workspace_depth is None else triangulation_std(info, cov, setup,
+                                                               workspace_depth, setup.seed)
+    return Plan(positions=[tuple(map(float, p)) for p in positions], criterion="given",
+                std=std, summary=summary, triangulation=tri, candidates=len(info.feasible))
+
+
+def plan(setup: PlanSetup, k: int, criterion: str = "D",
+         workspace_depth: float | None = 1.5) -> Plan:
+    """Choose ``k`` positions (module docstring) and predict their accuracy."""
+    t0 = time.perf_counter()
+    info = _Information(setup, candidate_grid(setup))
+    chosen = greedy(info.I0, info.A, int(k), criterion, _interest(info.names))
+    cov = info.covariance(chosen, setup.noise_px)
+    std, summary = summarise(info.names, cov)
+    seconds = time.perf_counter() - t0
+    tri = {} if workspace_depth is None else triangulation_std(info, cov, setup,
+                                                               workspace_depth, setup.seed)
+    return Plan(positions=[tuple(map(float, info.feasible[c])) for c in chosen],
+                criterion=criterion, std=std, summary=summary, triangulation=tri,
+                candidates=len(info.feasible), seconds=seconds)
+
+
+def nominal_setup(board=None, **kw) -> PlanSetup:
+    """A setup for the simulated head's nominal model (:func:`rasc.sim.synthetic.default_head`)."""
+    from rasc.sim.synthetic import default_head
+    from rasc.vision.board import DEFAULT_BOARD
+
+    return PlanSetup(head=default_head(), board=board or DEFAULT_BOARD, **kw)
+
+
+def head_from_calibration(path) -> Any:
+    """The head of a ``rasc calibrate`` JSON (or a rasc-head document) as the planner's
+    head model."""
+    from rasc.head.use import load_calibration
+    from rasc.sim.synthetic import SyntheticHead
+
+    h = load_calibration(path)
+    return SyntheticHead(
+        K={e: np.asarray(getattr(h, e).K, float) for e in EYES},
+        dist={e: np.resize(np.asarray(getattr(h, e).dist, float), 5) for e in EYES},
+        T_cam_from_gaze={e: np.asarray(getattr(h, e).T_cam_from_gaze, float) for e in EYES},
+        T_ptu_from_base={e: np.asarray(getattr(h, e).T_ptu_from_base, float) for e in EYES},
+        unit={e: getattr(h, e).unit for e in EYES})
