@@ -75,8 +75,13 @@ HEAD_COVARIANCE = Format("rasc-head-covariance", 1, "the covariance of a refined
                          "rasc.head.uncertainty:HeadCovariance.from_dict",
                          "rasc.head.uncertainty:HeadCovariance.to_dict")
 
+PIXEL_POINTS = Format("rasc-pixel-points", 1, "what rasc detect writes: the pixel points "
+                      "CSV that rasc triangulate reads, each image's detection status "
+                      "as comment lines", "rasc.commands._use_common:read_points_csv",
+                      "rasc.vision.points:PixelPoints.to_csv")
+
 #: Every format by tag.
 FORMATS: dict[str, Format] = {f.tag: f for f in (
     HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
     LOOK_AT, STUDY, STUDY_DATASET, STUDY_CACHE, REPRODUCE_DATASET, REPRODUCE_CALIBRATION,
-    HEAD_COVARIANCE)}
+    HEAD_COVARIANCE, PIXEL_POINTS)}

@@ -124,6 +124,7 @@ class Rejection:
     reason: str
 
     def to_dict(self) -> dict[str, Any]:
+        """The rejection as the result document writes it (position, residuals, reason)."""
         return {"position": self.index, "rotation_residual_deg": self.rotation_deg,
                 "translation_residual": self.translation, "reason": self.reason}
 
@@ -153,6 +154,8 @@ class RobustHandEyeResult(HandEyeResult):
     limit_sigmas: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
+        """RASC's result document with a ``robust`` block: the inliers and each rejected
+        position."""
         out = super().to_dict()
         out["robust"] = robust_summary(self)
         return out

@@ -99,6 +99,8 @@ class RefinedHandEyeResult(HandEyeResult):
     rejected: tuple = ()
 
     def to_dict(self) -> dict[str, Any]:
+        """The starting method's result document with a ``refinement`` block (the refined pose,
+        its covariance)."""
         out = super().to_dict()
         out.update(self.start_details or {})
         out["refinement"] = refinement_summary(self)

@@ -59,6 +59,8 @@ class ScaledHandEyeResult(HandEyeResult):
     residual_rms: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
+        """The result document with a ``scale`` block: the estimated scale of the camera
+        translations."""
         out = super().to_dict()
         out["scale"] = {"s": self.scale, "residual_rms": self.residual_rms,
                         "meaning": "t_cam_from_world (true) = s * t_cam_from_world (given); "

@@ -222,9 +222,13 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
     warnings = [f"{eye} eye: {note}" for note in closed.notes]
     if options.method == "li" and not has_home_pose(T_gp):
         warnings.append(f"{eye} eye: {NO_HOME_POSE}; add a pose view at (0, 0)")
+    # the translation check on the positions the closed form used: the ones rasc-robust
+    # left out are named once, in its note, not warned again here
+    used = list(getattr(he, "inliers", ()) or range(len(files)))
     warnings += [f"{eye} eye: {w}" for w in
                  solution_warnings(he, uncertainty=uncertainty, pan_tilt=True)
-                 + translation_warnings(T_cw, T_gp, he.T_cam_from_gaze, names=files)]
+                 + translation_warnings(T_cw[used], T_gp[used], he.T_cam_from_gaze,
+                                        names=[files[i] for i in used])]
     timer.add("hand-eye", time.perf_counter() - t0)
     return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,

@@ -65,6 +65,8 @@ class HeadCovariance:
     sigma_px: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
+        """The ``rasc-head-covariance/1`` document a calibration keeps in
+        ``refinement.covariance``."""
         return {"format": FORMAT, "names": list(self.names), "matrix": self.matrix.tolist(),
                 "sigma_px": self.sigma_px,
                 "note": "covariance of the head's parameters (board poses marginalised out), "
@@ -73,6 +75,8 @@ class HeadCovariance:
 
     @classmethod
     def from_dict(cls, d: Any, where: str = "covariance") -> HeadCovariance:
+        """Read a ``rasc-head-covariance/1`` document; a malformed one is one
+        :class:`InputError` line naming ``where``."""
         if not isinstance(d, dict) or d.get("format") != FORMAT:
             raise InputError(f"{where}: expected an object with format {FORMAT!r}")
         names = d.get("names")

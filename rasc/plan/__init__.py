@@ -91,6 +91,8 @@ class Plan:
     seconds: float = 0.0
 
     def to_dict(self) -> dict:
+        """The plan as ``rasc plan`` prints it in JSON: positions, criterion, predicted
+        standard deviations."""
         return {"positions_deg": [list(p) for p in self.positions],
                 "criterion": self.criterion, "candidates": self.candidates,
                 "predicted_std": self.std, "summary": self.summary,

@@ -133,6 +133,8 @@ class TopicTimes:
     received: list[int] = field(default_factory=list)
 
     def times(self, stamp: str) -> np.ndarray:
+        """The topic's message times in nanoseconds: header stamps (``stamp='header'``) or
+        receive times."""
         return np.array(self.stamps if stamp == "header" else self.received, dtype=np.int64)
 
 

@@ -75,6 +75,8 @@ class JointSource:
 
 @dataclass(frozen=True)
 class ImportConfig:
+    """What ``rasc import`` needs to know of a recording: topics, joints, thresholds, angle
+    unit and board (options or a TOML file)."""
     board: dict[str, Any] | None = None          # {"inner_corners": [nx, ny], "square_size"}
     length_unit: str | None = None
     topics: dict[str, str] = field(default_factory=dict)

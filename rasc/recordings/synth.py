@@ -130,6 +130,8 @@ def image_message(w: _BagWriter, grey: np.ndarray, encoding: str, stamp_ns: int,
 
 
 def joint_message(w: _BagWriter, names, values, stamp_ns: int):
+    """A ``sensor_msgs/JointState`` message for the bag writer ``w``: joint ``names`` at
+    ``values`` stamped ``stamp_ns``."""
     T = w.store.types
     return T["sensor_msgs/msg/JointState"](
         header=w.header(stamp_ns, ""), name=list(names),

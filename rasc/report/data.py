@@ -25,6 +25,8 @@ COVERAGE_GRID = (8, 6)
 
 @dataclass
 class ViewResiduals:
+    """One view's reprojection residuals as the report draws them: eye, role, image, residuals,
+    outliers."""
     eye: str
     role: str
     file: str
@@ -34,10 +36,12 @@ class ViewResiduals:
 
 @dataclass
 class ReportData:
+    """What the report draws of a dataset: every view's residuals and each eye's image size."""
     views: list[ViewResiduals] = field(default_factory=list)
     image_size: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def of(self, eye: str, role: str | None = None) -> list[ViewResiduals]:
+        """The views of one eye (and one role, if given)."""
         return [v for v in self.views if v.eye == eye and (role is None or v.role == role)]
 
 

@@ -64,11 +64,13 @@ class Check:
 
 @dataclass(frozen=True)
 class Verdict:
+    """The report's one-line verdict: ``level`` (usable, check or unusable) and its ``reason``."""
     level: str                        # "usable" | "check" | "unusable"
     reason: str
     checks: list[Check] = field(default_factory=list)
 
     def line(self) -> str:
+        """The verdict as printed: ``LEVEL: reason``."""
         return f"{self.level.upper()}: {self.reason}"
 
 

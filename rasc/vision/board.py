@@ -100,6 +100,7 @@ class Board:
         return {"inner_corners": [self.nx, self.ny], "square_size": self.square_size}
 
     def describe(self) -> str:
+        """The board in words, for messages and reports."""
         return f"chessboard {self.nx}x{self.ny} inner corners of {self.square_size:g}"
 
 
@@ -188,18 +189,22 @@ class CharucoBoard:
 
     @property
     def inner_corners(self) -> tuple[int, int]:
+        """(nx, ny): the inner (chessboard) corners, one fewer than the squares each way."""
         return self.squares[0] - 1, self.squares[1] - 1
 
     @property
     def nx(self) -> int:
+        """Inner corners along the board's x."""
         return self.inner_corners[0]
 
     @property
     def ny(self) -> int:
+        """Inner corners along the board's y."""
         return self.inner_corners[1]
 
     @property
     def n_corners(self) -> int:
+        """How many inner corners the board has (each with its id)."""
         return self.nx * self.ny
 
     def object_points(self) -> np.ndarray:
@@ -207,11 +212,13 @@ class CharucoBoard:
         return Board.object_points(self)   # the same grid as the chessboard's
 
     def to_dict(self) -> dict:
+        """The board as a dataset manifest names it (``board.type = "charuco"``)."""
         return {"type": "charuco", "squares": [self.squares[0], self.squares[1]],
                 "square_size": self.square_size, "marker_size": self.marker_size,
                 "dictionary": self.dictionary, "legacy_pattern": self.legacy_pattern}
 
     def describe(self) -> str:
+        """The board in words, for messages and reports."""
         sx, sy = self.squares
         return (f"ChArUco {sx}x{sy} squares of {self.square_size:g}, markers "
                 f"{self.marker_size:g} ({self.dictionary})")

@@ -267,6 +267,8 @@ class Dataset:
 
 
 def need_text(role: str) -> str:
+    """What a dataset needs more of for a ``role`` (``intrinsics`` or ``pose``), in words for
+    messages."""
     return ("views with the board tilted 20-45 degrees about different axes"
             if role == "intrinsics" else
             "pan-tilt positions with rotations about two different axes")

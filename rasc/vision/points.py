@@ -22,12 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.vision.board import Board
 from rasc.vision.dataset import Dataset, ImageEntry
 
-FORMAT = "rasc-pixel-points/1"
+FORMAT = formats.PIXEL_POINTS.tag
 #: the columns, in the order ``rasc triangulate`` documents them
 COLUMNS = ("u_left", "v_left", "u_right", "v_right",
            "pan_left", "tilt_left", "pan_right", "tilt_right", "label")
@@ -43,6 +44,7 @@ class ImageStatus:
     corners: int | None
 
     def line(self) -> str:
+        """The image's detection status as one line (a comment line of the points CSV)."""
         what = f"{self.corners} corners" if self.corners is not None else "board not found"
         return f"{self.eye} {self.file} (view {self.view}): {what}"
 
