@@ -153,9 +153,9 @@ def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
         Every pan and tilt value as written in the document.
     angle_unit : {"deg", "rad"}
 
-    Rules
+    Notes
     -----
-    ``"rad"``: any |angle| > 2π looks like degrees.
+    The rules: ``"rad"``: any |angle| > 2π looks like degrees.
     ``"deg"``: (a) the largest |angle| is above 0 and below :data:`RADIANS_MAX_DEG`;
     or (b) the largest |angle| is at most 2π and every nonzero angle, read as radians,
     is a whole number of degrees within :data:`RADIANS_ROUND_TOL_DEG`. Real degree data

@@ -134,13 +134,24 @@ class RobustHandEyeResult(HandEyeResult):
     """RASC on the inliers, with what the consensus decided.
 
     ``T_cam_from_gaze``, ``quality`` and ``diagnostics`` are RASC's on the inliers.
-    inliers : positions used (indices into the input).
-    rejected : one :class:`Rejection` per position left out.
-    sigma_rotation_deg, sigma_translation : the noise scale read from the data.
-    threshold_rotation_deg, threshold_translation : the rejection thresholds along the
-        residuals' widest axis (``limit_sigmas`` σ there).
-    limit_sigmas : the Mahalanobis distance a position must stay within (:func:`_limit`).
-    n_hypotheses : minimal-sample hypotheses scored; seed : their draw's seed.
+
+    Attributes
+    ----------
+    inliers : tuple of int
+        Positions used (indices into the input).
+    rejected : tuple of Rejection
+        One :class:`Rejection` per position left out.
+    sigma_rotation_deg, sigma_translation : float
+        The noise scale read from the data.
+    threshold_rotation_deg, threshold_translation : float
+        The rejection thresholds along the residuals' widest axis (``limit_sigmas`` σ
+        there).
+    limit_sigmas : float
+        The Mahalanobis distance a position must stay within (:func:`_limit`).
+    n_hypotheses : int
+        Minimal-sample hypotheses scored.
+    seed : int
+        Their draw's seed.
     """
 
     inliers: tuple[int, ...] = ()
