@@ -100,8 +100,21 @@ def exit_process(status: int, *, teardown: bool = True) -> None:
     all written and closed, and whose loaded libraries take long to free).
     """
     if status == 130 or not teardown:
+        _multiprocessing_teardown()
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):
                 stream.flush()
         os._exit(status)
     sys.exit(status)
+
+
+def _multiprocessing_teardown() -> None:
+    """What the interpreter's exit would do for :mod:`multiprocessing` (its ``atexit``
+    function), before an ``os._exit``: end daemonic children, run the finalizers that
+    unlink the pools' semaphores (else the resource tracker reports them as leaked) and
+    remove the ``pymp-*`` temporary folder. Best effort; nothing when it was not used."""
+    util = sys.modules.get("multiprocessing.util")
+    if util is None:
+        return
+    with contextlib.suppress(Exception):
+        util._exit_function()          # the function multiprocessing registers at exit

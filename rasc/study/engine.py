@@ -53,18 +53,19 @@ from typing import Any
 
 import numpy as np
 
+from rasc.datasets.cache import CacheStore, EntryError, read_regular
+from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
 from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.frames import EYES
+from rasc.interrupt import Interrupted
 from rasc.io import (
     cache_root,
     dumps_json,
-    prune_cache,
-    touch_cache_entry,
-    tree_digest,
+    read_json_document,
     write_json_atomic,
     write_text_atomic,
 )
-from rasc.study.executors import Executor, make_executor, worker_environment
+from rasc.study.executors import Executor, WorkerCrashed, make_executor, worker_environment
 from rasc.study.spec import (
     FORMAT,
     PARAMS,
@@ -229,13 +230,27 @@ def render_task(task: dict) -> dict:
             cal = calibrate_dataset(ds)
         except RascError as exc:     # name the cell's render parameters, not a CLI flag
             what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
-            raise type(exc)(f"the dataset for {what}: "
-                            f"{' '.join(str(exc).split())}") from None
+            raise type(exc)(f"{task.get('where', 'the spec')}: the dataset for {what}: "
+                            f"{spec_words(' '.join(str(exc).split()))}") from None
         truth = json.loads((folder / "ground_truth.json").read_text())
         return dataset_document(cal, ds.board, truth, key=task["key"], render=r,
                                 seed=task["seed"])
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: the renderer's option names (its command's flags) and the spec's keys for them
+FLAG_KEYS = (("--intrinsics-views", "intrinsics_views"), ("--distance", "distance"),
+             ("--noise", "image_noise"), ("--blur", "blur"), ("--distortion", "distortion"),
+             ("--poses", "the positions (layout, positions, motion_deg)"),
+             ("--seed", "seed"))
+
+
+def spec_words(message: str) -> str:
+    """A renderer's message in the spec's words: each option named by its spec key."""
+    for flag, key in FLAG_KEYS:
+        message = message.replace(flag, key)
+    return message
 
 
 def folder_task(task: dict) -> dict:
@@ -436,80 +451,48 @@ def _in_metres(doc: dict, metres: float) -> dict:
 
 # ---------------------------------------------------------------------- the cache
 
-#: the distributions whose versions enter the cache key (the first of each group found)
-CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
-                   ("opencv-python-headless", "opencv-python", "opencv-contrib-python",
-                    "opencv-contrib-python-headless"))
-
-
 def cache_dir() -> Path | None:
     """Where rendered study datasets are cached between runs: ``study-datasets`` under
-    :func:`rasc.io.cache_root` (``RASC_CACHE_DIR=none`` turns the cache off)."""
+    :func:`rasc.io.cache_root` (``RASC_CACHE_DIR=none`` turns the cache off); entries are
+    the dataset service's (:class:`rasc.datasets.CacheStore`), verified when read."""
     root = cache_root()
     return None if root is None else root / "study-datasets"
 
 
-_CODE_DIGEST: list[str] = []
-
-
-def code_digest() -> str:
-    """sha256 over rasc's version, every file of the package (its code and models: the
-    renderer, the pipeline that calibrates a render, this engine) and the versions of
-    the libraries that render, detect and solve: what a cached dataset depends on."""
-    if not _CODE_DIGEST:
-        import hashlib
-        import importlib.metadata
-
-        import rasc
-        root = Path(rasc.__file__).parent
-        h = hashlib.sha256(f"rasc {rasc.__version__}\0".encode())
-        h.update(tree_digest(root, root.rglob("*")).encode())
-        for names in CACHE_LIBRARIES:
-            for name in names:
-                try:
-                    h.update(f"{name} {importlib.metadata.version(name)}\0".encode())
-                    break
-                except importlib.metadata.PackageNotFoundError:
-                    continue
-        _CODE_DIGEST.append(h.hexdigest())
-    return _CODE_DIGEST[0]
-
-
 def cache_key(kind: str, task: dict) -> str:
-    """The cache file name of a render (``kind`` "render") or pose-set (``kind`` "poses")
-    task: sha256 of :func:`code_digest`, the task's dataset key, render parameters (the
-    model as its file's sha256), seed and, for a pose set, its base dataset's sha256."""
-    from rasc.study.spec import _digest
-    what = {"format": "rasc-study-cache/1", "code": code_digest(), "kind": kind,
-            "key": task["key"], "render": task["render"], "seed": task["seed"]}
+    """The cache key of a render (``kind`` "render") or pose-set (``kind`` "poses") task:
+    the dataset service's key (:func:`rasc.datasets.cache_key`: the one code digest) of
+    the task's dataset key, render parameters (the model as its file's sha256), seed and,
+    for a pose set, its base dataset's sha256."""
+    from rasc.datasets import keys
+    what = {"key": task["key"], "render": task["render"], "seed": task["seed"]}
     if kind == "poses":
         what["base"] = dataset_digest_of(task["base"])
-    return _digest(what)[:32]
+    return keys.cache_key(f"study-{kind}", what)
 
 
-def _cache_get(root: Path | None, name: str) -> dict | None:
-    if root is None:
-        return None
-    try:
-        doc = json.loads((root / f"{name}.json").read_text())
-    except (OSError, ValueError):
-        return None          # absent, unreadable or damaged: render it again
-    if not (isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1"):
-        return None
-    touch_cache_entry(root / f"{name}.json")         # used: the last to be pruned
-    return doc
-
-
-def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], None]) -> None:
-    """Store a dataset document in the cache (whole or not at all; best effort)."""
-    if root is None:
-        return
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(root / f"{name}.json", doc)
-        prune_cache(root, keep=root / f"{name}.json")
-    except OSError as exc:
-        log(f"rasc study: note: could not cache a dataset in {root} ({exc})")
+def _check_dataset_doc(doc: dict) -> None:
+    """ValueError unless ``doc`` looks like a whole study dataset document."""
+    if doc.get("format") != "rasc-study-dataset/1":
+        raise ValueError(f"format {doc.get('format')!r}, not rasc-study-dataset/1")
+    eyes, board = doc.get("eyes"), doc.get("board")
+    if not isinstance(board, dict) or not isinstance(eyes, dict) or not eyes:
+        raise ValueError("no board or no eyes")
+    for name, eye in eyes.items():
+        if not isinstance(eye, dict):
+            raise ValueError(f"eyes.{name} is not an object")
+        n = None
+        for k in ("files", "pan_tilt_rad", "T_cam_from_world", "corners"):
+            v = eye.get(k)
+            if not isinstance(v, list) or n is not None and len(v) != n:
+                raise ValueError(f"eyes.{name}.{k} is missing or of another length")
+            n = len(v)
+        T = np.asarray(eye["T_cam_from_world"], float)
+        if T.shape != (n, 4, 4) or not np.all(np.isfinite(T)):
+            raise ValueError(f"eyes.{name}.T_cam_from_world is not {n} finite 4x4 matrices")
+        for k in ("K", "T_cam_from_gaze_true"):
+            if not isinstance(eye.get(k), list):
+                raise ValueError(f"eyes.{name}.{k} is missing")
 
 
 # ---------------------------------------------------------------------- samples
@@ -566,15 +549,30 @@ def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
 
 
 def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
-                   literal: bool) -> list[tuple]:
+                   literal: bool, time_limit_s: float | None = None) -> list[tuple]:
     """:func:`_score` for each of S pose sets (S, n, 4, 4), all solved in one call of
     :func:`rasc.handeye.methods.solve_many` (RASC's batched solver, whose result for a
     set is, bit for bit, that set's own solve whatever the other sets: a sample's numbers
     do not depend on how many samples its cell has)."""
-    from rasc.handeye.methods import solve_many
+    from rasc.guard import DEFAULT_TIME_LIMIT_S, guarded
+    from rasc.handeye.methods import get_method, solve_many
 
+    options = {"check_rigid": False} if literal else {}
     try:
-        results = solve_many(method, T_cw, T_gp, **({"check_rigid": False} if literal else {}))
+        m = get_method(method)
+        if m.builtin:
+            results = solve_many(m, T_cw, T_gp, **options)
+        else:
+            # a plugin: one guarded call per sample (what solve_many does for it), so
+            # that its output, an exit or a hang is that sample's failure
+            limit = DEFAULT_TIME_LIMIT_S if time_limit_s is None else time_limit_s
+            results = []
+            for s in range(len(T_cw)):
+                try:
+                    results.append(guarded(m, T_cw[s], T_gp, who=f"method {method!r}",
+                                           time_limit_s=limit, **options))
+                except Exception as exc:  # noqa: BLE001 -- scored as solve_many hands it
+                    results.append(exc)
     except FAILURES as exc:                      # the method itself (e.g. its name) fails
         results = [exc] * len(T_cw)
     return [_score_result(res, T_true) for res in results]
@@ -664,7 +662,8 @@ def cell_task(task: dict) -> list[list]:
                                         rng, p["noise_model"])
         sets.append(T_cw)
     sets = np.array(sets)
-    scored = {m: _score_samples(m, sets, T_gp, T_true, literal) for m in task["methods"]}
+    scored = {m: _score_samples(m, sets, T_gp, T_true, literal, task.get("time_limit_s"))
+              for m in task["methods"]}
     gross = task.get("gross", (None, None))
     if gross != (None, None):
         scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
@@ -793,6 +792,43 @@ def prepare_folder(out: Path, spec: Spec, resume: bool, dataset: str | None = No
         raise InputError(f"{out}: --out exists and is not empty")
 
 
+@contextlib.contextmanager
+def study_lock(out: Path):
+    """An exclusive lock on the study folder ``out`` for the block (POSIX ``flock`` on the
+    folder itself: nothing is written for it, and it goes with the process, however that
+    ends). A second study into the same folder is refused at once (InputError)."""
+    try:
+        import fcntl
+    except ImportError:                 # not POSIX: one study per folder is assumed
+        yield
+        return
+    fd = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{out}: another rasc study is writing into this folder; "
+                             "wait for it to finish or choose another study folder") from None
+        yield
+    finally:
+        os.close(fd)
+
+
+def _make_folder(out: Path) -> bool:
+    """Create the study folder ``out`` (whether this call created it); InputError, one
+    line, when it cannot be made (``/proc/x``, a read-only place)."""
+    try:
+        out.mkdir()
+        return True
+    except FileExistsError:
+        if not out.is_dir():
+            raise InputError(f"{out}: exists and is not a folder") from None
+        return False
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create the study folder "
+                         f"({exc.strerror or exc})") from None
+
+
 def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
               dask: str | None = None, resume: bool = False, quiet: bool = False,
               executor: Executor | None = None,
@@ -816,12 +852,16 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     figures : bool
         Draw ``figures/<axis>.png`` (callers that plot their own may skip them).
 
-    On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
-    the finished cells stay in ``out/cells`` (each file whole), no partial file is left,
-    a line on stderr says what was kept, and the interrupt propagates.
-    """
-    from rasc.progress import progress
+    The folder is locked for the run (:func:`study_lock`: a second study into it is
+    refused). With ``resume``, every cell file and dataset file found is verified
+    (:func:`verified_cell`, :func:`_check_dataset_doc`) and computed again, with a note,
+    when it is incomplete or damaged: nothing found is trusted unread.
 
+    On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
+    the workers are stopped, the finished cells stay in ``out/cells`` (each file whole),
+    no partial file is left, and :class:`rasc.interrupt.Interrupted` is raised, whose note
+    says what was kept (the command line prints it as its one line).
+    """
     log = log or (lambda s: print(s, file=sys.stderr))
     out = Path(out)
     spec_path = spec.path.resolve()
@@ -841,17 +881,38 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     elif spec.dataset_path() is not None:
         given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
     prepare_folder(out, spec, resume, given)
-    created = not out.exists()
+    created = _make_folder(out)
+    with study_lock(out):
+        if not created:
+            prepare_folder(out, spec, resume, given)     # again, now that it is ours
+        return _run_locked(spec, out, cells, given, created, workers=workers, dask=dask,
+                           resume=resume, quiet=quiet, executor=executor, log=log,
+                           dataset=dataset, estimates=estimates, figures=figures,
+                           pose_errors=pose_errors)
+
+
+def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, created: bool,
+                *, workers, dask, resume, quiet, executor, log, dataset, estimates, figures,
+                pose_errors) -> StudyResult:
+    from rasc.progress import progress
+
     owned = executor is None
-    executor = executor or make_executor(workers, dask)
-    for sub in ("cells", "datasets"):
-        (out / sub).mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / "study.json", _manifest(spec, cells, given))
+    try:
+        executor = executor or make_executor(workers, dask)
+    except BaseException:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     cells_done = 0
     count = {"rendered": 0, "cached": 0}
     header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
               + (POSE_ERROR_COLUMNS if pose_errors else ()))
+    texts: dict[int, str] = {}
+    cache = cache_dir()
     try:
+        for sub in ("cells", "datasets"):
+            (out / sub).mkdir(exist_ok=True)
+        write_json_atomic(out / "study.json", _manifest(spec, cells, given))
         # 1. datasets: the one given, or one per distinct set of render parameters;
         # cells with intrinsics_from = "dataset" first need their base dataset
         def base_of(c: Cell) -> tuple[str, dict]:
@@ -867,25 +928,32 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         wanted: dict[str, dict] = {}
         for k, r in bases.values():
             wanted.setdefault(k, r)
-        missing = [k for k in wanted if not (out / "datasets" / f"{k}.json").is_file()]
+        datasets: dict[str, dict] = {}
         if dataset is not None:
-            for k in missing:
-                write_json_atomic(out / "datasets" / f"{k}.json", dataset)
-            missing = []
+            text = dumps_json(dataset)
+            for k in wanted:
+                path = out / "datasets" / f"{k}.json"
+                try:
+                    same = read_regular(path, len(text.encode()) + 1) == text.encode()
+                except EntryError:
+                    same = False
+                if not same:
+                    write_json_atomic(path, dataset)
+                datasets[k] = dataset
+        else:
+            datasets.update(_found_datasets(out, wanted, log))
+        missing = [k for k in wanted if k not in datasets]
+        where = str(spec.path)
         if spec.dataset_path() is not None:
             fn, tasks = folder_task, [{"key": k, "folder": str(spec.dataset_path())}
                                       for k in missing]
         else:
             fn, tasks = render_task, [
-                {"key": k, "render": wanted[k], "seed": spec.seed,
+                {"key": k, "render": wanted[k], "seed": spec.seed, "where": where,
                  "model_path": (str(spec.model_path(wanted[k]["model"]))
                                 if wanted[k].get("model") else None)} for k in missing]
-        datasets = {}
-        cache = cache_dir()
-        _render(executor, fn, tasks, out, quiet, "render datasets", count,
-                cache if fn is render_task else None, "render", log)
-        for k in wanted:
-            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+        datasets.update(_render(executor, fn, tasks, out, quiet, "render datasets", count,
+                                cache if fn is render_task else None, "render", log))
 
         # 1b. pose sets in a base's scene with its intrinsics (intrinsics_from = "dataset")
         keys, poses = {}, {}
@@ -902,29 +970,46 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
             k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
             keys[c.index] = k
             poses.setdefault(k, {"key": k, "base_key": base_key, "render": r,
-                                 "seed": spec.seed, "where": str(spec.path),
+                                 "seed": spec.seed, "where": where,
                                  "model_path": (str(spec.model_path(base_r["model"]))
                                                 if base_r.get("model") else None)})
-        missing = [k for k in sorted(poses) if not (out / "datasets" / f"{k}.json").is_file()]
-        tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]} for k in missing]
-        _render(executor, pose_task, tasks, out, quiet, "render pose sets", count, cache,
-                "poses", log)
-        for k in poses:
-            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+        datasets.update(_found_datasets(out, poses, log))
+        tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]}
+                 for k in sorted(poses) if k not in datasets]
+        datasets.update(_render(executor, pose_task, tasks, out, quiet, "render pose sets",
+                                count, cache, "poses", log))
 
-        # 2. cells
-        todo = [c for c in cells if not _cell_done(out, c, header)]
+        # 2. cells: a cell file found is used only when it is whole (verified_cell)
+        for c in cells:
+            text, why = verified_cell(_cell_path(out, c), header, spec.samples, spec.methods)
+            if text is not None:
+                texts[c.index] = text
+            elif why is not None:
+                log(f"rasc study: note: {_cell_path(out, c)} is incomplete or damaged "
+                    f"({why}); computing the cell again")
+        todo = [c for c in cells if c.index not in texts]
         tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
                   "samples": spec.samples, "methods": spec.methods,
                   "estimates": estimates, "pose_errors": pose_errors,
+                  "time_limit_s": spec.time_limit_s,
                   "gross": (spec.gross_rotation_deg, spec.gross_translation_mm)}
                  for c in todo]
         with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
-            for i, rows in executor.map_unordered(cell_task, tasks):
-                write_text_atomic(_cell_path(out, todo[i]), csv_text(header, rows))
-                cells_done += 1
-                bar.update(1)
+            try:
+                for i, rows in executor.map_unordered(cell_task, tasks):
+                    text = csv_text(header, rows)
+                    write_text_atomic(_cell_path(out, todo[i]), text)
+                    texts[todo[i].index] = text
+                    cells_done += 1
+                    bar.update(1)
+            except WorkerCrashed as exc:
+                plugins = _plugins(spec.methods)
+                raise WorkerCrashed(
+                    f"{exc}; " + (f"the plugin method(s) {', '.join(plugins)} may have "
+                                  "ended it (a crash in native code, or an exit rasc.guard "
+                                  "cannot stop); run with one worker to see which"
+                                  if plugins else "no plugin method was running")) from None
     except RascError:
         # bad input found only now (a dataset that cannot be rendered or calibrated, a
         # scene that cannot be rendered again): a folder this run created is removed
@@ -933,20 +1018,23 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
-        n = sum(_cell_done(out, c, header) for c in cells)
-        log(f"rasc study: interrupted: kept {n} of {len(cells)} finished cells and "
-            f"{len(list((out / 'datasets').glob('*.json')))} dataset(s) in {out}; no "
-            "samples.csv, summary.csv or figures written; continue with --resume")
-        raise
+        if owned:
+            with contextlib.suppress(Exception):
+                executor.abort()
+        n = len(texts)
+        kept = len(list((out / "datasets").glob("*.json"))) if (out / "datasets").is_dir() else 0
+        raise Interrupted(
+            f"kept {n} of {len(cells)} finished cells and {kept} dataset(s) in {out}; no "
+            "samples.csv, summary.csv or figures written; continue with --resume") from None
     finally:
         if owned:
             with contextlib.suppress(Exception):
                 executor.close()
 
     # 3. assemble: tidy samples, summary, figures
-    rows_by_cell = {c.index: _read_cell(out, c) for c in cells}
+    rows_by_cell = {c.index: _parse_cell(texts[c.index]) for c in cells}
     axes = list(spec.axes)
-    write_text_atomic(out / "samples.csv", _samples_text(out, cells, axes, header))
+    write_text_atomic(out / "samples.csv", _samples_text(cells, axes, header, texts))
     summary = summarise(spec, cells, rows_by_cell)
     write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
     files = []
@@ -960,45 +1048,82 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                        out / "summary.csv", files, count["cached"])
 
 
+def _plugins(methods) -> list[str]:
+    """The names among ``methods`` that are plugins (not built in)."""
+    from rasc.handeye.methods import get_method
+    out = []
+    for m in methods:
+        with contextlib.suppress(Exception):
+            if not get_method(m).builtin:
+                out.append(m)
+    return out
+
+
+def _found_datasets(out: Path, wanted, log: Callable[[str], None]) -> dict[str, dict]:
+    """The dataset files of ``wanted`` keys already in ``out/datasets`` that are whole
+    (:func:`_check_dataset_doc`, their key); a damaged one is left to be computed again,
+    with a note."""
+    found = {}
+    for k in wanted:
+        path = out / "datasets" / f"{k}.json"
+        if not os.path.lexists(path):
+            continue
+        try:
+            doc = read_json_document(path, "study dataset")
+            _check_dataset_doc(doc)
+            if doc.get("key") != k:
+                raise ValueError(f"its key is {doc.get('key')!r}, not {k!r}")
+        except (InputError, ValueError) as exc:
+            log(f"rasc study: note: {path} is incomplete or damaged "
+                f"({' '.join(str(exc).split())[:200]}); computing it again")
+            continue
+        found[k] = doc
+    return found
+
+
 def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
             desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
-            log: Callable[[str], None] = print) -> None:
+            log: Callable[[str], None] = print) -> dict[str, dict]:
     """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
-    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there is
-    copied instead (``count["cached"]``) and a rendered one stored there."""
+    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there
+    (verified: :class:`rasc.datasets.CacheStore`) is copied instead (``count["cached"]``)
+    and a rendered one stored there. Returns the documents by key (kept in memory)."""
     from rasc.progress import progress
 
-    names = [cache_key(kind, t) for t in tasks] if cache is not None else []
-    todo = []
+    store = CacheStore(folder=cache, label="rasc study", log=log) if cache is not None \
+        else None
+    names = [cache_key(kind, t) for t in tasks] if store is not None else []
+    todo, docs = [], {}
     for k, task in enumerate(tasks):
-        doc = _cache_get(cache, names[k]) if cache is not None else None
+        doc = store.get_json(names[k], _check_dataset_doc) if store is not None else None
         if doc is not None and doc.get("key") == task["key"]:
             write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
+            docs[task["key"]] = doc
             count["cached"] += 1
         else:
             todo.append(k)
     if not todo:
-        return
+        return docs
     with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
         for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
             task = tasks[todo[i]]
             write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
-            if cache is not None:
-                _cache_put(cache, names[todo[i]], doc, log)
+            docs[task["key"]] = doc
+            if store is not None:
+                store.put_json(names[todo[i]], doc)
             count["rendered"] += 1
             bar.update(1)
+    return docs
 
 
-def _samples_text(out: Path, cells: list[Cell], axes: list[str], header) -> str:
+def _samples_text(cells: list[Cell], axes: list[str], header, texts: dict[int, str]) -> str:
     """samples.csv: each finished cell's lines (already formatted by :func:`csv_text`)
     behind the cell's index and axis values, in cell order (the same bytes as formatting
     the rows again, without doing it twice)."""
     parts = [csv_text(("cell", *axes, *header), [])]
     for c in cells:
         prefix = csv_text(("x",), [[c.index, *c.axes.values()]]).split("\n", 1)[1][:-1]
-        with open(_cell_path(out, c), newline="") as f:
-            f.readline()
-            parts += [f"{prefix},{line}" for line in f]
+        parts += [f"{prefix},{line}\n" for line in texts[c.index].split("\n")[1:-1]]
     return "".join(parts)
 
 
@@ -1006,23 +1131,58 @@ def _cell_path(out: Path, cell: Cell) -> Path:
     return out / "cells" / f"cell-{cell.index:05d}.csv"
 
 
-def _cell_done(out: Path, cell: Cell, header) -> bool:
-    path = _cell_path(out, cell)
-    if not path.is_file():
-        return False
-    with open(path) as f:
-        return f.readline().rstrip("\n") == ",".join(header)
+#: the largest cell file read on resume (a bigger one is damaged: a row is < 1 kB)
+MAX_CELL_BYTES = 64 * 2**20
 
 
-def _read_cell(out: Path, cell: Cell) -> list[list]:
+def verified_cell(path: Path, header, samples: int, methods) -> tuple[str | None, str | None]:
+    """``(text, None)`` for a whole cell file: the header, then exactly one row per
+    sample and method in :func:`cell_task`'s order, each with every column, a known
+    status and finite numbers (the numbers an ``ok`` row needs present), ending in a
+    newline; ``(None, why)`` for anything else (cut short, a garbage line, a link or FIFO
+    in its place, another header); ``(None, None)`` when there is none."""
+    try:
+        data = read_regular(path, MAX_CELL_BYTES)
+    except EntryError as exc:
+        return None, str(exc)
+    if data is None:
+        return None, None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        return None, "not UTF-8 text"
+    if not text.endswith("\n"):
+        return None, "cut short: no final newline"
+    lines = text.split("\n")[:-1]
+    if not lines or lines[0] != ",".join(header):
+        return None, "not this study's header"
+    want = [(str(s), m) for s in range(samples) for m in methods]
+    if len(lines) - 1 != len(want):
+        return None, f"{len(lines) - 1} rows, expected {len(want)}"
+    for k, (row, (s, m)) in enumerate(zip(csv.reader(lines[1:]), want, strict=True),
+                                      start=2):
+        if len(row) != len(header) or row[0] != s or row[1] != m:
+            return None, f"line {k} is not sample {s} of method {m}"
+        status = row[2]
+        if status not in ("ok", "gross", "non-finite") and not status.startswith("failed: "):
+            return None, f"line {k}: unknown status {status[:40]!r}"
+        try:
+            nums = [float(v) for v in row[3:] if v != ""]
+        except ValueError:
+            return None, f"line {k}: a field that is not a number"
+        if not all(np.isfinite(nums)) or status in ("ok", "gross") and "" in row[3:5]:
+            return None, f"line {k}: missing or non-finite numbers"
+    return text, None
+
+
+def _parse_cell(text: str) -> list[list]:
     """A finished cell's rows, typed as :func:`cell_task` returns them."""
-    with open(_cell_path(out, cell), newline="") as f:
-        reader = csv.reader(f)
-        next(reader)
-        rows = []
-        for r in reader:
-            nums = [float(v) if v != "" else float("nan") for v in r[3:]]
-            rows.append([int(r[0]), r[1], r[2], *nums])
+    reader = csv.reader(io.StringIO(text, newline=""))
+    next(reader)
+    rows = []
+    for r in reader:
+        nums = [float(v) if v != "" else float("nan") for v in r[3:]]
+        rows.append([int(r[0]), r[1], r[2], *nums])
     return rows
 
 
