@@ -11,14 +11,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import io
 import json
 import os
 import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -74,49 +72,34 @@ def spawn_rngs(seed: int, n: int, *key: int) -> list[np.random.Generator]:
     return [np.random.default_rng(child) for child in ss.spawn(n)]
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    # Ctrl-C reaches the whole process group: the parent stops the pool and says what it
-    # kept; a worker must not print a traceback of its own
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def run_tasks(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
               label: str = "") -> list[Any]:
-    """Map ``fn`` over ``tasks`` (in order), in ``workers`` processes, with progress."""
-    with progress(total=len(tasks), desc=label, quiet=not label) as bar:
-        if workers <= 1 or len(tasks) <= 1:
-            out = []
-            for task in tasks:
-                out.append(fn(task))
-                bar.update(1)
-            return out
-        results: list[Any] = [None] * len(tasks)
-        pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)
-        try:
-            futures = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
-            from concurrent.futures import as_completed
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update(1)
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)   # also on an interrupt
-        return results
+    """Map ``fn`` over ``tasks`` (in order), in ``workers`` processes, with progress: on
+    the study engine's executors (:func:`rasc.study.executors.make_executor`; an
+    interrupt stops every worker at once)."""
+    from rasc.study.executors import make_executor
+
+    results: list[Any] = [None] * len(tasks)
+    with progress(total=len(tasks), desc=label, quiet=not label) as bar, \
+            make_executor(workers if len(tasks) > 1 else 1) as executor:
+        for k, result in executor.map_unordered(fn, tasks):
+            results[k] = result
+            bar.update(1)
+    return results
 
 
 def fmt(x: Any) -> str:
+    """An experiment's CSV field: floats as ``repr`` (NaN as ``nan``), the rest as str."""
     if isinstance(x, float | np.floating):
         return repr(float(x))
     return str(x)
 
 
 def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for row in rows:
-        w.writerow([fmt(v) for v in row])
-    write_text_atomic(path, buf.getvalue())
+    """The study engine's CSV writer (:func:`rasc.study.engine.csv_text`) with the
+    experiments' field format (:func:`fmt`), written atomically."""
+    from rasc.study.engine import csv_text
+    write_text_atomic(path, csv_text(header, rows, field=fmt))
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:

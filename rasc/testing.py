@@ -192,6 +192,12 @@ def assert_handeye_close(result: Any, truth: Any, *, rotation_deg: float,
         truth; allowed 0.1° and 0.01: rotation too far
     """
     __tracebackhide__ = True
+    T = np.asarray(getattr(result, "T_cam_from_gaze", result), dtype=float)
+    if T.shape == (4, 4) and not np.all(np.isfinite(T)):
+        method = getattr(result, "method", None)
+        raise AssertionError("T_cam_from_gaze" + (f" (method {method})" if method else "")
+                             + " has non-finite entries (NaN or infinity): no solution "
+                             f"to compare; allowed {rotation_deg:g}° and {translation:g}")
     rot, trans = handeye_errors(result, truth)
     bad = [what for what, err, tol in (("rotation", rot, rotation_deg),
                                        ("translation", trans, translation))
@@ -251,47 +257,68 @@ def _file_digest(path: Path) -> str:
 
 
 def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
-    """The cache key of a rendered dataset: sha256 over every render option, the model
-    files' contents and rasc's code (first 20 hex digits). The code is
-    :func:`rasc.study.engine.code_digest`, the study cache's: the rasc version, every file
-    of the package and the versions of the libraries that render and detect, so a
-    development install whose renderer changed within one version renders afresh."""
-    from rasc import __version__
-    from rasc.study.engine import code_digest
+    """The cache key of a rendered dataset: the dataset service's one key
+    (:func:`rasc.datasets.cache_key`: rasc's code digest, the rasc version and the
+    libraries) of every render option and the model file's content (32 hex digits)."""
+    from rasc.datasets import keys
 
-    models = Path(__file__).resolve().parent / "sim" / "models"
-    files = {p.name: _file_digest(p) for p in sorted(models.glob("*.xml"))}
-    if model_path is not None:
-        files["model_path"] = _file_digest(Path(model_path))
-    blob = json.dumps({"rasc": __version__, "code": code_digest(), "options": asdict(options),
-                       "models": files}, sort_keys=True, default=list)
-    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+    return keys.cache_key("render-folder", render_what(options, model_path))
 
 
-def render_cached(cache_dir: str | os.PathLike, model_path: str | os.PathLike | None = None,
+def render_what(options: Any, model_path: str | os.PathLike | None = None) -> dict:
+    """What a rendered dataset depends on beside the code: its options (as a dict) and
+    the sha256 of the model file it was rendered from (None: the package's model, part
+    of the code digest)."""
+    opts = options if isinstance(options, dict) else asdict(options)
+    return json.loads(json.dumps({"options": opts, "model": None if model_path is None
+                                  else _file_digest(Path(model_path))}, default=list))
+
+
+_SCRATCH: list[Path] = []
+
+
+def _scratch() -> Path:
+    """This process's temporary folder for datasets rendered without a cache (removed
+    when the process exits)."""
+    if not _SCRATCH:
+        import atexit
+        _SCRATCH.append(Path(tempfile.mkdtemp(prefix="rasc-testing-")))
+        atexit.register(shutil.rmtree, _SCRATCH[0], True)
+    return _SCRATCH[0]
+
+
+def render_cached(cache_dir: str | os.PathLike | None,
+                  model_path: str | os.PathLike | None = None,
                   **options) -> RenderedDataset:
-    """Render (or find in ``cache_dir``) the dataset of ``RenderOptions(**options)``."""
+    """Render (or find in the cache folder ``cache_dir``) the dataset of
+    ``RenderOptions(**options)``. Entries are the dataset service's
+    (:class:`rasc.datasets.CacheStore`): verified by the sha256 of their content when
+    read, a damaged one rendered again with a note. ``cache_dir`` None: no cache (the
+    dataset is rendered into a temporary folder kept for the process)."""
+    from rasc.datasets import CacheStore
     from rasc.sim.render import RenderOptions, render_dataset
 
     opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
                             tuple(v) if k == "dist" else v for k, v in options.items()})
     key = dataset_key(opts, model_path)
-    cache = Path(cache_dir)
-    cache.mkdir(parents=True, exist_ok=True)
-    final = cache / key
-    if not (final / "manifest.json").exists():
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=cache))
+    store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
+        else None
+    path = store.get_tree(key) if store is not None else None
+    if path is None:
+        tmp = Path(tempfile.mkdtemp(prefix="rasc-testing-"))
         try:
             render_dataset(tmp / "data", opts, model_path=model_path, quiet=True)
-            try:
-                os.rename(tmp / "data", final)        # atomic: all or nothing
-            except OSError:
-                if not (final / "manifest.json").exists():   # not another worker's
-                    raise
+            path = store.put_tree(key, tmp / "data", move=True) if store is not None \
+                else None
+            if path is None:                     # no cache, or it cannot be written
+                path = _scratch() / key / "data"
+                if not path.is_dir():
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    shutil.move(str(tmp / "data"), path)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-    gt = json.loads((final / "ground_truth.json").read_text(encoding="utf-8"))
-    return RenderedDataset(path=final, options=opts, ground_truth=gt, key=key)
+    gt = json.loads((path / "ground_truth.json").read_text(encoding="utf-8"))
+    return RenderedDataset(path=path, options=opts, ground_truth=gt, key=key)
 
 
 # ---------------------------------------------------------------- pytest plugin
@@ -305,9 +332,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                   default="")
 
 
-def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path:
+def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path | None:
+    """The cache folder; None for "no cache" (``none``, ``off``: as everywhere in rasc,
+    :func:`rasc.io.cache_root`)."""
     chosen = (config.getoption("rasc_cache_dir", default=None)
               or config.getini("rasc_cache_dir") or os.environ.get("RASC_CACHE_DIR"))
+    if chosen is not None and chosen.strip().lower() in ("none", "off"):
+        return None                           # never a folder named "none"
     if chosen:
         return Path(chosen).expanduser()
     cache = getattr(config, "cache", None)

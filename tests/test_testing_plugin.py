@@ -128,10 +128,10 @@ def test_rendered_dataset_is_cached_by_its_parameters(tmp_path):
     # the key covers every option, the model files and rasc's code
     assert dataset_key(first.options) == first.key
     assert dataset_key(other.options) != first.key
-    import rasc.study.engine as engine
+    import rasc.datasets.keys as keys
 
     with pytest.MonkeyPatch.context() as mp:        # another renderer, the same version
-        mp.setattr(engine, "code_digest", lambda: "0" * 64)
+        mp.setattr(keys, "code_digest", lambda: "0" * 64)
         assert dataset_key(first.options) != first.key
     assert dataset_key(first.options) == first.key
 

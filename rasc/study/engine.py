@@ -104,12 +104,15 @@ def fmt(x: Any) -> str:
     return str(x)
 
 
-def csv_text(header, rows) -> str:
+def csv_text(header, rows, field: Callable[[Any], str] | None = None) -> str:
+    """rasc's one CSV writer: ``header``, then each row's fields formatted by ``field``
+    (default :func:`fmt`), ``\\n`` line ends."""
+    field = field or fmt
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
     for row in rows:
-        w.writerow([fmt(v) for v in row])
+        w.writerow([field(v) for v in row])
     return buf.getvalue()
 
 

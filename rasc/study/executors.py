@@ -84,7 +84,9 @@ class Executor:
     def __enter__(self) -> Executor:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            self.abort()              # interrupted: stop the workers, do not wait
         self.close()
 
 
@@ -165,6 +167,7 @@ class DaskExecutor(Executor):
         worker_environment()          # inherited by the LocalCluster's worker processes
         if address == "local":
             import signal
+
             # the workers' scratch space in a temporary folder (not dask-scratch-space/
             # in the working folder), removed on close; Ctrl-C is this process's to
             # handle (a terminal sends it to the whole process group): the workers start
