@@ -28,7 +28,6 @@ from hypothesis import strategies as st
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from rasc.errors import InputError  # noqa: E402
-from rasc.geometry.kinematics import PAPER_POSES_DEG  # noqa: E402
 from rasc.study import load_spec, run_study  # noqa: E402
 from rasc.study.engine import (  # noqa: E402
     SAMPLE_COLUMNS,
@@ -104,6 +103,7 @@ def test_a_second_study_into_a_locked_folder_is_refused_with_one_line(tmp_path):
     assert (out / "samples.csv").is_file()
 
 
+@pytest.mark.slow
 def test_the_lock_refuses_a_second_holder_in_another_process(tmp_path):
     """flock is per open file: a child process cannot take the folder either."""
     import subprocess
@@ -130,6 +130,7 @@ def _reference(tmp_path: Path) -> tuple[Path, dict[str, bytes]]:
     return ref, tree(ref)
 
 
+@pytest.mark.slow
 def test_resume_recomputes_cut_and_garbage_cell_files_and_gives_the_same_bytes(tmp_path):
     spec = load_spec(spec_file(tmp_path))
     ref, want = _reference(tmp_path)
@@ -208,6 +209,7 @@ def cell_texts(draw):
     return samples, csv_text(HEADER, rows)
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(cell_texts(), st.data())
 def test_a_cell_file_is_accepted_whole_and_refused_when_cut_or_spoiled(tmp_path_factory,
