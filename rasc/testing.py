@@ -46,12 +46,9 @@ Assertion
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
-import shutil
-import tempfile
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -252,71 +249,32 @@ class RenderedDataset:
         return load_dataset(self.path)
 
 
-def _file_digest(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
     """The cache key of a rendered dataset: the dataset service's one key
-    (:func:`rasc.datasets.cache_key`: rasc's code digest, the rasc version and the
-    libraries) of every render option and the model file's content (32 hex digits)."""
-    from rasc.datasets import keys
+    (:func:`rasc.datasets.render.render_key`: rasc's code digest, the rasc version and
+    the libraries) of every render option and the model file's content (32 hex digits)."""
+    from rasc.datasets.render import render_key
 
-    return keys.cache_key("render-folder", render_what(options, model_path))
-
-
-def render_what(options: Any, model_path: str | os.PathLike | None = None) -> dict:
-    """What a rendered dataset depends on beside the code: its options (as a dict) and
-    the sha256 of the model file it was rendered from (None: the package's model, part
-    of the code digest)."""
-    opts = options if isinstance(options, dict) else asdict(options)
-    return json.loads(json.dumps({"options": opts, "model": None if model_path is None
-                                  else _file_digest(Path(model_path))}, default=list))
-
-
-_SCRATCH: list[Path] = []
-
-
-def _scratch() -> Path:
-    """This process's temporary folder for datasets rendered without a cache (removed
-    when the process exits)."""
-    if not _SCRATCH:
-        import atexit
-        _SCRATCH.append(Path(tempfile.mkdtemp(prefix="rasc-testing-")))
-        atexit.register(shutil.rmtree, _SCRATCH[0], True)
-    return _SCRATCH[0]
+    return render_key(options, model_path)
 
 
 def render_cached(cache_dir: str | os.PathLike | None,
                   model_path: str | os.PathLike | None = None,
                   **options) -> RenderedDataset:
     """Render (or find in the cache folder ``cache_dir``) the dataset of
-    ``RenderOptions(**options)``. Entries are the dataset service's
-    (:class:`rasc.datasets.CacheStore`): verified by the sha256 of their content when
-    read, a damaged one rendered again with a note. ``cache_dir`` None: no cache (the
-    dataset is rendered into a temporary folder kept for the process)."""
+    ``RenderOptions(**options)``, through the dataset service
+    (:func:`rasc.datasets.render.rendered`): entries verified by the sha256 of their
+    content when read, a damaged one rendered again with a note. ``cache_dir`` None: no
+    cache (rendered into a temporary folder of the process)."""
     from rasc.datasets import CacheStore
-    from rasc.sim.render import RenderOptions, render_dataset
+    from rasc.datasets.render import rendered
+    from rasc.sim.render import RenderOptions
 
     opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
                             tuple(v) if k == "dist" else v for k, v in options.items()})
-    key = dataset_key(opts, model_path)
     store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
         else None
-    path = store.get_tree(key) if store is not None else None
-    if path is None:
-        tmp = Path(tempfile.mkdtemp(prefix="rasc-testing-"))
-        try:
-            render_dataset(tmp / "data", opts, model_path=model_path, quiet=True)
-            path = store.put_tree(key, tmp / "data", move=True) if store is not None \
-                else None
-            if path is None:                     # no cache, or it cannot be written
-                path = _scratch() / key / "data"
-                if not path.is_dir():
-                    path.parent.mkdir(parents=True, exist_ok=True)
-                    shutil.move(str(tmp / "data"), path)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+    path, key = rendered(opts, model_path, store)
     gt = json.loads((path / "ground_truth.json").read_text(encoding="utf-8"))
     return RenderedDataset(path=path, options=opts, ground_truth=gt, key=key)
 
@@ -333,14 +291,18 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path | None:
-    """The cache folder; None for "no cache" (``none``, ``off``: as everywhere in rasc,
-    :func:`rasc.io.cache_root`)."""
+    """The cache folder: ``--rasc-cache-dir`` / ``rasc_cache_dir`` as given, else the
+    dataset service's store of rendered datasets under ``RASC_CACHE_DIR`` (shared with
+    the reproduction), else pytest's cache, else a folder of the session. None: no cache
+    (``none``, ``off``: as everywhere in rasc; never a folder named "none")."""
     chosen = (config.getoption("rasc_cache_dir", default=None)
-              or config.getini("rasc_cache_dir") or os.environ.get("RASC_CACHE_DIR"))
-    if chosen is not None and chosen.strip().lower() in ("none", "off"):
-        return None                           # never a folder named "none"
+              or config.getini("rasc_cache_dir"))
+    off = ("none", "off")
     if chosen:
-        return Path(chosen).expanduser()
+        return None if chosen.strip().lower() in off else Path(chosen).expanduser()
+    env = os.environ.get("RASC_CACHE_DIR")
+    if env:
+        return None if env.strip().lower() in off else Path(env).expanduser() / "rendered"
     cache = getattr(config, "cache", None)
     if cache is not None:
         return Path(cache.mkdir(CACHE_NAME))

@@ -157,7 +157,7 @@ def test_the_pytest_plugin_takes_none_for_no_cache(monkeypatch, tmp_path):
         monkeypatch.setenv("RASC_CACHE_DIR", off)
         assert testing._cache_dir(Config(), None) is None
     monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "c"))
-    assert testing._cache_dir(Config(), None) == tmp_path / "c"
+    assert testing._cache_dir(Config(), None) == tmp_path / "c" / "rendered"
     assert list(tmp_path.iterdir()) == []
 
 
