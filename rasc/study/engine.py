@@ -883,6 +883,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         given = dataset_digest_of(dataset)
     elif spec.dataset_path() is not None:
         given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    cache_dir()          # a bad RASC_CACHE_MAX_MB is refused before anything is made
     prepare_folder(out, spec, resume, given)
     created = _make_folder(out)
     with study_lock(out):
