@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -150,9 +151,31 @@ def home_view(pan_tilt: np.ndarray, where: str) -> int:
     return int(home[0])
 
 
-def cell_task(task: dict) -> list[list]:
+@dataclass(frozen=True)
+class CellTask:
+    """Every sample of one cell on one dataset document (what :func:`cell_task` runs)."""
+
+    cell: Cell
+    dataset: dict
+    seed: int
+    samples: int
+    methods: tuple[str, ...]
+    estimates: bool = False
+    pose_errors: bool = False
+    #: the time limit of one plugin call, s (None: rasc.guard's default)
+    time_limit_s: float | None = None
+    #: (deg, mm) beyond which an ok solve is "gross"; None: no limit
+    gross: tuple[float | None, float | None] = (None, None)
+
+    @classmethod
+    def of(cls, task: CellTask | dict) -> CellTask:
+        """A task given as a dataclass or as the dict of its fields."""
+        return task if isinstance(task, cls) else cls(**task)
+
+
+def cell_task(task: CellTask | dict) -> list[list]:
     """Every sample of one cell: ``[sample, method, status, errors..., quality]`` rows
-    (and the estimate, :data:`ESTIMATE_COLUMNS`, with ``task["estimates"]``).
+    (and the estimate, :data:`ESTIMATE_COLUMNS`, with ``task.estimates``).
 
     A cell without sample-level noise (σ = 0 and no corner noise) solves once and repeats
     that row for every sample: its samples are the same pose set."""
@@ -162,8 +185,9 @@ def cell_task(task: dict) -> list[list]:
     from rasc.vision.board import Board
     from rasc.vision.camera import estimate_extrinsics
 
-    cell: Cell = task["cell"]
-    p, data = cell.params, task["dataset"]
+    task = CellTask.of(task)
+    cell: Cell = task.cell
+    p, data = cell.params, task.dataset
     eye = data["eyes"][p["eye"]]
     T_cw0 = np.asarray(eye["T_cam_from_world"], float)
     pan_tilt = np.asarray(eye["pan_tilt_rad"], float)
@@ -179,8 +203,8 @@ def cell_task(task: dict) -> list[list]:
         corners = [np.asarray(c, float) for c in eye["corners"]]
         K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
     sets = []
-    for s in range(task["samples"] if noisy else 1):
-        rng = sample_rng(task["seed"], cell, s)
+    for s in range(task.samples if noisy else 1):
+        rng = sample_rng(task.seed, cell, s)
         T_cw = T_cw0
         if p["corner_noise_px"] > 0:
             T_cw = np.array([estimate_extrinsics(c + p["corner_noise_px"]
@@ -195,22 +219,22 @@ def cell_task(task: dict) -> list[list]:
                                         rng, p["noise_model"])
         sets.append(T_cw)
     sets = np.array(sets)
-    scored = {m: _score_samples(m, sets, T_gp, T_true, literal, task.get("time_limit_s"))
-              for m in task["methods"]}
-    gross = task.get("gross", (None, None))
+    scored = {m: _score_samples(m, sets, T_gp, T_true, literal, task.time_limit_s)
+              for m in task.methods}
+    gross = task.gross
     if gross != (None, None):
         scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
     pose_err = None
-    if task.get("pose_errors"):
+    if task.pose_errors:
         truth = eye.get("T_cam_from_world_true")
         pose_err = ([pose_error_rms(T, np.asarray(truth, float)) for T in sets]
                     if truth is not None else [[float("nan")] * 6] * len(sets))
     rows = []
-    for s in range(task["samples"]):
-        for method in task["methods"]:
+    for s in range(task.samples):
+        for method in task.methods:
             *res, T = scored[method][s if noisy else 0]
             row = [s, method, *res]
-            if task.get("estimates"):
+            if task.estimates:
                 row += ([*(1000.0 * T[:3, 3]), *T[:3, :3].ravel()] if T is not None
                         else [float("nan")] * len(ESTIMATE_COLUMNS))
             if pose_err is not None:

@@ -12,6 +12,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -124,7 +125,41 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
             "heads": {eye: truth[eye]["unit_as_built"] for eye in EYES}}
 
 
-def render_task(task: dict) -> dict:
+@dataclass(frozen=True)
+class RenderTask:
+    """Render and calibrate the dataset of ``render`` (a cell's render parameters)."""
+
+    key: str
+    render: dict
+    seed: int
+    model_path: str | None = None
+    #: the spec file, for messages
+    where: str = "the spec"
+
+
+@dataclass(frozen=True)
+class FolderTask:
+    """Calibrate the existing dataset folder ``folder`` (``[fixed] dataset``)."""
+
+    key: str
+    folder: str
+
+
+@dataclass(frozen=True)
+class PoseTask:
+    """Render the pose views of ``render``'s pose set in the scene of ``base`` (the
+    document of the dataset ``base_key``) and measure them with its intrinsics."""
+
+    key: str
+    base_key: str
+    render: dict
+    seed: int
+    where: str
+    model_path: str | None = None
+    base: dict | None = None
+
+
+def render_task(task: RenderTask) -> dict:
     """Render one dataset in a temporary folder, calibrate it with the real pipeline
     (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
 
@@ -135,28 +170,28 @@ def render_task(task: dict) -> dict:
     from rasc.sim.render import RenderOptions, render_dataset
     from rasc.vision.dataset import load_dataset
 
-    r = task["render"]
+    r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     options = RenderOptions(
         poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
         n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
-        seed=task["seed"], noise_sigma=full["image_noise"], blur_sigma=full["blur"],
+        seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
         dist=tuple(full["distortion"]))
     tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
     try:
         folder = tmp / "dataset"
         try:
-            render_dataset(folder, options, model_path=task["model_path"], quiet=True,
+            render_dataset(folder, options, model_path=task.model_path, quiet=True,
                            units=unit_builds(r))
             ds = load_dataset(folder)
             cal = calibrate_dataset(ds)
         except RascError as exc:     # name the cell's render parameters, not a CLI flag
             what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
-            raise type(exc)(f"{task.get('where', 'the spec')}: the dataset for {what}: "
+            raise type(exc)(f"{task.where}: the dataset for {what}: "
                             f"{spec_words(' '.join(str(exc).split()))}") from None
         truth = json.loads((folder / "ground_truth.json").read_text())
-        return dataset_document(cal, ds.board, truth, key=task["key"], render=r,
-                                seed=task["seed"])
+        return dataset_document(cal, ds.board, truth, key=task.key, render=r,
+                                seed=task.seed)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -175,7 +210,7 @@ def spec_words(message: str) -> str:
     return message
 
 
-def folder_task(task: dict) -> dict:
+def folder_task(task: FolderTask) -> dict:
     """Calibrate an existing dataset folder (``[fixed] dataset``) with the real pipeline;
     its ``ground_truth.json``, when present, is the reference (else the measured RASC
     solution, see :func:`dataset_document`)."""
@@ -183,12 +218,12 @@ def folder_task(task: dict) -> dict:
     from rasc.head.pipeline import calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    folder = Path(task["folder"])
+    folder = Path(task.folder)
     ds = load_dataset(folder)
     cal = calibrate_dataset(ds)
     gt = folder / "ground_truth.json"
     truth = json.loads(gt.read_text()) if gt.is_file() else None
-    doc = dataset_document(cal, ds.board, truth, key=task["key"])
+    doc = dataset_document(cal, ds.board, truth, key=task.key)
     return _in_metres(doc, dataset_metres(folder))
 
 
@@ -237,8 +272,8 @@ def _differs(a, b, path: str = "") -> str | None:
     return None if a == b else path.lstrip(".")
 
 
-def pose_task(task: dict) -> dict:
-    """``intrinsics_from = "dataset"``: render only the pose views of ``task["render"]``'s
+def pose_task(task: PoseTask) -> dict:
+    """``intrinsics_from = "dataset"``: render only the pose views of ``task.render``'s
     pose set in the base dataset's scene, detect their corners (the pipeline's detector)
     and estimate each view's extrinsics with the base's intrinsics (docs/METHOD.md §7).
     Returns a dataset document like :func:`render_task`'s (JSON-ready).
@@ -262,8 +297,8 @@ def pose_task(task: dict) -> dict:
     from rasc.vision.board import Board
     from rasc.vision.camera import detect_corners, estimate_extrinsics
 
-    base, r = task["base"], task["render"]
-    where = task["where"]
+    base, r = task.base, task.render
+    where = task.where
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
     if "render" in base:                   # rendered by this study: its own parameters
@@ -272,7 +307,7 @@ def pose_task(task: dict) -> dict:
         scene = {"seed": base["seed"], "target_distance": b["distance"],
                  "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
                  "dist": list(b["distortion"])}
-        model_path, units, record = task.get("model_path"), unit_builds(base["render"]), None
+        model_path, units, record = task.model_path, unit_builds(base["render"]), None
     else:
         record = base.get("scene")
         if record is None:
@@ -292,7 +327,7 @@ def pose_task(task: dict) -> dict:
                             dist=tuple(scene["dist"] or ()))
     dist, distorted = distortion_of(options)
     rng = np.random.default_rng(np.random.SeedSequence(
-        [task["seed"], POSE_RENDER_KEY, int(task["key"], 16)]))
+        [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
     detector = CalibrationOptions().detector
     images: dict[str, list] = {eye: [] for eye in EYES}
     T_true: dict[str, list] = {eye: [] for eye in EYES}
@@ -345,8 +380,8 @@ def pose_task(task: dict) -> dict:
                      "corners": corners, "K": data["K"], "dist": data["dist"],
                      "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
                      "T_cam_from_world_true": T_true[eye]}
-    out = {"format": "rasc-study-dataset/1", "key": task["key"], "render": r,
-           "seed": task["seed"], "intrinsics_of": task["base_key"],
+    out = {"format": "rasc-study-dataset/1", "key": task.key, "render": r,
+           "seed": task.seed, "intrinsics_of": task.base_key,
            "board": base["board"], "eyes": eyes}
     if record is not None:
         out["scene"] = record
@@ -381,15 +416,15 @@ def cache_dir() -> Path | None:
     return None if root is None else root / "study-datasets"
 
 
-def cache_key(kind: str, task: dict) -> str:
+def cache_key(kind: str, task: RenderTask | PoseTask) -> str:
     """The cache key of a render (``kind`` "render") or pose-set (``kind`` "poses") task:
     the dataset service's key (:func:`rasc.datasets.cache_key`: the one code digest) of
     the task's dataset key, render parameters (the model as its file's sha256), seed and,
     for a pose set, its base dataset's sha256."""
     from rasc.datasets import keys
-    what = {"key": task["key"], "render": task["render"], "seed": task["seed"]}
+    what = {"key": task.key, "render": task.render, "seed": task.seed}
     if kind == "poses":
-        what["base"] = dataset_digest_of(task["base"])
+        what["base"] = dataset_digest_of(task.base)
     return keys.cache_key(f"study-{kind}", what)
 
 
@@ -460,9 +495,9 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
     todo, docs = [], {}
     for k, task in enumerate(tasks):
         doc = store.get_json(names[k], _check_dataset_doc) if store is not None else None
-        if doc is not None and doc.get("key") == task["key"]:
-            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
-            docs[task["key"]] = doc
+        if doc is not None and doc.get("key") == task.key:
+            write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
+            docs[task.key] = doc
             count["cached"] += 1
         else:
             todo.append(k)
@@ -471,8 +506,8 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
     with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
         for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
             task = tasks[todo[i]]
-            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
-            docs[task["key"]] = doc
+            write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
+            docs[task.key] = doc
             if store is not None:
                 store.put_json(names[todo[i]], doc)
             count["rendered"] += 1

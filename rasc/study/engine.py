@@ -50,7 +50,7 @@ import os
 import shutil
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from rasc.datasets.cache import EntryError, read_regular
@@ -68,6 +68,7 @@ from rasc.study.cells import (  # noqa: F401 (re-exported: rasc.study.engine's n
     MAX_CELL_BYTES,
     POSE_ERROR_COLUMNS,
     SAMPLE_COLUMNS,
+    CellTask,
     _cell_path,
     _parse_cell,
     _score,
@@ -87,6 +88,9 @@ from rasc.study.datasets import (  # noqa: F401
     FLAG_KEYS,
     POSE_RENDER_KEY,
     SAME_SCENE_ATOL,
+    FolderTask,
+    PoseTask,
+    RenderTask,
     _check_dataset_doc,
     _differs,
     _found_datasets,
@@ -342,13 +346,14 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         missing = [k for k in wanted if k not in datasets]
         where = str(spec.path)
         if spec.dataset_path() is not None:
-            fn, tasks = folder_task, [{"key": k, "folder": str(spec.dataset_path())}
+            fn, tasks = folder_task, [FolderTask(k, str(spec.dataset_path()))
                                       for k in missing]
         else:
             fn, tasks = render_task, [
-                {"key": k, "render": wanted[k], "seed": spec.seed, "where": where,
-                 "model_path": (str(spec.model_path(wanted[k]["model"]))
-                                if wanted[k].get("model") else None)} for k in missing]
+                RenderTask(k, wanted[k], spec.seed, where=where,
+                           model_path=(str(spec.model_path(wanted[k]["model"]))
+                                       if wanted[k].get("model") else None))
+                for k in missing]
         datasets.update(_render(executor, fn, tasks, out, quiet, "render datasets", count,
                                 cache if fn is render_task else None, "render", log))
 
@@ -366,12 +371,11 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
                 continue
             k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
             keys[c.index] = k
-            poses.setdefault(k, {"key": k, "base_key": base_key, "render": r,
-                                 "seed": spec.seed, "where": where,
-                                 "model_path": (str(spec.model_path(base_r["model"]))
-                                                if base_r.get("model") else None)})
+            poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, where,
+                                         model_path=(str(spec.model_path(base_r["model"]))
+                                                     if base_r.get("model") else None)))
         datasets.update(_found_datasets(out, poses, log))
-        tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]}
+        tasks = [replace(poses[k], base=datasets[poses[k].base_key])
                  for k in sorted(poses) if k not in datasets]
         datasets.update(_render(executor, pose_task, tasks, out, quiet, "render pose sets",
                                 count, cache, "poses", log))
@@ -385,11 +389,10 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
                 log(f"rasc study: note: {_cell_path(out, c)} is incomplete or damaged "
                     f"({why}); computing the cell again")
         todo = [c for c in cells if c.index not in texts]
-        tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
-                  "samples": spec.samples, "methods": spec.methods,
-                  "estimates": estimates, "pose_errors": pose_errors,
-                  "time_limit_s": spec.time_limit_s,
-                  "gross": (spec.gross_rotation_deg, spec.gross_translation_mm)}
+        tasks = [CellTask(c, datasets[keys[c.index]], spec.seed, spec.samples, spec.methods,
+                          estimates=estimates, pose_errors=pose_errors,
+                          time_limit_s=spec.time_limit_s,
+                          gross=(spec.gross_rotation_deg, spec.gross_translation_mm))
                  for c in todo]
         with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
