@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 import os
 import signal
@@ -508,15 +509,17 @@ def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False,
     data = ctx.study_dataset()
     resume = (out / "study.json").is_file()
     try:
-        run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True, dataset=data,
-                  estimates=estimates, figures=False, pose_errors=pose_errors)
+        result = run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True,
+                           dataset=data, estimates=estimates, figures=False,
+                           pose_errors=pose_errors)
     except InputError:
         if not resume:
             raise
         shutil.rmtree(out)                  # another spec or dataset: start afresh
-        run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
-                  estimates=estimates, figures=False, pose_errors=pose_errors)
-    return spec, read_csv(out / "samples.csv")
+        result = run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
+                           estimates=estimates, figures=False, pose_errors=pose_errors)
+    # the tidy samples as the study made them (not read back from samples.csv)
+    return spec, list(csv.DictReader(io.StringIO(result.samples_text)))
 
 
 def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,

@@ -50,7 +50,7 @@ import os
 import shutil
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from rasc.datasets.cache import EntryError, read_regular
@@ -144,6 +144,8 @@ class StudyResult:
     figures: list[Path]
     #: datasets copied from the cache (:func:`cache_dir`) instead of rendering
     datasets_cached: int = 0
+    #: the text of samples.csv (kept in memory: callers need not read it back)
+    samples_text: str = field(default="", repr=False)
 
 
 def _manifest(spec: Spec, cells: list[Cell], dataset: str | None = None) -> dict:
@@ -434,7 +436,8 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
     # 3. assemble: tidy samples, summary, figures
     rows_by_cell = {c.index: _parse_cell(texts[c.index]) for c in cells}
     axes = list(spec.axes)
-    write_text_atomic(out / "samples.csv", _samples_text(cells, axes, header, texts))
+    samples_text = _samples_text(cells, axes, header, texts)
+    write_text_atomic(out / "samples.csv", samples_text)
     summary = summarise(spec, cells, rows_by_cell)
     write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
     files = []
@@ -445,7 +448,7 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         log(f"rasc study: {count['cached']} dataset(s) copied from the cache {cache} "
             "(same render parameters, seed and rasc; RASC_CACHE_DIR=none renders afresh)")
     return StudyResult(out, len(cells), cells_done, count["rendered"], out / "samples.csv",
-                       out / "summary.csv", files, count["cached"])
+                       out / "summary.csv", files, count["cached"], samples_text)
 
 
 def _plugins(methods) -> list[str]:
