@@ -135,6 +135,9 @@ class RenderTask:
     model_path: str | None = None
     #: the spec file, for messages
     where: str = "the spec"
+    #: the study's scratch folder (removed by the study, also when a worker is killed);
+    #: None or absent on this machine (a remote worker): the system's temporary folder
+    scratch: str | None = None
 
 
 @dataclass(frozen=True)
@@ -177,7 +180,8 @@ def render_task(task: RenderTask) -> dict:
         n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
         seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
         dist=tuple(full["distortion"]))
-    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
+    scratch = task.scratch if task.scratch and os.path.isdir(task.scratch) else None
+    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-", dir=scratch))
     try:
         folder = tmp / "dataset"
         try:

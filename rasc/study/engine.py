@@ -49,6 +49,7 @@ import json
 import os
 import shutil
 import sys
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -312,6 +313,8 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
               + (POSE_ERROR_COLUMNS if pose_errors else ()))
     texts: dict[int, str] = {}
     cache = cache_dir()
+    # the workers' temporary files (a render's images) go here, removed whatever happens
+    scratch = tempfile.mkdtemp(prefix="rasc-study-")
     try:
         for sub in ("cells", "datasets"):
             (out / sub).mkdir(exist_ok=True)
@@ -352,7 +355,7 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
                                       for k in missing]
         else:
             fn, tasks = render_task, [
-                RenderTask(k, wanted[k], spec.seed, where=where,
+                RenderTask(k, wanted[k], spec.seed, where=where, scratch=scratch,
                            model_path=(str(spec.model_path(wanted[k]["model"]))
                                        if wanted[k].get("model") else None))
                 for k in missing]
@@ -432,6 +435,7 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         if owned:
             with contextlib.suppress(Exception):
                 executor.close()
+        shutil.rmtree(scratch, ignore_errors=True)
 
     # 3. assemble: tidy samples, summary, figures
     rows_by_cell = {c.index: _parse_cell(texts[c.index]) for c in cells}

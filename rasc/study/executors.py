@@ -53,13 +53,29 @@ def worker_environment() -> None:
         os.environ.setdefault(var, "1")
 
 
+def _no_process_locks() -> None:
+    """tqdm's lock in a worker: a thread lock, not its default multiprocessing lock (a
+    named semaphore that a worker killed while it renders would leave to the resource
+    tracker, which then reports it as leaked)."""
+    import threading
+
+    from tqdm import tqdm
+    tqdm.set_lock(threading.RLock())
+
+
 def _pool_worker_init() -> None:
-    """A process-pool worker: :func:`worker_environment`, and Ctrl-C left to the parent
-    (it reaches the whole process group; the parent stops the pool and says what it
-    kept, a worker must not print a traceback of its own)."""
+    """A process-pool worker: :func:`worker_environment`, Ctrl-C left to the parent (it
+    reaches the whole process group; the parent stops the pool and says what it kept, a
+    worker must not print a traceback of its own), SIGTERM (the parent stopping it) an
+    exit that runs the task's clean-up."""
     import signal
+    import sys
     worker_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # stopped by the parent (ProcessExecutor.abort): the task's own clean-up (``finally``:
+    # a render's temporary folder) runs before the worker ends
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    _no_process_locks()
 
 
 class Executor:
@@ -209,6 +225,7 @@ class DaskExecutor(Executor):
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
         self.client.run(worker_environment)
+        self.client.run(_no_process_locks)
 
     def map_unordered(self, fn, tasks):
         from dask.distributed import as_completed

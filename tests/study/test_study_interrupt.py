@@ -95,3 +95,35 @@ def test_ctrl_c_of_a_pooled_study_leaves_nothing_behind(tmp_path, where):
     assert list(tmp.iterdir()) == []                 # no pymp-*, no dask scratch
     assert not (tmp_path / "dask-scratch-space").exists()
     assert not (out / "samples.csv").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path):
+    """The command line, interrupted while its pool's workers render: one line, 130,
+    no worker left, no render folder, no "leaked semaphore" line (a worker killed while
+    it held a multiprocessing lock left one before)."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text("seed = 0\nsamples = 2\nmethods = ['rasc']\n[fixed]\npositions = 4\n"
+                    "intrinsics_views = 6\n[axes]\nnoise_level = [1, 2]\n"
+                    "image_noise = [0.0, 1.0]\n")
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
+    env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "RASC_CACHE_DIR": "none"}
+    proc = subprocess.Popen([sys.executable, "-m", "rasc", "study", str(spec), "--out",
+                             str(tmp_path / "out"), "--workers", "2", "--quiet"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not (tmp_path / "out" / "study.json").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(3)                                   # the workers are rendering
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("rasc study: interrupted: "), err
+    time.sleep(2)
+    assert _marked(mark) == []
+    assert list(tmp.iterdir()) == []
