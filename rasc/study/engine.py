@@ -295,118 +295,133 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                            pose_errors=pose_errors)
 
 
-def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, created: bool,
-                *, workers, dask, resume, quiet, executor, log, dataset, estimates, figures,
-                pose_errors) -> StudyResult:
-    from rasc.progress import progress
+@dataclass
+class _Run:
+    """One locked run of a study: its stages, in order — :meth:`plan` (which dataset each
+    cell needs), :meth:`datasets` (found, cached or computed), :meth:`pose_sets`
+    (intrinsics_from = "dataset"), :meth:`cells`, :meth:`assemble` (samples.csv,
+    summary.csv, figures). What a stage makes stays in memory for the next one."""
 
-    owned = executor is None
-    try:
-        executor = executor or make_executor(workers, dask)
-    except BaseException:
-        if created:
-            shutil.rmtree(out, ignore_errors=True)
-        raise
-    cells_done = 0
-    count = {"rendered": 0, "cached": 0}
-    header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
-              + (POSE_ERROR_COLUMNS if pose_errors else ()))
-    texts: dict[int, str] = {}
-    cache = cache_dir()
-    # the workers' temporary files (a render's images) go here, removed whatever happens
-    scratch = tempfile.mkdtemp(prefix="rasc-study-")
-    try:
-        for sub in ("cells", "datasets"):
-            (out / sub).mkdir(exist_ok=True)
-        write_json_atomic(out / "study.json", _manifest(spec, cells, given))
-        # 1. datasets: the one given, or one per distinct set of render parameters;
-        # cells with intrinsics_from = "dataset" first need their base dataset
+    spec: Spec
+    out: Path
+    cells_: list[Cell]
+    given: str | None
+    executor: Executor
+    quiet: bool
+    log: Callable[[str], None]
+    header: tuple[str, ...]
+    scratch: str
+    cache: Path | None = None
+    count: dict[str, int] = field(default_factory=lambda: {"rendered": 0, "cached": 0})
+    #: the cell files' texts by cell index (verified or just computed)
+    texts: dict[int, str] = field(default_factory=dict)
+    cells_done: int = 0
+    #: per cell index: (base dataset key, its render parameters); the dataset each uses
+    bases: dict[int, tuple[str, dict]] = field(default_factory=dict)
+    keys: dict[int, str] = field(default_factory=dict)
+    docs: dict[str, dict] = field(default_factory=dict)
+
+    def plan(self) -> dict[str, dict]:
+        """The datasets the cells need: the one given, or one per distinct set of render
+        parameters (a cell with intrinsics_from = "dataset" first needs its base)."""
+        spec = self.spec
+
         def base_of(c: Cell) -> tuple[str, dict]:
             r = c.render_params()
-            if given is not None:
-                return given, {}
+            if self.given is not None:
+                return self.given, {}
             if c.params["intrinsics_from"] != "dataset":
                 return dataset_key(r, spec.seed), r
             b = {k: v for k, v in r.items() if k != "intrinsics_from"}
             b.update({k: PARAMS[k].default for k in POSE_PARAMS})
             return dataset_key(b, spec.seed), b
-        bases = {c.index: base_of(c) for c in cells}
+        self.bases = {c.index: base_of(c) for c in self.cells_}
         wanted: dict[str, dict] = {}
-        for k, r in bases.values():
+        for k, r in self.bases.values():
             wanted.setdefault(k, r)
-        datasets: dict[str, dict] = {}
+        return wanted
+
+    def datasets(self, wanted: dict[str, dict], dataset: dict | None) -> None:
+        spec, out = self.spec, self.out
         if dataset is not None:
-            text = dumps_json(dataset)
+            text = dumps_json(dataset).encode()
             for k in wanted:
                 path = out / "datasets" / f"{k}.json"
                 try:
-                    same = read_regular(path, len(text.encode()) + 1) == text.encode()
+                    same = read_regular(path, len(text) + 1) == text
                 except EntryError:
                     same = False
                 if not same:
                     write_json_atomic(path, dataset)
-                datasets[k] = dataset
+                self.docs[k] = dataset
         else:
-            datasets.update(_found_datasets(out, wanted, log))
-        missing = [k for k in wanted if k not in datasets]
-        where = str(spec.path)
+            self.docs.update(_found_datasets(out, wanted, self.log))
+        missing = [k for k in wanted if k not in self.docs]
         if spec.dataset_path() is not None:
             fn, tasks = folder_task, [FolderTask(k, str(spec.dataset_path()))
                                       for k in missing]
         else:
             fn, tasks = render_task, [
-                RenderTask(k, wanted[k], spec.seed, where=where, scratch=scratch,
+                RenderTask(k, wanted[k], spec.seed, where=str(spec.path), scratch=self.scratch,
                            model_path=(str(spec.model_path(wanted[k]["model"]))
                                        if wanted[k].get("model") else None))
                 for k in missing]
-        datasets.update(_render(executor, fn, tasks, out, quiet, "render datasets", count,
-                                cache if fn is render_task else None, "render", log))
+        self.docs.update(_render(self.executor, fn, tasks, out, self.quiet, "render datasets",
+                                 self.count, self.cache if fn is render_task else None,
+                                 "render", self.log))
 
-        # 1b. pose sets in a base's scene with its intrinsics (intrinsics_from = "dataset")
-        keys, poses = {}, {}
-        for c in cells:
-            base_key, base_r = bases[c.index]
+    def pose_sets(self) -> None:
+        """Pose sets rendered in a base's scene with its intrinsics."""
+        spec, poses = self.spec, {}
+        for c in self.cells_:
+            base_key, base_r = self.bases[c.index]
             r = c.render_params()
             if c.params["intrinsics_from"] != "dataset":
-                keys[c.index] = base_key
+                self.keys[c.index] = base_key
                 continue
             grid = pose_grid(*(c.params[k] for k in ("layout", "positions", "motion_deg")))
-            if same_poses(datasets[base_key], grid):
-                keys[c.index] = base_key               # the base's own pose set
+            if same_poses(self.docs[base_key], grid):
+                self.keys[c.index] = base_key               # the base's own pose set
                 continue
             k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
-            keys[c.index] = k
-            poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, where,
+            self.keys[c.index] = k
+            poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, str(spec.path),
                                          model_path=(str(spec.model_path(base_r["model"]))
                                                      if base_r.get("model") else None)))
-        datasets.update(_found_datasets(out, poses, log))
-        tasks = [replace(poses[k], base=datasets[poses[k].base_key])
-                 for k in sorted(poses) if k not in datasets]
-        datasets.update(_render(executor, pose_task, tasks, out, quiet, "render pose sets",
-                                count, cache, "poses", log))
+        self.docs.update(_found_datasets(self.out, poses, self.log))
+        tasks = [replace(poses[k], base=self.docs[poses[k].base_key])
+                 for k in sorted(poses) if k not in self.docs]
+        self.docs.update(_render(self.executor, pose_task, tasks, self.out, self.quiet,
+                                 "render pose sets", self.count, self.cache, "poses",
+                                 self.log))
 
-        # 2. cells: a cell file found is used only when it is whole (verified_cell)
+    def cells(self, estimates: bool, pose_errors: bool) -> None:
+        """Every cell: a cell file found is used only when it is whole (verified_cell)."""
+        from rasc.progress import progress
+
+        spec, cells = self.spec, self.cells_
         for c in cells:
-            text, why = verified_cell(_cell_path(out, c), header, spec.samples, spec.methods)
+            text, why = verified_cell(_cell_path(self.out, c), self.header, spec.samples,
+                                      spec.methods)
             if text is not None:
-                texts[c.index] = text
+                self.texts[c.index] = text
             elif why is not None:
-                log(f"rasc study: note: {_cell_path(out, c)} is incomplete or damaged "
-                    f"({why}); computing the cell again")
-        todo = [c for c in cells if c.index not in texts]
-        tasks = [CellTask(c, datasets[keys[c.index]], spec.seed, spec.samples, spec.methods,
-                          estimates=estimates, pose_errors=pose_errors,
+                self.log(f"rasc study: note: {_cell_path(self.out, c)} is incomplete or "
+                         f"damaged ({why}); computing the cell again")
+        todo = [c for c in cells if c.index not in self.texts]
+        tasks = [CellTask(c, self.docs[self.keys[c.index]], spec.seed, spec.samples,
+                          spec.methods, estimates=estimates, pose_errors=pose_errors,
                           time_limit_s=spec.time_limit_s,
                           gross=(spec.gross_rotation_deg, spec.gross_translation_mm))
                  for c in todo]
-        with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
+        with progress(total=len(cells), desc="cells", quiet=self.quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
             try:
-                for i, rows in executor.map_unordered(cell_task, tasks):
-                    text = csv_text(header, rows)
-                    write_text_atomic(_cell_path(out, todo[i]), text)
-                    texts[todo[i].index] = text
-                    cells_done += 1
+                for i, rows in self.executor.map_unordered(cell_task, tasks):
+                    text = csv_text(self.header, rows)
+                    write_text_atomic(_cell_path(self.out, todo[i]), text)
+                    self.texts[todo[i].index] = text
+                    self.cells_done += 1
                     bar.update(1)
             except WorkerCrashed as exc:
                 plugins = _plugins(spec.methods)
@@ -415,44 +430,77 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
                                   "ended it (a crash in native code, or an exit rasc.guard "
                                   "cannot stop); run with one worker to see which"
                                   if plugins else "no plugin method was running")) from None
+
+    def assemble(self, figures: bool) -> StudyResult:
+        """The tidy samples, the summary and the figures, from the cells' texts."""
+        spec, cells, out = self.spec, self.cells_, self.out
+        rows_by_cell = {c.index: _parse_cell(self.texts[c.index]) for c in cells}
+        axes = list(spec.axes)
+        samples_text = _samples_text(cells, axes, self.header, self.texts)
+        write_text_atomic(out / "samples.csv", samples_text)
+        summary = summarise(spec, cells, rows_by_cell)
+        write_text_atomic(out / "summary.csv",
+                          csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
+        files = []
+        if figures:
+            from rasc.study.figures import plot_study
+            files = plot_study(spec, summary, out / "figures")
+        if self.count["cached"] and not self.quiet:
+            self.log(f"rasc study: {self.count['cached']} dataset(s) copied from the cache "
+                     f"{self.cache} (same render parameters, seed and rasc; "
+                     "RASC_CACHE_DIR=none renders afresh)")
+        return StudyResult(out, len(cells), self.cells_done, self.count["rendered"],
+                           out / "samples.csv", out / "summary.csv", files,
+                           self.count["cached"], samples_text)
+
+
+def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, created: bool,
+                *, workers, dask, resume, quiet, executor, log, dataset, estimates, figures,
+                pose_errors) -> StudyResult:
+    """:class:`_Run`'s stages in the locked folder ``out``; the clean-up after bad input
+    found late and after an interrupt."""
+    owned = executor is None
+    try:
+        executor = executor or make_executor(workers, dask)
+    except BaseException:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
+              + (POSE_ERROR_COLUMNS if pose_errors else ()))
+    # the workers' temporary files (a render's images) go in scratch, removed whatever
+    # happens
+    run = _Run(spec, out, cells, given, executor, quiet, log, header,
+               tempfile.mkdtemp(prefix="rasc-study-"), cache_dir())
+    try:
+        for sub in ("cells", "datasets"):
+            (out / sub).mkdir(exist_ok=True)
+        write_json_atomic(out / "study.json", _manifest(spec, cells, given))
+        run.datasets(run.plan(), dataset)
+        run.pose_sets()
+        run.cells(estimates, pose_errors)
     except RascError:
         # bad input found only now (a dataset that cannot be rendered or calibrated, a
         # scene that cannot be rendered again): a folder this run created is removed
         # unless a cell has finished (its datasets alone are no result)
-        if created and cells_done == 0:
+        if created and run.cells_done == 0:
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
         if owned:
             with contextlib.suppress(Exception):
                 executor.abort()
-        n = len(texts)
         kept = len(list((out / "datasets").glob("*.json"))) if (out / "datasets").is_dir() else 0
         raise Interrupted(
-            f"kept {n} of {len(cells)} finished cells and {kept} dataset(s) in {out}; no "
-            "samples.csv, summary.csv or figures written; continue with --resume") from None
+            f"kept {len(run.texts)} of {len(cells)} finished cells and {kept} dataset(s) in "
+            f"{out}; no samples.csv, summary.csv or figures written; continue with "
+            "--resume") from None
     finally:
         if owned:
             with contextlib.suppress(Exception):
                 executor.close()
-        shutil.rmtree(scratch, ignore_errors=True)
-
-    # 3. assemble: tidy samples, summary, figures
-    rows_by_cell = {c.index: _parse_cell(texts[c.index]) for c in cells}
-    axes = list(spec.axes)
-    samples_text = _samples_text(cells, axes, header, texts)
-    write_text_atomic(out / "samples.csv", samples_text)
-    summary = summarise(spec, cells, rows_by_cell)
-    write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
-    files = []
-    if figures:
-        from rasc.study.figures import plot_study
-        files = plot_study(spec, summary, out / "figures")
-    if count["cached"] and not quiet:
-        log(f"rasc study: {count['cached']} dataset(s) copied from the cache {cache} "
-            "(same render parameters, seed and rasc; RASC_CACHE_DIR=none renders afresh)")
-    return StudyResult(out, len(cells), cells_done, count["rendered"], out / "samples.csv",
-                       out / "summary.csv", files, count["cached"], samples_text)
+        shutil.rmtree(run.scratch, ignore_errors=True)
+    return run.assemble(figures)
 
 
 def _plugins(methods) -> list[str]:

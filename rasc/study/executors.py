@@ -201,7 +201,11 @@ class DaskExecutor(Executor):
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
             try:
                 self._cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                             processes=True, dashboard_address=None,
+                                             processes=True,
+                                             # a free loopback port: the scheduler's
+                                             # HTTP server starts even without a
+                                             # dashboard, and 8787 may be taken
+                                             dashboard_address="127.0.0.1:0",
                                              host="127.0.0.1",
                                              local_directory=self._scratch)
             except BaseException:
