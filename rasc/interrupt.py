@@ -118,3 +118,31 @@ def _multiprocessing_teardown() -> None:
         return
     with contextlib.suppress(Exception):
         util._exit_function()          # the function multiprocessing registers at exit
+
+
+#: temporary folders this process made and removes itself; :func:`end_by_sigterm`
+#: removes them when the process is ended before its own clean-up can run
+_TEMPORARY: set[str] = set()
+
+
+def register_temporary(path: str) -> str:
+    """Note a temporary folder this process will remove (returns ``path``)."""
+    _TEMPORARY.add(str(path))
+    return str(path)
+
+
+def forget_temporary(path: str) -> None:
+    """Remove the temporary folder ``path`` and forget it."""
+    import shutil
+    shutil.rmtree(path, ignore_errors=True)
+    _TEMPORARY.discard(str(path))
+
+
+def end_by_sigterm(signum, frame) -> None:  # noqa: ARG001 (signal handler signature)
+    """A worker's SIGTERM handler: remove the registered temporary folders and end the
+    process at once (raising instead would unwind through whatever code runs, a weakref
+    callback or a queue's flush among them, and may never end)."""
+    import shutil
+    for path in list(_TEMPORARY):
+        shutil.rmtree(path, ignore_errors=True)
+    os._exit(128 + signum)

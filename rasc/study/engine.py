@@ -57,7 +57,7 @@ from pathlib import Path
 from rasc.datasets.cache import EntryError, read_regular
 from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
 from rasc.errors import InputError, RascError
-from rasc.interrupt import Interrupted
+from rasc.interrupt import Interrupted, forget_temporary, register_temporary
 from rasc.io import (
     dumps_json,
     write_json_atomic,
@@ -310,8 +310,10 @@ class _Run:
     quiet: bool
     log: Callable[[str], None]
     header: tuple[str, ...]
-    scratch: str
     cache: Path | None = None
+    #: the workers' temporary files (a render's images), made when a dataset is
+    #: rendered, removed whatever happens
+    scratch: str | None = None
     count: dict[str, int] = field(default_factory=lambda: {"rendered": 0, "cached": 0})
     #: the cell files' texts by cell index (verified or just computed)
     texts: dict[int, str] = field(default_factory=dict)
@@ -361,6 +363,8 @@ class _Run:
             fn, tasks = folder_task, [FolderTask(k, str(spec.dataset_path()))
                                       for k in missing]
         else:
+            if missing:
+                self.scratch = register_temporary(tempfile.mkdtemp(prefix="rasc-study-"))
             fn, tasks = render_task, [
                 RenderTask(k, wanted[k], spec.seed, where=str(spec.path), scratch=self.scratch,
                            model_path=(str(spec.model_path(wanted[k]["model"]))
@@ -468,10 +472,7 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         raise
     header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
               + (POSE_ERROR_COLUMNS if pose_errors else ()))
-    # the workers' temporary files (a render's images) go in scratch, removed whatever
-    # happens
-    run = _Run(spec, out, cells, given, executor, quiet, log, header,
-               tempfile.mkdtemp(prefix="rasc-study-"), cache_dir())
+    run = _Run(spec, out, cells, given, executor, quiet, log, header, cache_dir())
     try:
         for sub in ("cells", "datasets"):
             (out / sub).mkdir(exist_ok=True)
@@ -499,7 +500,8 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         if owned:
             with contextlib.suppress(Exception):
                 executor.close()
-        shutil.rmtree(run.scratch, ignore_errors=True)
+        if run.scratch is not None:
+            forget_temporary(run.scratch)
     return run.assemble(figures)
 
 

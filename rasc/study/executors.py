@@ -53,7 +53,7 @@ def worker_environment() -> None:
         os.environ.setdefault(var, "1")
 
 
-def _no_process_locks() -> None:
+def no_process_locks() -> None:
     """tqdm's lock in a worker: a thread lock, not its default multiprocessing lock (a
     named semaphore that a worker killed while it renders would leave to the resource
     tracker, which then reports it as leaked)."""
@@ -66,16 +66,17 @@ def _no_process_locks() -> None:
 def _pool_worker_init() -> None:
     """A process-pool worker: :func:`worker_environment`, Ctrl-C left to the parent (it
     reaches the whole process group; the parent stops the pool and says what it kept, a
-    worker must not print a traceback of its own), SIGTERM (the parent stopping it) an
-    exit that runs the task's clean-up."""
+    worker must not print a traceback of its own), SIGTERM (the parent stopping it) the
+    end, at once."""
     import signal
-    import sys
+
+    from rasc.interrupt import end_by_sigterm
     worker_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    # stopped by the parent (ProcessExecutor.abort): the task's own clean-up (``finally``:
-    # a render's temporary folder) runs before the worker ends
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-    _no_process_locks()
+    # stopped by the parent (ProcessExecutor.abort): at once (a render's files are in the
+    # study's scratch folder, which the parent removes)
+    signal.signal(signal.SIGTERM, end_by_sigterm)
+    no_process_locks()
 
 
 class Executor:
@@ -229,7 +230,7 @@ class DaskExecutor(Executor):
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
         self.client.run(worker_environment)
-        self.client.run(_no_process_locks)
+        self.client.run(no_process_locks)
 
     def map_unordered(self, fn, tasks):
         from dask.distributed import as_completed
