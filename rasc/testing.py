@@ -29,13 +29,16 @@ Fixtures
 ``rasc_render``
     The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> RenderedDataset``.
 
-Cache: a dataset is stored under a key that hashes every render option, the model
-files and rasc's code (:func:`dataset_key`), so a changed option, model, release or
-renderer renders anew.
-Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else the
-environment variable ``RASC_CACHE_DIR``, else pytest's cache (``.pytest_cache/d/rasc``),
-else (with ``-p no:cacheprovider``) a temporary folder of the session. A dataset is
-rendered into a temporary folder and renamed into place, so parallel workers
+Cache: the dataset service's (:mod:`rasc.datasets`): a dataset is stored under the
+one key over every render option, the model file and rasc's code digest
+(:func:`dataset_key`), so a changed option, model, release or renderer renders anew;
+each entry is verified by the sha256 of its content when read (a damaged one is rendered
+again, with a note).
+Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else
+``$RASC_CACHE_DIR/rendered`` (the store the reproduction shares), else pytest's cache
+(``.pytest_cache/d/rasc``), else (with ``-p no:cacheprovider``) a temporary folder of the
+session; ``none`` or ``off`` means no cache (a temporary folder of the process). A
+dataset is rendered into a temporary folder and renamed into place, so parallel workers
 (pytest-xdist) never see half a dataset. Rendering chooses the OpenGL backend before
 mujoco is imported (``MUJOCO_GL``, egl by default on a headless machine).
 
