@@ -43,7 +43,15 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   parameters are allowed;
 - ``gross_rotation_deg``, ``gross_translation_mm`` (top level, > 0): a solve farther
   from the truth than either is a failure with status ``gross`` (its errors are kept in
-  ``samples.csv``, left out of the summary's statistics); absent, nothing is gross.
+  ``samples.csv``, left out of the summary's statistics); absent, nothing is gross;
+- ``time_limit_s`` (top level, > 0, at most a week): the time limit of one call of a
+  plugin method (:func:`rasc.guard.guarded`; absent: 300 s); a call past it is a failed
+  sample, status ``failed: PluginTimedOut``.
+
+The work a spec asks for is bounded before anything runs (:func:`check_work` and the
+parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
+:data:`MAX_RENDERED_VIEWS`, :data:`MAX_BOOTSTRAP`, :data:`MAX_BOOTSTRAP_DRAWS`,
+:data:`MAX_BOOTSTRAP_WORK`; ``blur`` and ``image_noise`` within the renderer's bounds).
 
 Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
 empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
