@@ -18,15 +18,14 @@ import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rasc.datasets import CacheStore
 from rasc.errors import InputError
 from rasc.io import (
-    cache_root,
     dumps_json,
     module_files,
     prune_cache,
@@ -74,49 +73,34 @@ def spawn_rngs(seed: int, n: int, *key: int) -> list[np.random.Generator]:
     return [np.random.default_rng(child) for child in ss.spawn(n)]
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    # Ctrl-C reaches the whole process group: the parent stops the pool and says what it
-    # kept; a worker must not print a traceback of its own
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def run_tasks(fn: Callable[[Any], Any], tasks: Sequence[Any], workers: int,
               label: str = "") -> list[Any]:
-    """Map ``fn`` over ``tasks`` (in order), in ``workers`` processes, with progress."""
-    with progress(total=len(tasks), desc=label, quiet=not label) as bar:
-        if workers <= 1 or len(tasks) <= 1:
-            out = []
-            for task in tasks:
-                out.append(fn(task))
-                bar.update(1)
-            return out
-        results: list[Any] = [None] * len(tasks)
-        pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)
-        try:
-            futures = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
-            from concurrent.futures import as_completed
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                bar.update(1)
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)   # also on an interrupt
-        return results
+    """Map ``fn`` over ``tasks`` (in order), in ``workers`` processes, with progress: on
+    the study engine's executors (:func:`rasc.study.executors.make_executor`; an
+    interrupt stops every worker at once)."""
+    from rasc.study.executors import make_executor
+
+    results: list[Any] = [None] * len(tasks)
+    with progress(total=len(tasks), desc=label, quiet=not label) as bar, \
+            make_executor(workers if len(tasks) > 1 else 1) as executor:
+        for k, result in executor.map_unordered(fn, tasks):
+            results[k] = result
+            bar.update(1)
+    return results
 
 
 def fmt(x: Any) -> str:
+    """An experiment's CSV field: floats as ``repr`` (NaN as ``nan``), the rest as str."""
     if isinstance(x, float | np.floating):
         return repr(float(x))
     return str(x)
 
 
 def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for row in rows:
-        w.writerow([fmt(v) for v in row])
-    write_text_atomic(path, buf.getvalue())
+    """The study engine's CSV writer (:func:`rasc.study.engine.csv_text`) with the
+    experiments' field format (:func:`fmt`), written atomically."""
+    from rasc.study.engine import csv_text
+    write_text_atomic(path, csv_text(header, rows, field=fmt))
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -173,69 +157,36 @@ def renderer_digest(root: Path | None = None) -> str:
                            + tree_digest(models, models.rglob("*"))).encode()).hexdigest()
 
 
-def dataset_cache(options: dict) -> Path | None:
-    """Where a default dataset with ``options`` is cached between runs: under
-    ``$RASC_CACHE_DIR`` (``none`` disables the cache), else ``$XDG_CACHE_HOME/rasc``
-    or ``~/.cache/rasc``, keyed by the sha256 of the options."""
-    import hashlib
-
-    root = cache_root()
-    if root is None:
-        return None
-    key = hashlib.sha256(dumps_json(options).encode()).hexdigest()[:24]
-    return root / "reproduce-datasets" / key
+def dataset_store() -> CacheStore:
+    """The dataset service's store of rendered dataset folders (``rendered`` under the
+    cache root; shared with rasc.testing: the same options give the same entry)."""
+    return CacheStore("rendered", label="reproduce")
 
 
-#: the packages whose code computes a calibration (rasc.head.pipeline.calibrate_dataset):
-#: their sources, with rasc's top-level modules, are part of a cached calibration's key
-CALIBRATION_CODE = ("geometry", "handeye", "head", "vision")
 #: the format of a cached calibration (bump it when the entry's layout changes)
-CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/1"
-
-
-def calibration_code_digest(root: Path | None = None) -> str:
-    """sha256 over the source of the code that computes a calibration: rasc's top-level
-    modules and the packages of :data:`CALIBRATION_CODE` (every ``.py`` file) of the
-    package folder ``root`` (default: the imported rasc's), and any other rasc module
-    those packages import (:func:`rasc.io.module_files`; none today, so that an import
-    added later cannot leave the key behind)."""
-    if root is None:
-        import rasc
-        root = Path(rasc.__file__).parent
-    code = {p for pkg in CALIBRATION_CODE for p in (root / pkg).rglob("*.py")}
-    names = [".".join((root.name, *p.relative_to(root).parent.parts,
-                       *([] if p.stem == "__init__" else [p.stem]))) for p in code]
-    return tree_digest(root, {*root.glob("*.py"), *code, *module_files(root, names)})
+CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/2"
 
 
 def calibration_key(dataset: Path) -> dict:
     """What the default options' calibration of ``dataset`` depends on: the dataset's
-    content (sha256 of every file in it), the code that computes it
-    (:func:`calibration_code_digest`) and the libraries and Python it runs on."""
+    content (sha256 of every file in it), the code that computes it (the dataset
+    service's one code digest, :func:`rasc.datasets.code_digest`) and Python."""
     import platform
 
-    import cv2
-    import scipy
-
-    import rasc
-    return {"format": CALIBRATION_CACHE_FORMAT, "rasc_version": rasc.__version__,
+    from rasc.datasets import code_digest
+    return {"format": CALIBRATION_CACHE_FORMAT,
             "dataset_sha256": tree_digest(dataset, Path(dataset).rglob("*")),
-            "code_sha256": calibration_code_digest(),
-            "libraries": {"python": platform.python_version(), "numpy": np.__version__,
-                          "scipy": scipy.__version__, "opencv": cv2.__version__,
-                          "machine": platform.machine()}}
+            "code_sha256": code_digest(),
+            "libraries": {"python": platform.python_version(), "machine": platform.machine()}}
 
 
 def calibration_cache(key: dict) -> Path | None:
     """Where the calibration with ``key`` (:func:`calibration_key`) is cached (None: the
-    cache is off), under :func:`cache_root`, named by the sha256 of the key."""
-    import hashlib
-
-    root = cache_root()
-    if root is None:
-        return None
-    name = hashlib.sha256(dumps_json(key).encode()).hexdigest()[:32]
-    return root / "reproduce-calibrations" / f"{name}.pickle"
+    cache is off): the dataset service's entry (:class:`rasc.datasets.CacheStore`,
+    verified by its content's sha256) in ``reproduce-calibrations``, named by the one
+    cache key of ``key``."""
+    from rasc.datasets import cache_key
+    return CacheStore("reproduce-calibrations").path(cache_key("calibration", key))
 
 
 def _check_private(path: Path) -> None:
@@ -262,11 +213,13 @@ def load_cached_calibration(path: Path, key: dict):
     and the caller computes it afresh)."""
     import pickle
 
-    if not path.is_file():
+    from rasc.datasets.cache import read_regular, unpack
+
+    if not os.path.lexists(path):
         return None
     try:
         _check_private(path)
-        entry = pickle.loads(path.read_bytes())
+        entry = pickle.loads(unpack(read_regular(path, 2**30) or b""))
         if not isinstance(entry, dict) or entry.get("key") != key:
             raise ValueError("stored under another key")
         from rasc.head.pipeline import Calibration
@@ -286,40 +239,15 @@ def store_calibration(path: Path, key: dict, cal) -> None:
     stderr if it cannot be written)."""
     import pickle
 
+    from rasc.datasets.cache import pack
     from rasc.io import write_bytes_atomic
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        write_bytes_atomic(path, pickle.dumps({"key": key, "calibration": cal},
-                                              protocol=pickle.HIGHEST_PROTOCOL))
+        write_bytes_atomic(path, pack(pickle.dumps({"key": key, "calibration": cal},
+                                                   protocol=pickle.HIGHEST_PROTOCOL)))
         prune_cache(path.parent, keep=path)
     except OSError as exc:
         print(f"reproduce: note: could not cache the calibration in {path} ({exc})",
-              file=sys.stderr)
-
-
-def _record(folder: Path) -> dict | None:
-    try:
-        return json.loads((folder / DATASET_OPTIONS).read_text())
-    except (OSError, ValueError):
-        return None
-
-
-def _store(dataset: Path, cache: Path) -> None:
-    """Copy a finished dataset into the cache (whole or not at all; best effort)."""
-    import shutil
-    import tempfile
-    try:
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=cache.parent))
-        shutil.copytree(dataset, tmp / "d")
-        try:
-            if not cache.exists():
-                (tmp / "d").replace(cache)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
-        prune_cache(cache.parent, keep=cache)
-    except OSError as exc:
-        print(f"reproduce: note: could not cache the dataset in {cache} ({exc})",
               file=sys.stderr)
 
 
@@ -420,21 +348,22 @@ class Context:
                   "another rasc version or render options); rendering it afresh",
                   file=sys.stderr)
         path.parent.mkdir(parents=True, exist_ok=True)
-        cache = dataset_cache(want)
+        from rasc.datasets.render import render_key
+        store, options = dataset_store(), RenderOptions(seed=self.seed)
+        key = render_key(options)
         tmp = Path(tempfile.mkdtemp(prefix=".dataset.", dir=path.parent))
         try:
-            if cache is not None and _record(cache) == want:
-                shutil.copytree(cache, tmp / "dataset")
-                touch_cache_entry(cache)
-                print(f"reproduce: the default dataset copied from the cache {cache} "
+            cached = store.get_tree(key)
+            if cached is not None:
+                shutil.copytree(cached, tmp / "dataset")
+                print(f"reproduce: the default dataset copied from the cache {cached} "
                       "(same options; RASC_CACHE_DIR=none renders it afresh)", file=sys.stderr)
             else:
                 with stage("render the default dataset (intrinsics views + nine poses, "
                            "both eyes)"):
-                    render_dataset(tmp / "dataset", RenderOptions(seed=self.seed), quiet=True)
-                write_json(tmp / "dataset" / DATASET_OPTIONS, want)
-                if cache is not None:
-                    _store(tmp / "dataset", cache)
+                    render_dataset(tmp / "dataset", options, quiet=True)
+                store.put_tree(key, tmp / "dataset")
+            write_json(tmp / "dataset" / DATASET_OPTIONS, want)
             if path.is_symlink() or path.is_file():
                 path.unlink()
             elif path.exists():
@@ -503,10 +432,19 @@ def run_experiment(job: tuple[Context, str]) -> tuple[str, Section, float]:
 
 def init_experiment_worker() -> None:
     """A reproduce.py worker: single-threaded libraries; Ctrl-C is the parent's to handle
-    (it reaches the whole process group), so the worker ignores SIGINT."""
+    (it reaches the whole process group), so the worker ignores SIGINT; its progress
+    bars' lock is a thread lock (a multiprocessing one is a named semaphore that a worker
+    terminated after an interrupt leaves to the resource tracker, which reports it)."""
+    from rasc.interrupt import end_by_sigterm
+    from rasc.study.executors import no_process_locks
+
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("MUJOCO_GL", "egl")
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # terminated (an interrupt of reproduce.py): the temporary folders of the study
+    # running here are removed, then the worker ends at once
+    signal.signal(signal.SIGTERM, end_by_sigterm)
+    no_process_locks()
 
 
 def script_main(run: Callable[[Context], Section], doc: str,
@@ -584,15 +522,17 @@ def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False,
     data = ctx.study_dataset()
     resume = (out / "study.json").is_file()
     try:
-        run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True, dataset=data,
-                  estimates=estimates, figures=False, pose_errors=pose_errors)
+        result = run_study(spec, out, workers=ctx.workers, resume=resume, quiet=True,
+                           dataset=data, estimates=estimates, figures=False,
+                           pose_errors=pose_errors)
     except InputError:
         if not resume:
             raise
         shutil.rmtree(out)                  # another spec or dataset: start afresh
-        run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
-                  estimates=estimates, figures=False, pose_errors=pose_errors)
-    return spec, read_csv(out / "samples.csv")
+        result = run_study(spec, out, workers=ctx.workers, quiet=True, dataset=data,
+                           estimates=estimates, figures=False, pose_errors=pose_errors)
+    # the tidy samples as the study made them (not read back from samples.csv)
+    return spec, list(csv.DictReader(io.StringIO(result.samples_text)))
 
 
 def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,

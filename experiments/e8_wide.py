@@ -96,7 +96,7 @@ def run_case(task: tuple) -> dict:
     """Render (or project) one head × protocol, calibrate closed form and refined, score."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     head_id, fields, proto, kind, amp, seed, n_intr, synthetic = task
-    from rasc.head.pipeline import calibrate_dataset, refine_calibration
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, refine_calibration
 
     board = target(kind)
     poses = positions(amp)
@@ -115,7 +115,8 @@ def run_case(task: tuple) -> dict:
                        units=units, quiet=True, board=board)
         dataset = load_dataset(Path(tmp.name) / "ds")
         truth = dataset.load_ground_truth()
-    cal_p = calibrate_dataset(dataset, log=lambda s: skipped.append(s)
+    cal_p = calibrate_dataset(dataset, CalibrationOptions(model="paper"),
+                              log=lambda s: skipped.append(s)
                               if "skipped" in s else None)
     cal_g = refine_calibration(cal_p, dataset)
     true = true_head(truth)

@@ -100,14 +100,49 @@ def exit_process(status: int, *, teardown: bool = True) -> None:
     all written and closed, and whose loaded libraries take long to free).
     """
     if status == 130 or not teardown:
-        if status != 130 and "multiprocessing.util" in sys.modules:
-            # what the interpreter's exit would do for multiprocessing: release the
-            # semaphores of finished pools, or the resource tracker prints "There appear
-            # to be N leaked semaphore objects" after the last line (make reproduce)
-            with contextlib.suppress(Exception):
-                sys.modules["multiprocessing.util"]._run_finalizers(0)
+        _multiprocessing_teardown()
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):
                 stream.flush()
         os._exit(status)
     sys.exit(status)
+
+
+def _multiprocessing_teardown() -> None:
+    """What the interpreter's exit would do for :mod:`multiprocessing` (its ``atexit``
+    function), before an ``os._exit``: end daemonic children, run the finalizers that
+    unlink the pools' semaphores (else the resource tracker reports them as leaked) and
+    remove the ``pymp-*`` temporary folder. Best effort; nothing when it was not used."""
+    util = sys.modules.get("multiprocessing.util")
+    if util is None:
+        return
+    with contextlib.suppress(Exception):
+        util._exit_function()          # the function multiprocessing registers at exit
+
+
+#: temporary folders this process made and removes itself; :func:`end_by_sigterm`
+#: removes them when the process is ended before its own clean-up can run
+_TEMPORARY: set[str] = set()
+
+
+def register_temporary(path: str) -> str:
+    """Note a temporary folder this process will remove (returns ``path``)."""
+    _TEMPORARY.add(str(path))
+    return str(path)
+
+
+def forget_temporary(path: str) -> None:
+    """Remove the temporary folder ``path`` and forget it."""
+    import shutil
+    shutil.rmtree(path, ignore_errors=True)
+    _TEMPORARY.discard(str(path))
+
+
+def end_by_sigterm(signum, frame) -> None:  # noqa: ARG001 (signal handler signature)
+    """A worker's SIGTERM handler: remove the registered temporary folders and end the
+    process at once (raising instead would unwind through whatever code runs, a weakref
+    callback or a queue's flush among them, and may never end)."""
+    import shutil
+    for path in list(_TEMPORARY):
+        shutil.rmtree(path, ignore_errors=True)
+    os._exit(128 + signum)

@@ -29,13 +29,16 @@ Fixtures
 ``rasc_render``
     The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> RenderedDataset``.
 
-Cache: a dataset is stored under a key that hashes every render option, the model
-files and rasc's code (:func:`dataset_key`), so a changed option, model, release or
-renderer renders anew.
-Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else the
-environment variable ``RASC_CACHE_DIR``, else pytest's cache (``.pytest_cache/d/rasc``),
-else (with ``-p no:cacheprovider``) a temporary folder of the session. A dataset is
-rendered into a temporary folder and renamed into place, so parallel workers
+Cache: the dataset service's (:mod:`rasc.datasets`): a dataset is stored under the
+one key over every render option, the model file and rasc's code digest
+(:func:`dataset_key`), so a changed option, model, release or renderer renders anew;
+each entry is verified by the sha256 of its content when read (a damaged one is rendered
+again, with a note).
+Directory: ``--rasc-cache-dir DIR``, else the ini option ``rasc_cache_dir``, else
+``$RASC_CACHE_DIR/rendered`` (the store the reproduction shares), else pytest's cache
+(``.pytest_cache/d/rasc``), else (with ``-p no:cacheprovider``) a temporary folder of the
+session; ``none`` or ``off`` means no cache (a temporary folder of the process). A
+dataset is rendered into a temporary folder and renamed into place, so parallel workers
 (pytest-xdist) never see half a dataset. Rendering chooses the OpenGL backend before
 mujoco is imported (``MUJOCO_GL``, egl by default on a headless machine).
 
@@ -46,12 +49,9 @@ Assertion
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
-import shutil
-import tempfile
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -193,6 +193,12 @@ def assert_handeye_close(result: Any, truth: Any, *, rotation_deg: float,
         truth; allowed 0.1° and 0.01: rotation too far
     """
     __tracebackhide__ = True
+    T = np.asarray(getattr(result, "T_cam_from_gaze", result), dtype=float)
+    if T.shape == (4, 4) and not np.all(np.isfinite(T)):
+        method = getattr(result, "method", None)
+        raise AssertionError("T_cam_from_gaze" + (f" (method {method})" if method else "")
+                             + " has non-finite entries (NaN or infinity): no solution "
+                             f"to compare; allowed {rotation_deg:g}° and {translation:g}")
     rot, trans = handeye_errors(result, truth)
     bad = [what for what, err, tol in (("rotation", rot, rotation_deg),
                                        ("translation", trans, translation))
@@ -247,51 +253,34 @@ class RenderedDataset:
         return load_dataset(self.path)
 
 
-def _file_digest(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
-    """The cache key of a rendered dataset: sha256 over every render option, the model
-    files' contents and rasc's code (first 20 hex digits). The code is
-    :func:`rasc.study.engine.code_digest`, the study cache's: the rasc version, every file
-    of the package and the versions of the libraries that render and detect, so a
-    development install whose renderer changed within one version renders afresh."""
-    from rasc import __version__
-    from rasc.sim import MODELS_DIR as models
-    from rasc.study.engine import code_digest
-    files = {p.name: _file_digest(p) for p in sorted(models.glob("*.xml"))}
-    if model_path is not None:
-        files["model_path"] = _file_digest(Path(model_path))
-    blob = json.dumps({"rasc": __version__, "code": code_digest(), "options": asdict(options),
-                       "models": files}, sort_keys=True, default=list)
-    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+    """The cache key of a rendered dataset: the dataset service's one key
+    (:func:`rasc.datasets.render.render_key`: rasc's code digest, the rasc version and
+    the libraries) of every render option and the model file's content (32 hex digits)."""
+    from rasc.datasets.render import render_key
+
+    return render_key(options, model_path)
 
 
-def render_cached(cache_dir: str | os.PathLike, model_path: str | os.PathLike | None = None,
+def render_cached(cache_dir: str | os.PathLike | None,
+                  model_path: str | os.PathLike | None = None,
                   **options) -> RenderedDataset:
-    """Render (or find in ``cache_dir``) the dataset of ``RenderOptions(**options)``."""
-    from rasc.sim.render import RenderOptions, render_dataset
+    """Render (or find in the cache folder ``cache_dir``) the dataset of
+    ``RenderOptions(**options)``, through the dataset service
+    (:func:`rasc.datasets.render.rendered`): entries verified by the sha256 of their
+    content when read, a damaged one rendered again with a note. ``cache_dir`` None: no
+    cache (rendered into a temporary folder of the process)."""
+    from rasc.datasets import CacheStore
+    from rasc.datasets.render import rendered
+    from rasc.sim.render import RenderOptions
 
     opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
                             tuple(v) if k == "dist" else v for k, v in options.items()})
-    key = dataset_key(opts, model_path)
-    cache = Path(cache_dir)
-    cache.mkdir(parents=True, exist_ok=True)
-    final = cache / key
-    if not (final / "manifest.json").exists():
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=cache))
-        try:
-            render_dataset(tmp / "data", opts, model_path=model_path, quiet=True)
-            try:
-                os.rename(tmp / "data", final)        # atomic: all or nothing
-            except OSError:
-                if not (final / "manifest.json").exists():   # not another worker's
-                    raise
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
-    gt = json.loads((final / "ground_truth.json").read_text(encoding="utf-8"))
-    return RenderedDataset(path=final, options=opts, ground_truth=gt, key=key)
+    store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
+        else None
+    path, key = rendered(opts, model_path, store)
+    gt = json.loads((path / "ground_truth.json").read_text(encoding="utf-8"))
+    return RenderedDataset(path=path, options=opts, ground_truth=gt, key=key)
 
 
 # ---------------------------------------------------------------- pytest plugin
@@ -306,11 +295,19 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                   default="")
 
 
-def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path:
+def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path | None:
+    """The cache folder: ``--rasc-cache-dir`` / ``rasc_cache_dir`` as given, else the
+    dataset service's store of rendered datasets under ``RASC_CACHE_DIR`` (shared with
+    the reproduction), else pytest's cache, else a folder of the session. None: no cache
+    (``none``, ``off``: as everywhere in rasc; never a folder named "none")."""
     chosen = (config.getoption("rasc_cache_dir", default=None)
-              or config.getini("rasc_cache_dir") or os.environ.get("RASC_CACHE_DIR"))
+              or config.getini("rasc_cache_dir"))
+    off = ("none", "off")
     if chosen:
-        return Path(chosen).expanduser()
+        return None if chosen.strip().lower() in off else Path(chosen).expanduser()
+    env = os.environ.get("RASC_CACHE_DIR")
+    if env:
+        return None if env.strip().lower() in off else Path(env).expanduser() / "rendered"
     cache = getattr(config, "cache", None)
     if cache is not None:
         return Path(cache.mkdir(CACHE_NAME))

@@ -26,7 +26,6 @@ from experiments import e5_base_to_ptu as e5  # noqa: E402
 from experiments._common import (  # noqa: E402
     Context,
     calibration_cache,
-    calibration_code_digest,
     calibration_key,
     load_cached_calibration,
     renderer_digest,
@@ -109,31 +108,19 @@ def copy_of_the_package(tmp_path: Path) -> Path:
     return root
 
 
-def test_the_key_follows_the_calibration_code_only(tmp_path):
-    root = copy_of_the_package(tmp_path)
-    d0 = calibration_code_digest(root)
-    assert d0 == calibration_code_digest()
-    # a change outside the calibration code (the renderer, the study engine): same key
-    for other in (root / "sim" / "scene.py", root / "study" / "engine.py"):
-        other.write_text(other.read_text() + "\n# changed\n")
-    assert calibration_code_digest(root) == d0
-    # one character in any package that computes a calibration: another key
-    for pkg in ("geometry", "handeye", "head", "vision"):
-        src = sorted((root / pkg).glob("*.py"))[-1]
-        text = src.read_text()
-        src.write_text(text + " ")
-        assert calibration_code_digest(root) != d0, pkg
-        src.write_text(text)
-    assert calibration_code_digest(root) == d0
-    # a module outside those packages that one of them imports is part of it too
-    (root / "sim" / "helper.py").write_text("X = 1\n")
-    assert calibration_code_digest(root) == d0
-    pipeline = root / "head" / "pipeline.py"
-    pipeline.write_text(pipeline.read_text() + "\ndef _f():\n    from rasc.sim import helper\n")
-    d1 = calibration_code_digest(root)
-    assert d1 != d0
-    (root / "sim" / "helper.py").write_text("X = 2\n")
-    assert calibration_code_digest(root) != d1
+def test_the_key_follows_the_one_code_digest(default_dataset, monkeypatch, tmp_path):
+    """The calibration's key names the dataset service's one code digest (any change to
+    rasc's files or libraries): another digest, another cache entry."""
+    import rasc.datasets.keys as keys
+    from rasc.datasets import code_digest
+
+    monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path))
+    key = calibration_key(default_dataset)
+    assert key["code_sha256"] == code_digest()
+    path = calibration_cache(key)
+    monkeypatch.setattr(keys, "_CODE_DIGEST", ["0" * 64])
+    other = calibration_key(default_dataset)
+    assert other["code_sha256"] == "0" * 64 and calibration_cache(other) != path
 
 
 def test_the_dataset_key_follows_the_rendering_code_only(tmp_path):
@@ -209,13 +196,15 @@ def test_an_entry_others_can_write_is_never_unpickled(tmp_path, capsys):
     import os
     import pickle
 
+    from rasc.datasets.cache import pack
+
     mark = tmp_path / "mark"
     key = {"format": _common.CALIBRATION_CACHE_FORMAT, "dataset_sha256": "a"}
     for folder_mode, file_mode in ((0o777, 0o600), (0o700, 0o666), (0o770, 0o600)):
         folder = tmp_path / f"c{folder_mode:o}{file_mode:o}"
         folder.mkdir()
         path = folder / "entry.pickle"
-        path.write_bytes(pickle.dumps({"key": key, "calibration": _Trap(mark)}))
+        path.write_bytes(pack(pickle.dumps({"key": key, "calibration": _Trap(mark)})))
         os.chmod(path, file_mode)
         os.chmod(folder, folder_mode)
         assert load_cached_calibration(path, key) is None
@@ -225,7 +214,7 @@ def test_an_entry_others_can_write_is_never_unpickled(tmp_path, capsys):
     private = tmp_path / "private"
     private.mkdir(mode=0o700)
     path = private / "entry.pickle"
-    path.write_bytes(pickle.dumps({"key": key, "calibration": _Trap(mark)}))
+    path.write_bytes(pack(pickle.dumps({"key": key, "calibration": _Trap(mark)})))
     os.chmod(path, 0o600)
     assert load_cached_calibration(path, key) is None      # read, then refused: not a Calibration
     assert mark.read_text() == "unpickled"

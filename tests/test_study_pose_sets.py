@@ -341,7 +341,7 @@ def test_a_study_run_twice_renders_once(tmp_path, own_cache, monkeypatch, capsys
     spec = load_spec(write(tmp_path, TINY_RENDER))
     first = run_study(spec, tmp_path / "a", figures=False)
     assert (first.datasets_rendered, first.datasets_cached) == (2, 0)
-    assert len(list(own_cache.glob("*.json"))) == 2
+    assert len(list(own_cache.glob("*.entry"))) == 2
     capsys.readouterr()
     second = run_study(spec, tmp_path / "b", figures=False)
     assert (second.datasets_rendered, second.datasets_cached) == (0, 2)
@@ -353,12 +353,13 @@ def test_a_study_run_twice_renders_once(tmp_path, own_cache, monkeypatch, capsys
     a, b = tree(tmp_path / "a"), tree(tmp_path / "b")
     assert a == b and any(n.startswith("datasets/") for n in a)
     # a damaged entry is rendered again (and stored whole)
-    damaged = sorted(own_cache.glob("*.json"))[0]
-    damaged.write_text(damaged.read_text()[:100])
+    damaged = sorted(own_cache.glob("*.entry"))[0]
+    damaged.write_bytes(damaged.read_bytes()[:100])
     third = run_study(spec, tmp_path / "c", quiet=True, figures=False)
     assert (third.datasets_rendered, third.datasets_cached) == (1, 1)
     assert tree(tmp_path / "c") == a
-    json.loads(damaged.read_text())
+    from rasc.datasets.cache import unpack
+    json.loads(unpack(damaged.read_bytes()))        # replaced by a whole entry
     # no cache at all
     monkeypatch.setenv("RASC_CACHE_DIR", "none")
     shutil.rmtree(own_cache)

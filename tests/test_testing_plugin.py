@@ -33,7 +33,8 @@ def _run_pytest(path, *args, **env):
     environ = dict(os.environ, PYTEST_DISABLE_PLUGIN_AUTOLOAD="1", MUJOCO_GL="egl", **env)
     return subprocess.run([sys.executable, "-m", "pytest", "-p", "rasc.testing",
                            "-p", "no:cacheprovider", "-q", str(path), *args],
-                          capture_output=True, text=True, env=environ, timeout=600)
+                          capture_output=True, text=True, env=environ, timeout=600,
+                          cwd=os.path.dirname(str(path)))
 
 
 # ------------------------------------------------------------------- pose sets
@@ -128,10 +129,10 @@ def test_rendered_dataset_is_cached_by_its_parameters(tmp_path):
     # the key covers every option, the model files and rasc's code
     assert dataset_key(first.options) == first.key
     assert dataset_key(other.options) != first.key
-    import rasc.study.engine as engine
+    import rasc.datasets.keys as keys
 
     with pytest.MonkeyPatch.context() as mp:        # another renderer, the same version
-        mp.setattr(engine, "code_digest", lambda: "0" * 64)
+        mp.setattr(keys, "code_digest", lambda: "0" * 64)
         assert dataset_key(first.options) != first.key
     assert dataset_key(first.options) == first.key
 
@@ -185,7 +186,7 @@ def test_fixtures_in_a_users_suite(tmp_path):
     tolerance fails with the helper's message."""
     test_file = tmp_path / "test_user.py"
     test_file.write_text(USER_TESTS.replace("[SMALL]", repr([SMALL])), encoding="utf-8")
-    cache = tmp_path / "cache"
+    cache = tmp_path / "cache" / "rendered"         # the dataset service's store
     proc = _run_pytest(test_file, "--rasc-cache-dir", str(cache))
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "5 passed" in proc.stdout and "1 failed" in proc.stdout, proc.stdout
@@ -194,9 +195,14 @@ def test_fixtures_in_a_users_suite(tmp_path):
         in proc.stdout
     assert len([p for p in cache.iterdir() if not p.name.startswith(".")]) == 1
     assert [p for p in cache.iterdir() if p.name.startswith(".")] == []  # no leftovers
-    # the same cache through the environment variable: nothing rendered again
+    # the same store through the environment variable (rasc's cache root, whose
+    # rendered/ store it is): nothing rendered again
     (key,) = [p for p in cache.iterdir()]
-    stamp = (key / "manifest.json").stat().st_mtime_ns
-    proc = _run_pytest(test_file, "-k", "dataset", RASC_CACHE_DIR=str(cache))
+    stamp = (key / "data" / "manifest.json").stat().st_mtime_ns
+    proc = _run_pytest(test_file, "-k", "dataset", RASC_CACHE_DIR=str(cache.parent))
     assert proc.returncode == 0, proc.stdout
-    assert (key / "manifest.json").stat().st_mtime_ns == stamp
+    assert (key / "data" / "manifest.json").stat().st_mtime_ns == stamp
+    # RASC_CACHE_DIR=none: no cache, and no folder ./none/
+    proc = _run_pytest(test_file, "-k", "dataset", RASC_CACHE_DIR="none")
+    assert proc.returncode == 0, proc.stdout
+    assert not (tmp_path / "none").exists()

@@ -1,6 +1,12 @@
 """Run a study: render (or reuse) each dataset it needs, draw every sample, solve with
 every method, and write the tidy results.
 
+In stages, each a module: the spec (:mod:`rasc.study.spec`), the task plan and the
+study folder (here: :func:`run_study`), the datasets (:mod:`rasc.study.datasets`), the
+cells (:mod:`rasc.study.cells`), the summary (:mod:`rasc.study.summary`) and the figures
+(:mod:`rasc.study.figures`); tasks run on :mod:`rasc.study.executors`. Every name of
+those stages is importable from here as before.
+
 A study folder ``DIR``::
 
     study.json            the normalised spec, its sha256, the cells (the manifest)
@@ -39,694 +45,94 @@ made first, and a cell whose pose set is the base's own uses the base itself.
 from __future__ import annotations
 
 import contextlib
-import csv
-import io
 import json
 import os
 import shutil
 import sys
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
-from rasc.errors import DegenerateDataError, InputError, RascError
-from rasc.geometry.frames import EYES
+from rasc.datasets.cache import EntryError, read_regular
+from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
+from rasc.errors import InputError, RascError
+from rasc.interrupt import Interrupted, forget_temporary, register_temporary
 from rasc.io import (
-    cache_root,
     dumps_json,
-    prune_cache,
-    touch_cache_entry,
-    tree_digest,
     write_json_atomic,
     write_text_atomic,
 )
-from rasc.study.executors import Executor, make_executor, worker_environment
+from rasc.study.cells import (  # noqa: F401 (re-exported: rasc.study.engine's names)
+    ESTIMATE_COLUMNS,
+    FAILURES,
+    MAX_CELL_BYTES,
+    POSE_ERROR_COLUMNS,
+    SAMPLE_COLUMNS,
+    CellTask,
+    _cell_path,
+    _parse_cell,
+    _score,
+    _score_result,
+    _score_samples,
+    _scored,
+    _solve,
+    cell_task,
+    classify_gross,
+    home_view,
+    pose_error_rms,
+    sample_rng,
+    score,
+    verified_cell,
+)
+from rasc.study.datasets import (  # noqa: F401
+    FLAG_KEYS,
+    POSE_RENDER_KEY,
+    SAME_SCENE_ATOL,
+    FolderTask,
+    PoseTask,
+    RenderTask,
+    _check_dataset_doc,
+    _differs,
+    _found_datasets,
+    _in_metres,
+    _render,
+    _scene_record,
+    cache_dir,
+    cache_key,
+    dataset_digest_of,
+    dataset_document,
+    dataset_key,
+    folder_task,
+    pose_task,
+    render_task,
+    same_poses,
+    spec_words,
+    unit_builds,
+)
+from rasc.study.executors import Executor, WorkerCrashed, make_executor
 from rasc.study.spec import (
     FORMAT,
     PARAMS,
     POSE_PARAMS,
-    STATS,
     SUMMARY_TAIL,
-    UNIT_PARAMS,
     Cell,
     Spec,
     check_beside_dataset,
-    dataset_metres,
     pose_grid,
 )
+from rasc.study.summary import (  # noqa: F401
+    BOOTSTRAP_KEY,
+    _samples_text,
+    bootstrap_ci,
+    csv_text,
+    fmt,
+    summarise,
+)
 
-BOOTSTRAP_KEY = 0xB007
-#: what a method may raise that counts as its failure on a sample (not a crash):
-#: the library's errors and numerical breakdowns
-FAILURES = (RascError, ArithmeticError, ValueError, np.linalg.LinAlgError)
-SAMPLE_COLUMNS = ("sample", "method", "status", "translation_mm", "rotation_deg",
-                  "rotation_fro", "quality")
 #: what a study writes in its folder
 OUTPUT_NAMES = ("study.json", "samples.csv", "summary.csv", "cells", "datasets", "figures")
 
-
-# ---------------------------------------------------------------------- formatting
-
-def fmt(x: Any) -> str:
-    """A CSV field: floats in their shortest round-trip form, NaN and None as ''."""
-    if x is None:
-        return ""
-    if isinstance(x, float | np.floating):
-        x = float(x)
-        return "" if not np.isfinite(x) else repr(x)
-    if isinstance(x, list | tuple):
-        return " ".join(fmt(v) for v in x)
-    return str(x)
-
-
-def csv_text(header, rows) -> str:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for row in rows:
-        w.writerow([fmt(v) for v in row])
-    return buf.getvalue()
-
-
-# ---------------------------------------------------------------------- datasets
-
-def dataset_key(render: dict[str, Any], seed: int) -> str:
-    """The cache key of a rendered dataset: its render parameters and seed."""
-    from rasc.study.spec import _digest
-    return _digest({"render": render, "seed": seed})[:20]
-
-
-def unit_builds(render: dict[str, Any]) -> dict | None:
-    """``{eye: rasc.sim.units.UnitBuild}`` from a cell's head-model parameters (applied
-    to the unit(s) of ``units_eye``); None when every one is at its default (the stock
-    head, exactly as before these parameters existed)."""
-    from rasc.sim.units import UnitBuild
-
-    v = {k: render.get(k, PARAMS[k].default) for k in UNIT_PARAMS}
-    if all(v[k] == PARAMS[k].default for k in UNIT_PARAMS):
-        return None
-    offset = v["tilt_axis_offset_mm"]
-    # the stock units' axes: pan x, tilt z at home; their common normal is y (forward)
-    build = UnitBuild(tilt_axis_offset_mm=(0.0, offset, 0.0) if offset else None,
-                      axis_skew_deg=v["axis_skew_deg"] or None,
-                      pan_zero_deg=v["pan_zero_deg"], tilt_zero_deg=v["tilt_zero_deg"],
-                      pan_scale=v["pan_scale"], tilt_scale=v["tilt_scale"])
-    which = render.get("units_eye", PARAMS["units_eye"].default)
-    return {eye: build for eye in EYES if which in ("both", eye)}
-
-
-def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
-    """What the cells need from a calibrated dataset (JSON-ready): per eye the pipeline's
-    poses, angles, kept pose corners (``EyeResult.corners``), intrinsics, and the
-    reference ``T_cam_from_gaze``.
-
-    Parameters
-    ----------
-    cal : rasc.head.pipeline.Calibration
-    board : rasc.vision.board.Board
-    truth : dict or None
-        The renderer's ``ground_truth.json``; its ``T_cam_from_gaze`` per eye is the
-        reference. None (a real head's dataset): the reference is the pipeline's own RASC
-        solution on the measured poses (``"reference": "measured"``), so errors are
-        deviations from what the data give without added noise.
-    """
-    eyes = {}
-    views = (truth or {}).get("views", {})
-    for eye, res in cal.eyes.items():
-        ref = (truth[eye]["T_cam_from_gaze"] if truth is not None
-               else np.asarray(res.handeye.T_cam_from_gaze, float).tolist())
-        if all(f in views for f in res.pose_files):
-            extra_eye = {"T_cam_from_world_true": [views[f]["T_cam_from_world"]
-                                                   for f in res.pose_files]}
-        else:
-            extra_eye = {}
-        eyes[eye] = {
-            "files": list(res.pose_files),
-            "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
-            "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
-                        for f in res.pose_files],
-            "K": np.asarray(res.intrinsics.K, float).tolist(),
-            "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
-            "T_cam_from_gaze_true": ref, **extra_eye}
-    scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
-        if truth is not None else None
-    return {"format": "rasc-study-dataset/1", **extra,
-            **({} if truth is not None else {"reference": "measured"}),
-            **({"scene": scene} if scene is not None else {}),
-            "board": {"inner_corners": list(board.inner_corners),
-                      "square_size": board.square_size},
-            "eyes": eyes}
-
-
-def _scene_record(truth: dict, pose_files) -> dict | None:
-    """What re-rendering a dataset's scene needs and checks, from its ground truth: the
-    render options, the board's pose (at the first pose view) and each head as built;
-    None for a dataset whose ground truth does not record them (not rendered by rasc)."""
-    opts = truth.get("render_options")
-    views = truth.get("views", {})
-    first = views.get(pose_files[0]) if pose_files else None
-    if opts is None or first is None or "T_base_from_world" not in first or not all(
-            "unit_as_built" in truth.get(eye, {}) for eye in EYES):
-        return None
-    return {"render_options": {k: opts.get(k) for k in (
-                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist")},
-            "model_file": truth.get("model_file"),
-            "generated_scene": truth.get("generated_scene", False),
-            "T_base_from_world": first["T_base_from_world"],
-            "heads": {eye: truth[eye]["unit_as_built"] for eye in EYES}}
-
-
-def render_task(task: dict) -> dict:
-    """Render one dataset in a temporary folder, calibrate it with the real pipeline
-    (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
-
-    Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
-    """
-    worker_environment()
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.sim.render import RenderOptions, render_dataset
-    from rasc.vision.dataset import load_dataset
-
-    r = task["render"]
-    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
-    options = RenderOptions(
-        poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
-        n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
-        seed=task["seed"], noise_sigma=full["image_noise"], blur_sigma=full["blur"],
-        dist=tuple(full["distortion"]))
-    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-"))
-    try:
-        folder = tmp / "dataset"
-        try:
-            render_dataset(folder, options, model_path=task["model_path"], quiet=True,
-                           units=unit_builds(r))
-            ds = load_dataset(folder)
-            cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
-        except RascError as exc:     # name the cell's render parameters, not a CLI flag
-            what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
-            raise type(exc)(f"the dataset for {what}: "
-                            f"{' '.join(str(exc).split())}") from None
-        truth = json.loads((folder / "ground_truth.json").read_text())
-        return dataset_document(cal, ds.board, truth, key=task["key"], render=r,
-                                seed=task["seed"])
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-def folder_task(task: dict) -> dict:
-    """Calibrate an existing dataset folder (``[fixed] dataset``) with the real pipeline;
-    its ``ground_truth.json``, when present, is the reference (else the measured RASC
-    solution, see :func:`dataset_document`)."""
-    worker_environment()
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.vision.dataset import load_dataset
-
-    folder = Path(task["folder"])
-    ds = load_dataset(folder)
-    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
-    gt = folder / "ground_truth.json"
-    truth = json.loads(gt.read_text()) if gt.is_file() else None
-    doc = dataset_document(cal, ds.board, truth, key=task["key"])
-    return _in_metres(doc, dataset_metres(folder))
-
-
-#: the scene re-rendered for ``intrinsics_from = "dataset"`` must be the base's: the
-#: board's pose, the heads' constants within this (both come from the same model through
-#: quaternion round trips: ~1e-15 seen; a different scene differs by millimetres)
-SAME_SCENE_ATOL = 1e-9
-#: the generator of a pose-only render's image degradation: SeedSequence([seed, this, key])
-POSE_RENDER_KEY = 0x9053
-
-
-def same_poses(doc: dict, poses_deg) -> bool:
-    """Whether both eyes of a dataset document have exactly the pose set ``poses_deg``
-    (pan, tilt in degrees, in this order; within 1e-12 rad)."""
-    want = np.radians(np.asarray(poses_deg, float))
-    for eye in doc["eyes"].values():
-        have = np.asarray(eye["pan_tilt_rad"], float)
-        if have.shape != want.shape or np.abs(have - want).max() > 1e-12:
-            return False
-    return True
-
-
-def _differs(a, b, path: str = "") -> str | None:
-    """The first place two JSON trees differ (numbers within SAME_SCENE_ATOL), or None."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        for k in sorted(set(a) | set(b)):
-            if k not in a or k not in b:
-                return f"{path}.{k}".lstrip(".")
-            d = _differs(a[k], b[k], f"{path}.{k}")
-            if d:
-                return d
-        return None
-    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
-        if len(a) != len(b):
-            return path.lstrip(".")
-        for k, (x, y) in enumerate(zip(a, b, strict=True)):
-            d = _differs(x, y, f"{path}[{k}]")
-            if d:
-                return d
-        return None
-    if isinstance(a, int | float) and isinstance(b, int | float) and \
-            not isinstance(a, bool) and not isinstance(b, bool):
-        return None if abs(float(a) - float(b)) <= SAME_SCENE_ATOL else path.lstrip(".")
-    return None if a == b else path.lstrip(".")
-
-
-def pose_task(task: dict) -> dict:
-    """``intrinsics_from = "dataset"``: render only the pose views of ``task["render"]``'s
-    pose set in the base dataset's scene, detect their corners (the pipeline's detector)
-    and estimate each view's extrinsics with the base's intrinsics (docs/METHOD.md §7).
-    Returns a dataset document like :func:`render_task`'s (JSON-ready).
-
-    The scene: a base rendered by this study is re-rendered from its render parameters;
-    a given base from its ``scene`` record (the ground truth's render options, board
-    pose and heads, checked against the package model's within SAME_SCENE_ATOL).
-
-    Raises
-    ------
-    rasc.errors.InputError
-        The base has no scene record (not rendered by rasc), its scene is not the package
-        model's, or a pose view cannot see the board.
-    rasc.errors.DegenerateDataError
-        The board is not found in a rendered pose view.
-    """
-    worker_environment()
-    from rasc.head.pipeline import CalibrationOptions
-    from rasc.sim.render import RenderOptions, check_pose_views, distortion_of, view_image
-    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
-    from rasc.vision.board import Board
-    from rasc.vision.camera import detect_corners, estimate_extrinsics
-
-    base, r = task["base"], task["render"]
-    where = task["where"]
-    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
-    poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
-    if "render" in base:                   # rendered by this study: its own parameters
-        b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
-             if p.kind == "render"}
-        scene = {"seed": base["seed"], "target_distance": b["distance"],
-                 "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
-                 "dist": list(b["distortion"])}
-        model_path, units, record = task.get("model_path"), unit_builds(base["render"]), None
-    else:
-        record = base.get("scene")
-        if record is None:
-            raise InputError(f"{where}: intrinsics_from = 'dataset' renders pose views in "
-                             "the dataset's scene, but the dataset records none (its "
-                             "ground_truth.json has no render_options, views and heads: "
-                             "not rendered by rasc render)")
-        if record.get("generated_scene"):
-            raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset was "
-                             "rendered from a generated scene, which cannot be rendered again")
-        scene = record["render_options"]
-        model_path, units = None, None
-    board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
-    options = RenderOptions(poses_deg=poses, target_distance=scene["target_distance"],
-                            seed=scene["seed"], noise_sigma=scene["noise_sigma"] or 0.0,
-                            blur_sigma=scene["blur_sigma"] or 0.0,
-                            dist=tuple(scene["dist"] or ()))
-    dist, distorted = distortion_of(options)
-    rng = np.random.default_rng(np.random.SeedSequence(
-        [task["seed"], POSE_RENDER_KEY, int(task["key"], 16)]))
-    detector = CalibrationOptions().detector
-    images: dict[str, list] = {eye: [] for eye in EYES}
-    T_true: dict[str, list] = {eye: [] for eye in EYES}
-    with StereoHeadSim(model_path, units=units) as sim:
-        if sim.board != board:
-            raise InputError(f"{where}: intrinsics_from = 'dataset': the scene's board "
-                             f"{sim.board} is not the dataset's {board}")
-        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
-        if record is not None:
-            gt = sim.ground_truth()
-            diff = _differs(sim.T_base_from_world.tolist(), record["T_base_from_world"]) \
-                and "T_base_from_world"
-            for eye in EYES:
-                diff = diff or _differs(gt[eye]["unit_as_built"], record["heads"][eye],
-                                        f"{eye}.unit_as_built")
-            if diff:
-                raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset's scene "
-                                 f"is not the package model's ({diff} differs); only a "
-                                 "dataset rendered from it can be rendered again")
-        check_pose_views(sim, options, dist if distorted else None)
-        warp = {eye: distortion_warp(sim.K(eye), dist, sim.image_size) for eye in EYES} \
-            if distorted else {}
-        for pan, tilt in poses:
-            for eye in EYES:
-                sim.set_angles(eye, np.radians(pan), np.radians(tilt))
-            for eye in EYES:
-                images[eye].append(view_image(sim, eye, warp, rng, options))
-                T_true[eye].append(sim.T_cam_from_world(eye).tolist())
-        X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
-    pan_tilt = np.radians(np.asarray(poses, float))
-    eyes = {}
-    for eye, data in base["eyes"].items():
-        X_true = np.asarray(data["T_cam_from_gaze_true"], float)
-        if np.abs(X_sim[eye] - X_true).max() > SAME_SCENE_ATOL:
-            raise InputError(f"{where}: intrinsics_from = 'dataset': the rendered {eye} "
-                             "head's T_cam_from_gaze is not the dataset's truth")
-        K, d = np.asarray(data["K"], float), np.asarray(data["dist"], float)
-        files, corners, T_cw = [], [], []
-        for k, image in enumerate(images[eye]):
-            name = f"poses±{full['motion_deg']:g}/{eye}_{k:02d}"
-            c = detect_corners(image, board, method=detector)
-            if c is None:
-                raise DegenerateDataError(f"{where}: the pose view {name} (pan, tilt = "
-                                          f"{poses[k][0]:g}, {poses[k][1]:g} deg): board "
-                                          "not found")
-            files.append(name)
-            corners.append(np.asarray(c, float).tolist())
-            T_cw.append(estimate_extrinsics(c, board, K, d)[0].tolist())
-        eyes[eye] = {"files": files, "pan_tilt_rad": pan_tilt.tolist(), "T_cam_from_world": T_cw,
-                     "corners": corners, "K": data["K"], "dist": data["dist"],
-                     "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
-                     "T_cam_from_world_true": T_true[eye]}
-    out = {"format": "rasc-study-dataset/1", "key": task["key"], "render": r,
-           "seed": task["seed"], "intrinsics_of": task["base_key"],
-           "board": base["board"], "eyes": eyes}
-    if record is not None:
-        out["scene"] = record
-    return out
-
-
-def _in_metres(doc: dict, metres: float) -> dict:
-    """A dataset document's lengths (the board's square size, every translation) scaled
-    by ``metres`` per unit: the cells measure errors and eq. 14 noise in metres."""
-    if metres == 1.0:
-        return doc
-    doc["board"]["square_size"] *= metres
-    if "scene" in doc:
-        T = np.asarray(doc["scene"]["T_base_from_world"], float)
-        T[:3, 3] *= metres
-        doc["scene"]["T_base_from_world"] = T.tolist()
-    for eye in doc["eyes"].values():
-        for key in ("T_cam_from_world", "T_cam_from_gaze_true", "T_cam_from_world_true"):
-            if key not in eye:
-                continue
-            T = np.asarray(eye[key], float)
-            T[..., :3, 3] *= metres
-            eye[key] = T.tolist()
-    return doc
-
-
-# ---------------------------------------------------------------------- the cache
-
-#: the distributions whose versions enter the cache key (the first of each group found)
-CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
-                   ("opencv-python-headless", "opencv-python", "opencv-contrib-python",
-                    "opencv-contrib-python-headless"))
-
-
-def cache_dir() -> Path | None:
-    """Where rendered study datasets are cached between runs: ``study-datasets`` under
-    :func:`rasc.io.cache_root` (``RASC_CACHE_DIR=none`` turns the cache off)."""
-    root = cache_root()
-    return None if root is None else root / "study-datasets"
-
-
-_CODE_DIGEST: list[str] = []
-
-
-def code_digest() -> str:
-    """sha256 over rasc's version, every file of the package (its code and models: the
-    renderer, the pipeline that calibrates a render, this engine) and the versions of
-    the libraries that render, detect and solve: what a cached dataset depends on."""
-    if not _CODE_DIGEST:
-        import hashlib
-        import importlib.metadata
-
-        import rasc
-        root = Path(rasc.__file__).parent
-        h = hashlib.sha256(f"rasc {rasc.__version__}\0".encode())
-        h.update(tree_digest(root, root.rglob("*")).encode())
-        for names in CACHE_LIBRARIES:
-            for name in names:
-                try:
-                    h.update(f"{name} {importlib.metadata.version(name)}\0".encode())
-                    break
-                except importlib.metadata.PackageNotFoundError:
-                    continue
-        _CODE_DIGEST.append(h.hexdigest())
-    return _CODE_DIGEST[0]
-
-
-def cache_key(kind: str, task: dict) -> str:
-    """The cache file name of a render (``kind`` "render") or pose-set (``kind`` "poses")
-    task: sha256 of :func:`code_digest`, the task's dataset key, render parameters (the
-    model as its file's sha256), seed and, for a pose set, its base dataset's sha256."""
-    from rasc.study.spec import _digest
-    what = {"format": "rasc-study-cache/1", "code": code_digest(), "kind": kind,
-            "key": task["key"], "render": task["render"], "seed": task["seed"]}
-    if kind == "poses":
-        what["base"] = dataset_digest_of(task["base"])
-    return _digest(what)[:32]
-
-
-def _cache_get(root: Path | None, name: str) -> dict | None:
-    if root is None:
-        return None
-    try:
-        doc = json.loads((root / f"{name}.json").read_text())
-    except (OSError, ValueError):
-        return None          # absent, unreadable or damaged: render it again
-    if not (isinstance(doc, dict) and doc.get("format") == "rasc-study-dataset/1"):
-        return None
-    touch_cache_entry(root / f"{name}.json")         # used: the last to be pruned
-    return doc
-
-
-def _cache_put(root: Path | None, name: str, doc: dict, log: Callable[[str], None]) -> None:
-    """Store a dataset document in the cache (whole or not at all; best effort)."""
-    if root is None:
-        return
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(root / f"{name}.json", doc)
-        prune_cache(root, keep=root / f"{name}.json")
-    except OSError as exc:
-        log(f"rasc study: note: could not cache a dataset in {root} ({exc})")
-
-
-# ---------------------------------------------------------------------- samples
-
-def sample_rng(seed: int, cell: Cell, sample: int) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence([seed, *cell.seed_words, sample]))
-
-
-def _solve(method: str, T_cw: np.ndarray, T_gp: np.ndarray, literal: bool):
-    from rasc.handeye.methods import solve
-    options = {"check_rigid": False} if literal else {}
-    return solve(method, T_cw, T_gp, **options)
-
-
-def _scored(T: np.ndarray, quality: float, T_true: np.ndarray) -> tuple:
-    from rasc.geometry.transforms import rotation_error_deg
-
-    R, R_true = T[:3, :3], T_true[:3, :3]
-    return ("ok", 1000.0 * float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])),
-            float(rotation_error_deg(R, R_true)), float(np.linalg.norm(R - R_true)),
-            float(quality), T)
-
-
-def _score_result(res: Any, T_true: np.ndarray) -> tuple:
-    """A solve's result, or the exception it raised, scored against ``T_true``: a failure
-    (:data:`FAILURES`) is "failed: <error class>", a non-finite result "non-finite", both
-    without numbers; any other exception propagates."""
-    nan = float("nan")
-    if isinstance(res, Exception):
-        if not isinstance(res, FAILURES):
-            raise res
-        return f"failed: {type(res).__name__}", nan, nan, nan, nan, None
-    T = np.asarray(res.T_cam_from_gaze, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        return "non-finite", nan, nan, nan, nan, None
-    return _scored(T, res.quality, T_true)
-
-
-def _score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
-           literal: bool) -> tuple:
-    try:
-        res = _solve(method, T_cw, T_gp, literal)
-    except FAILURES as exc:
-        res = exc
-    return _score_result(res, T_true)
-
-
-def score(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
-          literal: bool) -> tuple[str, float, float, float, float]:
-    """(status, translation_mm, rotation_deg, rotation_fro, quality) of one solve; a
-    failed or non-finite solve has status "failed: <error class>" or "non-finite" and no
-    numbers (never an error value)."""
-    return _score(method, T_cw, T_gp, T_true, literal)[:5]
-
-
-def _score_samples(method: str, T_cw: np.ndarray, T_gp: np.ndarray, T_true: np.ndarray,
-                   literal: bool) -> list[tuple]:
-    """:func:`_score` for each of S pose sets (S, n, 4, 4), all solved in one call of
-    :func:`rasc.handeye.methods.solve_many` (RASC's batched solver, whose result for a
-    set is, bit for bit, that set's own solve whatever the other sets: a sample's numbers
-    do not depend on how many samples its cell has)."""
-    from rasc.handeye.methods import solve_many
-
-    try:
-        results = solve_many(method, T_cw, T_gp, **({"check_rigid": False} if literal else {}))
-    except FAILURES as exc:                      # the method itself (e.g. its name) fails
-        results = [exc] * len(T_cw)
-    return [_score_result(res, T_true) for res in results]
-
-
-#: the estimate's columns of samples.csv with ``estimates=True`` (mm; R row-major)
-ESTIMATE_COLUMNS = ("t_x_mm", "t_y_mm", "t_z_mm",
-                    *(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)))
-#: the sample's extrinsics error against the rendered truth, with ``pose_errors=True``:
-#: RMS over the pose views, per camera axis (x right, y down, z optical axis), of the
-#: rotation-error vector log(R R_true^T) (rad) and of t - t_true (mm); the eq. 13-14
-#: equivalent (docs/METHOD.md §8) is the RMS of each triple
-POSE_ERROR_COLUMNS = (*(f"pose_rot_{a}_rad" for a in "xyz"), *(f"pose_t_{a}_mm" for a in "xyz"))
-
-
-def pose_error_rms(T_cw: np.ndarray, T_true: np.ndarray) -> list[float]:
-    """:data:`POSE_ERROR_COLUMNS` of one pose set: ``T_cw``, ``T_true`` (n, 4, 4) in
-    metres → [rot x, y, z (rad), t x, y, z (mm)], RMS over the n views."""
-    from rasc.geometry.transforms import rotvec_from_matrix
-
-    w = rotvec_from_matrix(T_cw[:, :3, :3] @ np.swapaxes(T_true[:, :3, :3], -1, -2))
-    dt = 1000.0 * (T_cw[:, :3, 3] - T_true[:, :3, 3])
-    return [*map(float, np.sqrt(np.mean(w**2, axis=0))),
-            *map(float, np.sqrt(np.mean(dt**2, axis=0)))]
-
-
-def classify_gross(res: tuple, gross: tuple[float | None, float | None]) -> tuple:
-    """A scored solve (:func:`_score`'s tuple) with status "gross" when it is "ok" but
-    farther from the truth than ``gross`` = (deg, mm) allows (None: no limit)."""
-    deg, mm = gross
-    if res[0] == "ok" and (deg is not None and res[2] > deg or mm is not None and res[1] > mm):
-        return ("gross", *res[1:])
-    return res
-
-
-def home_view(pan_tilt: np.ndarray, where: str) -> int:
-    """The index of the one view at pan = tilt = 0; DegenerateDataError otherwise."""
-    home = np.flatnonzero(np.all(np.asarray(pan_tilt) == 0.0, axis=1))
-    if home.size != 1:
-        raise DegenerateDataError(f"{where}: {home.size} pose views at pan = tilt = 0; "
-                                  "noise_on = 'home' needs exactly one home view")
-    return int(home[0])
-
-
-def cell_task(task: dict) -> list[list]:
-    """Every sample of one cell: ``[sample, method, status, errors..., quality]`` rows
-    (and the estimate, :data:`ESTIMATE_COLUMNS`, with ``task["estimates"]``).
-
-    A cell without sample-level noise (σ = 0 and no corner noise) solves once and repeats
-    that row for every sample: its samples are the same pose set."""
-    worker_environment()
-    from rasc.geometry.kinematics import T_gaze_from_ptu
-    from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
-    from rasc.vision.board import Board
-    from rasc.vision.camera import estimate_extrinsics
-
-    cell: Cell = task["cell"]
-    p, data = cell.params, task["dataset"]
-    eye = data["eyes"][p["eye"]]
-    T_cw0 = np.asarray(eye["T_cam_from_world"], float)
-    pan_tilt = np.asarray(eye["pan_tilt_rad"], float)
-    T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
-    T_true = np.asarray(eye["T_cam_from_gaze_true"], float)
-    literal = p["noise_model"] == "literal"
-    pose_noise = p["sigma_r"] > 0 or p["sigma_t_mm"] > 0
-    noisy = pose_noise or p["corner_noise_px"] > 0
-    home = (home_view(pan_tilt, f"the {p['eye']} eye's dataset")
-            if pose_noise and p.get("noise_on", "all") == "home" else None)
-    if p["corner_noise_px"] > 0:
-        board = Board(tuple(data["board"]["inner_corners"]), data["board"]["square_size"])
-        corners = [np.asarray(c, float) for c in eye["corners"]]
-        K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
-    sets = []
-    for s in range(task["samples"] if noisy else 1):
-        rng = sample_rng(task["seed"], cell, s)
-        T_cw = T_cw0
-        if p["corner_noise_px"] > 0:
-            T_cw = np.array([estimate_extrinsics(c + p["corner_noise_px"]
-                                                 * rng.standard_normal(c.shape),
-                                                 board, K, dist)[0] for c in corners])
-        if pose_noise:                                                # mm -> metres
-            if home is None:
-                T_cw = perturb_T_cam_from_world(T_cw, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
-                                                rng, p["noise_model"])
-            else:
-                T_cw = perturb_one_view(T_cw, home, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
-                                        rng, p["noise_model"])
-        sets.append(T_cw)
-    sets = np.array(sets)
-    scored = {m: _score_samples(m, sets, T_gp, T_true, literal) for m in task["methods"]}
-    gross = task.get("gross", (None, None))
-    if gross != (None, None):
-        scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
-    pose_err = None
-    if task.get("pose_errors"):
-        truth = eye.get("T_cam_from_world_true")
-        pose_err = ([pose_error_rms(T, np.asarray(truth, float)) for T in sets]
-                    if truth is not None else [[float("nan")] * 6] * len(sets))
-    rows = []
-    for s in range(task["samples"]):
-        for method in task["methods"]:
-            *res, T = scored[method][s if noisy else 0]
-            row = [s, method, *res]
-            if task.get("estimates"):
-                row += ([*(1000.0 * T[:3, 3]), *T[:3, :3].ravel()] if T is not None
-                        else [float("nan")] * len(ESTIMATE_COLUMNS))
-            if pose_err is not None:
-                row += pose_err[s if noisy else 0]
-            rows.append(row)
-    return rows
-
-
-# ---------------------------------------------------------------------- summary
-
-def bootstrap_ci(x: np.ndarray, rng: np.random.Generator, resamples: int,
-                 confidence: float) -> tuple[float, float]:
-    """Percentile bootstrap interval of the mean of ``x`` (n,); NaN for n < 2."""
-    if len(x) < 2:
-        return float("nan"), float("nan")
-    means = x[rng.integers(0, len(x), (resamples, len(x)))].mean(axis=1)
-    a = (1.0 - confidence) / 2.0
-    lo, hi = np.quantile(means, [a, 1.0 - a])
-    return float(lo), float(hi)
-
-
-def summarise(spec: Spec, cells: list[Cell], rows_by_cell: dict[int, list[list]]
-              ) -> list[list]:
-    """Per cell and method: n ok, n failed, and for each error its mean, median, std
-    (ddof 1) and the bootstrap CI of the mean."""
-    out = []
-    for cell in cells:
-        rows = rows_by_cell[cell.index]
-        for m_index, method in enumerate(spec.methods):
-            mine = [r for r in rows if r[1] == method]
-            ok = [r for r in mine if r[2] == "ok"]
-            rng = np.random.default_rng(np.random.SeedSequence(
-                [spec.seed, BOOTSTRAP_KEY, *cell.seed_words, m_index]))
-            stats = []
-            for col in (3, 4):
-                x = np.array([float(r[col]) for r in ok])
-                if len(x) == 0:
-                    stats += [None] * len(STATS)
-                    continue
-                lo, hi = bootstrap_ci(x, rng, spec.bootstrap, spec.confidence)
-                stats += [float(x.mean()), float(np.median(x)),
-                          float(x.std(ddof=1)) if len(x) > 1 else None, lo, hi]
-            out.append([cell.index, *cell.axes.values(), method, len(ok),
-                        len(mine) - len(ok), *stats])
-    return out
-
-
-# ---------------------------------------------------------------------- the study
 
 @dataclass
 class StudyResult:
@@ -739,12 +145,8 @@ class StudyResult:
     figures: list[Path]
     #: datasets copied from the cache (:func:`cache_dir`) instead of rendering
     datasets_cached: int = 0
-
-
-def dataset_digest_of(doc: dict) -> str:
-    """The key of a given dataset document: sha256 of its JSON (20 hex digits)."""
-    import hashlib
-    return hashlib.sha256(dumps_json(doc).encode()).hexdigest()[:20]
+    #: the text of samples.csv (kept in memory: callers need not read it back)
+    samples_text: str = field(default="", repr=False)
 
 
 def _manifest(spec: Spec, cells: list[Cell], dataset: str | None = None) -> dict:
@@ -793,6 +195,43 @@ def prepare_folder(out: Path, spec: Spec, resume: bool, dataset: str | None = No
         raise InputError(f"{out}: --out exists and is not empty")
 
 
+@contextlib.contextmanager
+def study_lock(out: Path):
+    """An exclusive lock on the study folder ``out`` for the block (POSIX ``flock`` on the
+    folder itself: nothing is written for it, and it goes with the process, however that
+    ends). A second study into the same folder is refused at once (InputError)."""
+    try:
+        import fcntl
+    except ImportError:                 # not POSIX: one study per folder is assumed
+        yield
+        return
+    fd = os.open(out, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{out}: another rasc study is writing into this folder; "
+                             "wait for it to finish or choose another study folder") from None
+        yield
+    finally:
+        os.close(fd)
+
+
+def _make_folder(out: Path) -> bool:
+    """Create the study folder ``out`` (whether this call created it); InputError, one
+    line, when it cannot be made (``/proc/x``, a read-only place)."""
+    try:
+        out.mkdir()
+        return True
+    except FileExistsError:
+        if not out.is_dir():
+            raise InputError(f"{out}: exists and is not a folder") from None
+        return False
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create the study folder "
+                         f"({exc.strerror or exc})") from None
+
+
 def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
               dask: str | None = None, resume: bool = False, quiet: bool = False,
               executor: Executor | None = None,
@@ -816,12 +255,16 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     figures : bool
         Draw ``figures/<axis>.png`` (callers that plot their own may skip them).
 
-    On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
-    the finished cells stay in ``out/cells`` (each file whole), no partial file is left,
-    a line on stderr says what was kept, and the interrupt propagates.
-    """
-    from rasc.progress import progress
+    The folder is locked for the run (:func:`study_lock`: a second study into it is
+    refused). With ``resume``, every cell file and dataset file found is verified
+    (:func:`verified_cell`, :func:`_check_dataset_doc`) and computed again, with a note,
+    when it is incomplete or damaged: nothing found is trusted unread.
 
+    On KeyboardInterrupt (SIGINT, or SIGTERM inside rasc.interrupt.signals_as_interrupt)
+    the workers are stopped, the finished cells stay in ``out/cells`` (each file whole),
+    no partial file is left, and :class:`rasc.interrupt.Interrupted` is raised, whose note
+    says what was kept (the command line prints it as its one line).
+    """
     log = log or (lambda s: print(s, file=sys.stderr))
     out = Path(out)
     spec_path = spec.path.resolve()
@@ -840,190 +283,237 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         given = dataset_digest_of(dataset)
     elif spec.dataset_path() is not None:
         given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    cache_dir()          # a bad RASC_CACHE_MAX_MB is refused before anything is made
     prepare_folder(out, spec, resume, given)
-    created = not out.exists()
-    owned = executor is None
-    executor = executor or make_executor(workers, dask)
-    for sub in ("cells", "datasets"):
-        (out / sub).mkdir(parents=True, exist_ok=True)
-    write_json_atomic(out / "study.json", _manifest(spec, cells, given))
-    cells_done = 0
-    count = {"rendered": 0, "cached": 0}
-    header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
-              + (POSE_ERROR_COLUMNS if pose_errors else ()))
-    try:
-        # 1. datasets: the one given, or one per distinct set of render parameters;
-        # cells with intrinsics_from = "dataset" first need their base dataset
+    created = _make_folder(out)
+    with study_lock(out):
+        if not created:
+            prepare_folder(out, spec, resume, given)     # again, now that it is ours
+        return _run_locked(spec, out, cells, given, created, workers=workers, dask=dask,
+                           resume=resume, quiet=quiet, executor=executor, log=log,
+                           dataset=dataset, estimates=estimates, figures=figures,
+                           pose_errors=pose_errors)
+
+
+@dataclass
+class _Run:
+    """One locked run of a study: its stages, in order — :meth:`plan` (which dataset each
+    cell needs), :meth:`datasets` (found, cached or computed), :meth:`pose_sets`
+    (intrinsics_from = "dataset"), :meth:`cells`, :meth:`assemble` (samples.csv,
+    summary.csv, figures). What a stage makes stays in memory for the next one."""
+
+    spec: Spec
+    out: Path
+    cells_: list[Cell]
+    given: str | None
+    executor: Executor
+    quiet: bool
+    log: Callable[[str], None]
+    header: tuple[str, ...]
+    cache: Path | None = None
+    #: the workers' temporary files (a render's images), made when a dataset is
+    #: rendered, removed whatever happens
+    scratch: str | None = None
+    count: dict[str, int] = field(default_factory=lambda: {"rendered": 0, "cached": 0})
+    #: the cell files' texts by cell index (verified or just computed)
+    texts: dict[int, str] = field(default_factory=dict)
+    cells_done: int = 0
+    #: per cell index: (base dataset key, its render parameters); the dataset each uses
+    bases: dict[int, tuple[str, dict]] = field(default_factory=dict)
+    keys: dict[int, str] = field(default_factory=dict)
+    docs: dict[str, dict] = field(default_factory=dict)
+
+    def plan(self) -> dict[str, dict]:
+        """The datasets the cells need: the one given, or one per distinct set of render
+        parameters (a cell with intrinsics_from = "dataset" first needs its base)."""
+        spec = self.spec
+
         def base_of(c: Cell) -> tuple[str, dict]:
             r = c.render_params()
-            if given is not None:
-                return given, {}
+            if self.given is not None:
+                return self.given, {}
             if c.params["intrinsics_from"] != "dataset":
                 return dataset_key(r, spec.seed), r
             b = {k: v for k, v in r.items() if k != "intrinsics_from"}
             b.update({k: PARAMS[k].default for k in POSE_PARAMS})
             return dataset_key(b, spec.seed), b
-        bases = {c.index: base_of(c) for c in cells}
+        self.bases = {c.index: base_of(c) for c in self.cells_}
         wanted: dict[str, dict] = {}
-        for k, r in bases.values():
+        for k, r in self.bases.values():
             wanted.setdefault(k, r)
-        missing = [k for k in wanted if not (out / "datasets" / f"{k}.json").is_file()]
+        return wanted
+
+    def datasets(self, wanted: dict[str, dict], dataset: dict | None) -> None:
+        spec, out = self.spec, self.out
         if dataset is not None:
-            for k in missing:
-                write_json_atomic(out / "datasets" / f"{k}.json", dataset)
-            missing = []
+            text = dumps_json(dataset).encode()
+            for k in wanted:
+                path = out / "datasets" / f"{k}.json"
+                try:
+                    same = read_regular(path, len(text) + 1) == text
+                except EntryError:
+                    same = False
+                if not same:
+                    write_json_atomic(path, dataset)
+                self.docs[k] = dataset
+        else:
+            self.docs.update(_found_datasets(out, wanted, self.log))
+        missing = [k for k in wanted if k not in self.docs]
         if spec.dataset_path() is not None:
-            fn, tasks = folder_task, [{"key": k, "folder": str(spec.dataset_path())}
+            fn, tasks = folder_task, [FolderTask(k, str(spec.dataset_path()))
                                       for k in missing]
         else:
+            if missing:
+                self.scratch = register_temporary(tempfile.mkdtemp(prefix="rasc-study-"))
             fn, tasks = render_task, [
-                {"key": k, "render": wanted[k], "seed": spec.seed,
-                 "model_path": (str(spec.model_path(wanted[k]["model"]))
-                                if wanted[k].get("model") else None)} for k in missing]
-        datasets = {}
-        cache = cache_dir()
-        _render(executor, fn, tasks, out, quiet, "render datasets", count,
-                cache if fn is render_task else None, "render", log)
-        for k in wanted:
-            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+                RenderTask(k, wanted[k], spec.seed, where=str(spec.path), scratch=self.scratch,
+                           model_path=(str(spec.model_path(wanted[k]["model"]))
+                                       if wanted[k].get("model") else None))
+                for k in missing]
+        self.docs.update(_render(self.executor, fn, tasks, out, self.quiet, "render datasets",
+                                 self.count, self.cache if fn is render_task else None,
+                                 "render", self.log))
 
-        # 1b. pose sets in a base's scene with its intrinsics (intrinsics_from = "dataset")
-        keys, poses = {}, {}
-        for c in cells:
-            base_key, base_r = bases[c.index]
+    def pose_sets(self) -> None:
+        """Pose sets rendered in a base's scene with its intrinsics."""
+        spec, poses = self.spec, {}
+        for c in self.cells_:
+            base_key, base_r = self.bases[c.index]
             r = c.render_params()
             if c.params["intrinsics_from"] != "dataset":
-                keys[c.index] = base_key
+                self.keys[c.index] = base_key
                 continue
             grid = pose_grid(*(c.params[k] for k in ("layout", "positions", "motion_deg")))
-            if same_poses(datasets[base_key], grid):
-                keys[c.index] = base_key               # the base's own pose set
+            if same_poses(self.docs[base_key], grid):
+                self.keys[c.index] = base_key               # the base's own pose set
                 continue
             k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
-            keys[c.index] = k
-            poses.setdefault(k, {"key": k, "base_key": base_key, "render": r,
-                                 "seed": spec.seed, "where": str(spec.path),
-                                 "model_path": (str(spec.model_path(base_r["model"]))
-                                                if base_r.get("model") else None)})
-        missing = [k for k in sorted(poses) if not (out / "datasets" / f"{k}.json").is_file()]
-        tasks = [{**poses[k], "base": datasets[poses[k]["base_key"]]} for k in missing]
-        _render(executor, pose_task, tasks, out, quiet, "render pose sets", count, cache,
-                "poses", log)
-        for k in poses:
-            datasets[k] = json.loads((out / "datasets" / f"{k}.json").read_text())
+            self.keys[c.index] = k
+            poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, str(spec.path),
+                                         model_path=(str(spec.model_path(base_r["model"]))
+                                                     if base_r.get("model") else None)))
+        self.docs.update(_found_datasets(self.out, poses, self.log))
+        tasks = [replace(poses[k], base=self.docs[poses[k].base_key])
+                 for k in sorted(poses) if k not in self.docs]
+        self.docs.update(_render(self.executor, pose_task, tasks, self.out, self.quiet,
+                                 "render pose sets", self.count, self.cache, "poses",
+                                 self.log))
 
-        # 2. cells
-        todo = [c for c in cells if not _cell_done(out, c, header)]
-        tasks = [{"cell": c, "dataset": datasets[keys[c.index]], "seed": spec.seed,
-                  "samples": spec.samples, "methods": spec.methods,
-                  "estimates": estimates, "pose_errors": pose_errors,
-                  "gross": (spec.gross_rotation_deg, spec.gross_translation_mm)}
+    def cells(self, estimates: bool, pose_errors: bool) -> None:
+        """Every cell: a cell file found is used only when it is whole (verified_cell)."""
+        from rasc.progress import progress
+
+        spec, cells = self.spec, self.cells_
+        for c in cells:
+            text, why = verified_cell(_cell_path(self.out, c), self.header, spec.samples,
+                                      spec.methods)
+            if text is not None:
+                self.texts[c.index] = text
+            elif why is not None:
+                self.log(f"rasc study: note: {_cell_path(self.out, c)} is incomplete or "
+                         f"damaged ({why}); computing the cell again")
+        todo = [c for c in cells if c.index not in self.texts]
+        tasks = [CellTask(c, self.docs[self.keys[c.index]], spec.seed, spec.samples,
+                          spec.methods, estimates=estimates, pose_errors=pose_errors,
+                          time_limit_s=spec.time_limit_s,
+                          gross=(spec.gross_rotation_deg, spec.gross_translation_mm))
                  for c in todo]
-        with progress(total=len(cells), desc="cells", quiet=quiet, unit="cell") as bar:
+        with progress(total=len(cells), desc="cells", quiet=self.quiet, unit="cell") as bar:
             bar.update(len(cells) - len(todo))
-            for i, rows in executor.map_unordered(cell_task, tasks):
-                write_text_atomic(_cell_path(out, todo[i]), csv_text(header, rows))
-                cells_done += 1
-                bar.update(1)
+            try:
+                for i, rows in self.executor.map_unordered(cell_task, tasks):
+                    text = csv_text(self.header, rows)
+                    write_text_atomic(_cell_path(self.out, todo[i]), text)
+                    self.texts[todo[i].index] = text
+                    self.cells_done += 1
+                    bar.update(1)
+            except WorkerCrashed as exc:
+                plugins = _plugins(spec.methods)
+                raise WorkerCrashed(
+                    f"{exc}; " + (f"the plugin method(s) {', '.join(plugins)} may have "
+                                  "ended it (a crash in native code, or an exit rasc.guard "
+                                  "cannot stop); run with one worker to see which"
+                                  if plugins else "no plugin method was running")) from None
+
+    def assemble(self, figures: bool) -> StudyResult:
+        """The tidy samples, the summary and the figures, from the cells' texts."""
+        spec, cells, out = self.spec, self.cells_, self.out
+        rows_by_cell = {c.index: _parse_cell(self.texts[c.index]) for c in cells}
+        axes = list(spec.axes)
+        samples_text = _samples_text(cells, axes, self.header, self.texts)
+        write_text_atomic(out / "samples.csv", samples_text)
+        summary = summarise(spec, cells, rows_by_cell)
+        write_text_atomic(out / "summary.csv",
+                          csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
+        files = []
+        if figures:
+            from rasc.study.figures import plot_study
+            files = plot_study(spec, summary, out / "figures")
+        if self.count["cached"] and not self.quiet:
+            self.log(f"rasc study: {self.count['cached']} dataset(s) copied from the cache "
+                     f"{self.cache} (same render parameters, seed and rasc; "
+                     "RASC_CACHE_DIR=none renders afresh)")
+        return StudyResult(out, len(cells), self.cells_done, self.count["rendered"],
+                           out / "samples.csv", out / "summary.csv", files,
+                           self.count["cached"], samples_text)
+
+
+def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, created: bool,
+                *, workers, dask, resume, quiet, executor, log, dataset, estimates, figures,
+                pose_errors) -> StudyResult:
+    """:class:`_Run`'s stages in the locked folder ``out``; the clean-up after bad input
+    found late and after an interrupt."""
+    owned = executor is None
+    try:
+        executor = executor or make_executor(workers, dask)
+    except BaseException:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    header = (SAMPLE_COLUMNS + (ESTIMATE_COLUMNS if estimates else ())
+              + (POSE_ERROR_COLUMNS if pose_errors else ()))
+    run = _Run(spec, out, cells, given, executor, quiet, log, header, cache_dir())
+    try:
+        for sub in ("cells", "datasets"):
+            (out / sub).mkdir(exist_ok=True)
+        write_json_atomic(out / "study.json", _manifest(spec, cells, given))
+        run.datasets(run.plan(), dataset)
+        run.pose_sets()
+        run.cells(estimates, pose_errors)
     except RascError:
         # bad input found only now (a dataset that cannot be rendered or calibrated, a
         # scene that cannot be rendered again): a folder this run created is removed
         # unless a cell has finished (its datasets alone are no result)
-        if created and cells_done == 0:
+        if created and run.cells_done == 0:
             shutil.rmtree(out, ignore_errors=True)
         raise
     except KeyboardInterrupt:
-        n = sum(_cell_done(out, c, header) for c in cells)
-        log(f"rasc study: interrupted: kept {n} of {len(cells)} finished cells and "
-            f"{len(list((out / 'datasets').glob('*.json')))} dataset(s) in {out}; no "
-            "samples.csv, summary.csv or figures written; continue with --resume")
-        raise
+        if owned:
+            with contextlib.suppress(Exception):
+                executor.abort()
+        kept = len(list((out / "datasets").glob("*.json"))) if (out / "datasets").is_dir() else 0
+        raise Interrupted(
+            f"kept {len(run.texts)} of {len(cells)} finished cells and {kept} dataset(s) in "
+            f"{out}; no samples.csv, summary.csv or figures written; continue with "
+            "--resume") from None
     finally:
         if owned:
             with contextlib.suppress(Exception):
                 executor.close()
-
-    # 3. assemble: tidy samples, summary, figures
-    rows_by_cell = {c.index: _read_cell(out, c) for c in cells}
-    axes = list(spec.axes)
-    write_text_atomic(out / "samples.csv", _samples_text(out, cells, axes, header))
-    summary = summarise(spec, cells, rows_by_cell)
-    write_text_atomic(out / "summary.csv", csv_text(("cell", *axes, *SUMMARY_TAIL), summary))
-    files = []
-    if figures:
-        from rasc.study.figures import plot_study
-        files = plot_study(spec, summary, out / "figures")
-    if count["cached"] and not quiet:
-        log(f"rasc study: {count['cached']} dataset(s) copied from the cache {cache} "
-            "(same render parameters, seed and rasc; RASC_CACHE_DIR=none renders afresh)")
-    return StudyResult(out, len(cells), cells_done, count["rendered"], out / "samples.csv",
-                       out / "summary.csv", files, count["cached"])
+        if run.scratch is not None:
+            forget_temporary(run.scratch)
+    return run.assemble(figures)
 
 
-def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
-            desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
-            log: Callable[[str], None] = print) -> None:
-    """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
-    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there is
-    copied instead (``count["cached"]``) and a rendered one stored there."""
-    from rasc.progress import progress
-
-    names = [cache_key(kind, t) for t in tasks] if cache is not None else []
-    todo = []
-    for k, task in enumerate(tasks):
-        doc = _cache_get(cache, names[k]) if cache is not None else None
-        if doc is not None and doc.get("key") == task["key"]:
-            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
-            count["cached"] += 1
-        else:
-            todo.append(k)
-    if not todo:
-        return
-    with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
-        for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
-            task = tasks[todo[i]]
-            write_json_atomic(out / "datasets" / f"{task['key']}.json", doc)
-            if cache is not None:
-                _cache_put(cache, names[todo[i]], doc, log)
-            count["rendered"] += 1
-            bar.update(1)
-
-
-def _samples_text(out: Path, cells: list[Cell], axes: list[str], header) -> str:
-    """samples.csv: each finished cell's lines (already formatted by :func:`csv_text`)
-    behind the cell's index and axis values, in cell order (the same bytes as formatting
-    the rows again, without doing it twice)."""
-    parts = [csv_text(("cell", *axes, *header), [])]
-    for c in cells:
-        prefix = csv_text(("x",), [[c.index, *c.axes.values()]]).split("\n", 1)[1][:-1]
-        with open(_cell_path(out, c), newline="") as f:
-            f.readline()
-            parts += [f"{prefix},{line}" for line in f]
-    return "".join(parts)
-
-
-def _cell_path(out: Path, cell: Cell) -> Path:
-    return out / "cells" / f"cell-{cell.index:05d}.csv"
-
-
-def _cell_done(out: Path, cell: Cell, header) -> bool:
-    path = _cell_path(out, cell)
-    if not path.is_file():
-        return False
-    with open(path) as f:
-        return f.readline().rstrip("\n") == ",".join(header)
-
-
-def _read_cell(out: Path, cell: Cell) -> list[list]:
-    """A finished cell's rows, typed as :func:`cell_task` returns them."""
-    with open(_cell_path(out, cell), newline="") as f:
-        reader = csv.reader(f)
-        next(reader)
-        rows = []
-        for r in reader:
-            nums = [float(v) if v != "" else float("nan") for v in r[3:]]
-            rows.append([int(r[0]), r[1], r[2], *nums])
-    return rows
+def _plugins(methods) -> list[str]:
+    """The names among ``methods`` that are plugins (not built in)."""
+    from rasc.handeye.methods import get_method
+    out = []
+    for m in methods:
+        with contextlib.suppress(Exception):
+            if not get_method(m).builtin:
+                out.append(m)
+    return out
 
 
 __all__ = ["run_study", "StudyResult", "summarise", "cell_task", "render_task", "PARAMS",

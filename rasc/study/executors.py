@@ -20,17 +20,30 @@ each worker process: mujoco issue #991, PR #2069; docs/NOTES.md, dask.distribute
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import shutil
+import tempfile
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
-from rasc.errors import InputError
+from rasc.errors import InputError, RascError
 
 #: single-threaded numerical libraries in every worker: N workers use N cores, and a
 #: result never depends on a library's thread count
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+class WorkerCrashed(RascError):
+    """A worker process ended while it ran a task (a crash in native code, a kill, an
+    exit no Python code could stop): one line, not a BrokenProcessPool traceback."""
+
+
+#: how long stopping a pool's workers may take before they are killed, s
+STOP_GRACE_S = 2.0
 
 
 def worker_environment() -> None:
@@ -40,13 +53,30 @@ def worker_environment() -> None:
         os.environ.setdefault(var, "1")
 
 
+def no_process_locks() -> None:
+    """tqdm's lock in a worker: a thread lock, not its default multiprocessing lock (a
+    named semaphore that a worker killed while it renders would leave to the resource
+    tracker, which then reports it as leaked)."""
+    import threading
+
+    from tqdm import tqdm
+    tqdm.set_lock(threading.RLock())
+
+
 def _pool_worker_init() -> None:
-    """A process-pool worker: :func:`worker_environment`, and Ctrl-C left to the parent
-    (it reaches the whole process group; the parent stops the pool and says what it
-    kept, a worker must not print a traceback of its own)."""
+    """A process-pool worker: :func:`worker_environment`, Ctrl-C left to the parent (it
+    reaches the whole process group; the parent stops the pool and says what it kept, a
+    worker must not print a traceback of its own), SIGTERM (the parent stopping it) the
+    end, at once."""
     import signal
+
+    from rasc.interrupt import end_by_sigterm
     worker_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # stopped by the parent (ProcessExecutor.abort): at once (a render's files are in the
+    # study's scratch folder, which the parent removes)
+    signal.signal(signal.SIGTERM, end_by_sigterm)
+    no_process_locks()
 
 
 class Executor:
@@ -66,10 +96,17 @@ class Executor:
         """Release the executor's workers (nothing to release in this process)."""
         pass
 
+    def abort(self) -> None:
+        """Stop at once (after an interrupt): running tasks are abandoned, every worker
+        process is ended within :data:`STOP_GRACE_S`."""
+        self.close()
+
     def __enter__(self) -> Executor:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            self.abort()              # interrupted: stop the workers, do not wait
         self.close()
 
 
@@ -88,13 +125,22 @@ class ProcessExecutor(Executor):
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers, initializer=_pool_worker_init,
                 mp_context=multiprocessing.get_context("forkserver"))
+        from concurrent.futures.process import BrokenProcessPool
+
         pending = {self._pool.submit(fn, task): k for k, task in enumerate(tasks)}
         try:
             while pending:
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in sorted(done, key=pending.__getitem__):
                     k = pending.pop(fut)
-                    yield k, fut.result()
+                    try:
+                        result = fut.result()
+                    except BrokenProcessPool:
+                        self.abort()
+                        raise WorkerCrashed(f"a worker process ended while it ran "
+                                            f"{getattr(fn, '__name__', 'a task')} (task "
+                                            f"{k})") from None
+                    yield k, result
         finally:
             for fut in pending:
                 fut.cancel()
@@ -104,6 +150,27 @@ class ProcessExecutor(Executor):
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+
+    def abort(self) -> None:
+        """End every worker (SIGTERM, then SIGKILL after :data:`STOP_GRACE_S`; a worker
+        stuck in a task that never returns is not waited for), then shut the pool."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        import time
+        procs = list(getattr(pool, "_processes", {}).values())
+        for p in procs:
+            with contextlib.suppress(Exception):
+                p.terminate()
+        deadline = time.monotonic() + STOP_GRACE_S
+        for p in procs:
+            with contextlib.suppress(Exception):
+                p.join(max(0.0, deadline - time.monotonic()))
+                if p.is_alive():
+                    p.kill()
+                    p.join(1.0)
+        with contextlib.suppress(Exception):
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 class DaskExecutor(Executor):
@@ -117,11 +184,41 @@ class DaskExecutor(Executor):
             raise InputError("--dask: dask.distributed is not installed; install the extra: "
                              "pip install 'rasc[dask]'") from None
         self._cluster = None
+        self._scratch = None
         worker_environment()          # inherited by the LocalCluster's worker processes
         if address == "local":
-            self._cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                         processes=True, dashboard_address=None,
-                                         host="127.0.0.1")
+            import signal
+
+            # the workers' scratch space in a temporary folder (not dask-scratch-space/
+            # in the working folder), removed on close; Ctrl-C is this process's to
+            # handle (a terminal sends it to the whole process group): the workers start
+            # with SIGINT ignored and are stopped by close()
+            import dask
+            self._scratch = tempfile.mkdtemp(prefix="rasc-dask-")
+            # every temporary file of the cluster there (not dask-scratch-space/ in the
+            # temporary folder); the workers log only errors (a task cancelled by an
+            # interrupt is no warning of theirs: the study says what it kept)
+            dask.config.set({"temporary-directory": self._scratch})
+            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+            previous = signal.getsignal(signal.SIGINT)
+            in_main = threading.current_thread() is threading.main_thread()
+            if in_main:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+            try:
+                self._cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                             processes=True,
+                                             # a free loopback port: the scheduler's
+                                             # HTTP server starts even without a
+                                             # dashboard, and 8787 may be taken
+                                             dashboard_address="127.0.0.1:0",
+                                             host="127.0.0.1",
+                                             local_directory=self._scratch)
+            except BaseException:
+                shutil.rmtree(self._scratch, ignore_errors=True)
+                raise
+            finally:
+                if in_main:
+                    signal.signal(signal.SIGINT, previous)
             self.client = Client(self._cluster)
             self.workers = workers
             self.description = f"a dask LocalCluster of {workers} workers"
@@ -137,6 +234,7 @@ class DaskExecutor(Executor):
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
         self.client.run(worker_environment)
+        self.client.run(no_process_locks)
 
     def map_unordered(self, fn, tasks):
         from dask.distributed import as_completed
@@ -151,9 +249,19 @@ class DaskExecutor(Executor):
 
     def close(self) -> None:
         """Close the dask client (and the local cluster, if this executor started one)."""
-        self.client.close()
+        with contextlib.suppress(Exception):
+            self.client.close(timeout=STOP_GRACE_S)
         if self._cluster is not None:
-            self._cluster.close()
+            with contextlib.suppress(Exception):
+                self._cluster.close(timeout=STOP_GRACE_S)
+            # the scheduler's work folder (in the scratch folder) is removed by its own
+            # finalizer, which may run later: run it now (it runs once), then the rest
+            with contextlib.suppress(Exception):
+                self._cluster.scheduler._workdir.release()
+            self._cluster = None
+        if self._scratch is not None:
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            self._scratch = None
 
 
 def make_executor(workers: int = 1, dask: str | None = None) -> Executor:

@@ -43,7 +43,15 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   parameters are allowed;
 - ``gross_rotation_deg``, ``gross_translation_mm`` (top level, > 0): a solve farther
   from the truth than either is a failure with status ``gross`` (its errors are kept in
-  ``samples.csv``, left out of the summary's statistics); absent, nothing is gross.
+  ``samples.csv``, left out of the summary's statistics); absent, nothing is gross;
+- ``time_limit_s`` (top level, > 0, at most a week): the time limit of one call of a
+  plugin method (:func:`rasc.guard.guarded`; absent: 300 s); a call past it is a failed
+  sample, status ``failed: PluginTimedOut``.
+
+The work a spec asks for is bounded before anything runs (:func:`check_work` and the
+parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
+:data:`MAX_RENDERED_VIEWS`, :data:`MAX_BOOTSTRAP`, :data:`MAX_BOOTSTRAP_DRAWS`,
+:data:`MAX_BOOTSTRAP_WORK`; ``blur`` and ``image_noise`` within the renderer's bounds).
 
 Every error is one line naming the file and the key (``spec.toml: axes.noise_level:
 empty list``) as :class:`rasc.errors.InputError`; nothing is written before the spec has
@@ -88,6 +96,16 @@ POSE_PARAMS = ("motion_deg", "layout", "positions")
 UNITS_EYES = ("both", *EYES)
 #: |axis_skew_deg| below this (rasc.sim.units: at 90° the axes would be parallel)
 MAX_SKEW_DEG = 45.0
+#: bounds on the work a spec may ask for, checked before any work (each refusal names
+#: the key): pan-tilt positions and intrinsics views per rendered pose set, rendered
+#: views in all, bootstrap resamples, one bootstrap's draws (resamples x samples, the
+#: memory of one confidence interval: 8 bytes each) and all bootstraps' draws
+MAX_POSITIONS = 400
+MAX_INTRINSICS_VIEWS = 400
+MAX_RENDERED_VIEWS = 100_000
+MAX_BOOTSTRAP = 10**6
+MAX_BOOTSTRAP_DRAWS = 2 * 10**7
+MAX_BOOTSTRAP_WORK = 10**10
 
 
 # ----------------------------------------------------------------- value checkers
@@ -118,14 +136,34 @@ def _positive(x) -> float:
     return x
 
 
-def _int_at_least(lo: int) -> Callable[[Any], int]:
+def _int_at_least(lo: int, hi: int = 10**9) -> Callable[[Any], int]:
     def check(x) -> int:
         if isinstance(x, bool) or not isinstance(x, int):
             raise ValueError(f"expected an integer, got {_show(x)}")
-        if not lo <= x <= 10**9:
-            raise ValueError(f"expected an integer from {lo} to 10^9, got {_show(x)}")
+        if not lo <= x <= hi:
+            top = "10^9" if hi == 10**9 else str(hi)
+            raise ValueError(f"expected an integer from {lo} to {top}, got {_show(x)}")
         return int(x)
     return check
+
+
+def _render_bound(name: str, unit: str) -> Callable[[Any], float]:
+    """A number from 0 to the renderer's own bound ``rasc.sim.render.<name>`` (so that
+    the spec, not the renderer, names the key of a value out of range)."""
+    def check(x) -> float:
+        from rasc.sim import render
+        x, top = _nonneg(x), getattr(render, name)
+        if x > top:
+            raise ValueError(f"expected a number from 0 to {top:g} ({unit}), got {x:g}")
+        return x
+    return check
+
+
+def _time_limit(x) -> float:
+    x = _positive(x)
+    if x > 7 * 24 * 3600:
+        raise ValueError(f"expected at most a week in seconds, got {x:g}")
+    return x
 
 
 def _choice(options: tuple[str, ...]) -> Callable[[Any], str]:
@@ -183,15 +221,18 @@ PARAMS: dict[str, Param] = {
                              "Gaussian noise on every detected corner, px (extrinsics "
                              "re-estimated per sample)"),
     "eye": Param(_choice(EYES), "left", "sample", "which eye's hand-eye problem"),
-    "image_noise": Param(_nonneg, 0.0, "render", "Gaussian image noise, grey levels"),
-    "blur": Param(_nonneg, 0.0, "render", "Gaussian blur, px"),
+    "image_noise": Param(_render_bound("MAX_NOISE", "grey levels"), 0.0, "render",
+                         "Gaussian image noise, grey levels"),
+    "blur": Param(_render_bound("MAX_BLUR_PX", "pixels"), 0.0, "render", "Gaussian blur, px"),
     "distortion": Param(_coefficients, (), "render", "lens distortion k1 k2 p1 p2 k3"),
     "motion_deg": Param(_positive, 8.0, "render", "largest pan/tilt of the positions, deg"),
     "layout": Param(_choice(LAYOUTS), "grid", "render",
                     "grid (k x k), cross (home + arms) or ring (home + circle)"),
-    "positions": Param(_int_at_least(3), 9, "render", "number of pan-tilt positions"),
+    "positions": Param(_int_at_least(3, MAX_POSITIONS), 9, "render",
+                       "number of pan-tilt positions"),
     "distance": Param(_positive, 1.0, "render", "board distance in front of the head, m"),
-    "intrinsics_views": Param(_int_at_least(3), 20, "render", "intrinsics views per eye"),
+    "intrinsics_views": Param(_int_at_least(3, MAX_INTRINSICS_VIEWS), 20, "render",
+                              "intrinsics views per eye"),
     "model": Param(_text, "", "render",
                    "MJCF scene (path relative to the spec; '' = the package's model)"),
     # ---- added after rasc-study/1's first specs: at their defaults they are left out of
@@ -226,10 +267,11 @@ UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zer
 IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
-            "samples": _int_at_least(1), "methods": None, "bootstrap": _int_at_least(100),
+            "samples": _int_at_least(1), "methods": None,
+            "bootstrap": _int_at_least(100, MAX_BOOTSTRAP),
             "confidence": None, "paired": None, "fixed": None, "axes": None,
             "quick": None, "gross_rotation_deg": _positive,
-            "gross_translation_mm": _positive}
+            "gross_translation_mm": _positive, "time_limit_s": _time_limit}
 #: what a [quick] table may narrow (load_spec(..., quick=True))
 QUICK_KEYS = ("samples", "methods", "axes")
 REQUIRED = ("seed", "samples", "methods")
@@ -335,6 +377,8 @@ class Spec:
     #: gross-failure thresholds (deg, mm); None: not given
     gross_rotation_deg: float | None = None
     gross_translation_mm: float | None = None
+    #: the time limit of one plugin call, s (None: rasc.guard.DEFAULT_TIME_LIMIT_S)
+    time_limit_s: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The normalised spec (what its hash covers; relative model paths resolved to
@@ -351,7 +395,7 @@ class Spec:
             out["paired"] = list(self.paired)
         if self.dataset_digests:
             out["dataset_digests"] = dict(self.dataset_digests)
-        for key in ("gross_rotation_deg", "gross_translation_mm"):
+        for key in ("gross_rotation_deg", "gross_translation_mm", "time_limit_s"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
         return out
@@ -458,7 +502,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
             fail(key, "missing")
     top = {}
     for key in ("name", "description", "seed", "samples", "bootstrap",
-                "gross_rotation_deg", "gross_translation_mm"):
+                "gross_rotation_deg", "gross_translation_mm", "time_limit_s"):
         if key in doc:
             try:
                 top[key] = TOP_KEYS[key](doc[key])
@@ -529,6 +573,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     n_cells = math.prod(len(v) for v in axes.values())
     if n_cells * top["samples"] > 10**8:
         fail("samples", f"{n_cells} cells x {top['samples']} samples is more than 10^8")
+    check_work(top, len(methods), n_cells, fixed, axes, fail)
 
     # render parameters that must fit together, checked over every combination given
     pos_layout = [(lay, n, a) for lay in axes.get("layout", (fixed.get("layout", "grid"),))
@@ -583,9 +628,39 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
                 axes=axes, model_digests=digests, paired=tuple(paired),
                 dataset_digests=dataset_digests,
                 gross_rotation_deg=top.get("gross_rotation_deg"),
-                gross_translation_mm=top.get("gross_translation_mm"))
+                gross_translation_mm=top.get("gross_translation_mm"),
+                time_limit_s=top.get("time_limit_s"))
     narrowed = _quick(doc.get("quick", {}), spec, fail)
     return narrowed if quick else spec
+
+
+def check_work(top: dict[str, Any], n_methods: int, n_cells: int, fixed: dict[str, Any],
+               axes: dict[str, tuple], fail: Callable[[str, str], None]) -> None:
+    """Refuse, naming the key, a spec whose work is beyond :data:`MAX_BOOTSTRAP_DRAWS`,
+    :data:`MAX_BOOTSTRAP_WORK` or :data:`MAX_RENDERED_VIEWS` (the per-value bounds are the
+    parameters' own checks): before any work, never a MemoryError halfway."""
+    boot, samples = top.get("bootstrap", 1000), top["samples"]
+    if boot * samples > MAX_BOOTSTRAP_DRAWS:
+        fail("bootstrap", f"{boot} resamples x {samples} samples is {boot * samples:.3g} "
+             f"draws per confidence interval, more than {MAX_BOOTSTRAP_DRAWS:.0e}; "
+             "lower bootstrap or samples")
+    work = boot * samples * n_cells * n_methods
+    if work > MAX_BOOTSTRAP_WORK:
+        fail("bootstrap", f"{boot} resamples x {samples} samples x {n_cells} cells x "
+             f"{n_methods} methods is {work:.3g} draws, more than {MAX_BOOTSTRAP_WORK:.0e}; "
+             "lower bootstrap, samples or the axes")
+    if fixed.get("dataset"):
+        return
+    render_axes = [k for k in axes if PARAMS[k].kind == "render"]
+    n_sets = math.prod(len(axes[k]) for k in render_axes)
+    per_view = max(axes.get("positions", (fixed.get("positions", 9),))) + max(
+        axes.get("intrinsics_views", (fixed.get("intrinsics_views", 20),)))
+    views = 2 * n_sets * per_view
+    if views > MAX_RENDERED_VIEWS:
+        key = next((f"axes.{k}" for k in ("positions", "intrinsics_views") if k in axes),
+                   "axes" if render_axes else "fixed.positions")
+        fail(key, f"{n_sets} rendered dataset(s) x up to {per_view} views x 2 eyes is "
+             f"{views} images, more than {MAX_RENDERED_VIEWS}")
 
 
 def check_beside_dataset(fixed: dict[str, Any], axes: dict[str, tuple],

@@ -1,0 +1,71 @@
+"""Rendered dataset folders through the dataset service: one key per render, entries in
+one verified store (:class:`rasc.datasets.CacheStore`)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from rasc.datasets.cache import CacheStore
+from rasc.datasets.keys import cache_key
+
+
+def render_what(options: Any, model_path: str | os.PathLike | None = None) -> dict:
+    """What a rendered dataset depends on beside the code: its
+    :class:`rasc.sim.render.RenderOptions` (as a dict) and the sha256 of the model file
+    it was rendered from (None: the package's model, part of the code digest)."""
+    opts = options if isinstance(options, dict) else asdict(options)
+    model = None if model_path is None else hashlib.sha256(
+        Path(model_path).read_bytes()).hexdigest()
+    return json.loads(json.dumps({"options": opts, "model": model}, default=list))
+
+
+def render_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
+    """The one cache key (:func:`rasc.datasets.cache_key`, kind ``render-folder``) of
+    the dataset ``options`` render (with ``model_path``)."""
+    return cache_key("render-folder", render_what(options, model_path))
+
+
+_SCRATCH: list[Path] = []
+
+
+def _scratch() -> Path:
+    """This process's temporary folder for datasets rendered without a cache (removed
+    when the process exits)."""
+    if not _SCRATCH:
+        import atexit
+        _SCRATCH.append(Path(tempfile.mkdtemp(prefix="rasc-rendered-")))
+        atexit.register(shutil.rmtree, _SCRATCH[0], True)
+    return _SCRATCH[0]
+
+
+def rendered(options: Any, model_path: str | os.PathLike | None = None,
+             store: CacheStore | None = None) -> tuple[Path, str]:
+    """``(folder, key)`` of the dataset ``options`` render: the store's verified entry,
+    else rendered now (into a temporary folder, then moved into the store whole; without
+    a store, or when it cannot be written, into this process's scratch folder)."""
+    from rasc.sim.render import render_dataset
+
+    key = render_key(options, model_path)
+    path = store.get_tree(key) if store is not None and store.enabled else None
+    if path is not None:
+        return path, key
+    tmp = Path(tempfile.mkdtemp(prefix="rasc-render-"))
+    try:
+        render_dataset(tmp / "data", options, model_path=model_path, quiet=True)
+        if store is not None and store.enabled:
+            path = store.put_tree(key, tmp / "data", move=True)
+        if path is None:
+            path = _scratch() / key / "data"
+            if not path.is_dir():
+                path.parent.mkdir(parents=True, exist_ok=True)
+                shutil.move(str(tmp / "data"), path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path, key

@@ -1,0 +1,519 @@
+"""A study's datasets stage: one calibrated dataset document (``rasc-study-dataset/1``)
+per distinct set of render parameters — rendered and calibrated by the real pipeline
+(:func:`render_task`), an existing dataset folder calibrated (:func:`folder_task`), or
+pose views rendered in a base dataset's scene (:func:`pose_task`) — found in the study
+folder (verified), in the dataset service's cache (:class:`rasc.datasets.CacheStore`),
+or computed on the study's executor. Documents stay in memory for the cells stage."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rasc.datasets.cache import CacheStore
+from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
+from rasc.errors import DegenerateDataError, InputError, RascError
+from rasc.geometry.frames import EYES
+from rasc.io import (
+    cache_root,
+    dumps_json,
+    read_json_document,
+    write_json_atomic,
+)
+from rasc.study.cells import ESTIMATE_COLUMNS, POSE_ERROR_COLUMNS  # noqa: F401
+from rasc.study.executors import Executor, worker_environment
+from rasc.study.spec import (
+    PARAMS,
+    UNIT_PARAMS,
+    dataset_metres,
+    pose_grid,
+)
+
+
+def dataset_key(render: dict[str, Any], seed: int) -> str:
+    """The cache key of a rendered dataset: its render parameters and seed."""
+    from rasc.study.spec import _digest
+    return _digest({"render": render, "seed": seed})[:20]
+
+
+def unit_builds(render: dict[str, Any]) -> dict | None:
+    """``{eye: rasc.sim.units.UnitBuild}`` from a cell's head-model parameters (applied
+    to the unit(s) of ``units_eye``); None when every one is at its default (the stock
+    head, exactly as before these parameters existed)."""
+    from rasc.sim.units import UnitBuild
+
+    v = {k: render.get(k, PARAMS[k].default) for k in UNIT_PARAMS}
+    if all(v[k] == PARAMS[k].default for k in UNIT_PARAMS):
+        return None
+    offset = v["tilt_axis_offset_mm"]
+    # the stock units' axes: pan x, tilt z at home; their common normal is y (forward)
+    build = UnitBuild(tilt_axis_offset_mm=(0.0, offset, 0.0) if offset else None,
+                      axis_skew_deg=v["axis_skew_deg"] or None,
+                      pan_zero_deg=v["pan_zero_deg"], tilt_zero_deg=v["tilt_zero_deg"],
+                      pan_scale=v["pan_scale"], tilt_scale=v["tilt_scale"])
+    which = render.get("units_eye", PARAMS["units_eye"].default)
+    return {eye: build for eye in EYES if which in ("both", eye)}
+
+
+def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
+    """What the cells need from a calibrated dataset (JSON-ready): per eye the pipeline's
+    poses, angles, kept pose corners (``EyeResult.corners``), intrinsics, and the
+    reference ``T_cam_from_gaze``.
+
+    Parameters
+    ----------
+    cal : rasc.head.pipeline.Calibration
+    board : rasc.vision.board.Board
+    truth : dict or None
+        The renderer's ``ground_truth.json``; its ``T_cam_from_gaze`` per eye is the
+        reference. None (a real head's dataset): the reference is the pipeline's own RASC
+        solution on the measured poses (``"reference": "measured"``), so errors are
+        deviations from what the data give without added noise.
+    """
+    eyes = {}
+    views = (truth or {}).get("views", {})
+    for eye, res in cal.eyes.items():
+        ref = (truth[eye]["T_cam_from_gaze"] if truth is not None
+               else np.asarray(res.handeye.T_cam_from_gaze, float).tolist())
+        if all(f in views for f in res.pose_files):
+            extra_eye = {"T_cam_from_world_true": [views[f]["T_cam_from_world"]
+                                                   for f in res.pose_files]}
+        else:
+            extra_eye = {}
+        eyes[eye] = {
+            "files": list(res.pose_files),
+            "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
+            "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
+            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
+                        for f in res.pose_files],
+            "K": np.asarray(res.intrinsics.K, float).tolist(),
+            "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
+            "T_cam_from_gaze_true": ref, **extra_eye}
+    scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
+        if truth is not None else None
+    return {"format": "rasc-study-dataset/1", **extra,
+            **({} if truth is not None else {"reference": "measured"}),
+            **({"scene": scene} if scene is not None else {}),
+            "board": {"inner_corners": list(board.inner_corners),
+                      "square_size": board.square_size},
+            "eyes": eyes}
+
+
+def _scene_record(truth: dict, pose_files) -> dict | None:
+    """What re-rendering a dataset's scene needs and checks, from its ground truth: the
+    render options, the board's pose (at the first pose view) and each head as built;
+    None for a dataset whose ground truth does not record them (not rendered by rasc)."""
+    opts = truth.get("render_options")
+    views = truth.get("views", {})
+    first = views.get(pose_files[0]) if pose_files else None
+    if opts is None or first is None or "T_base_from_world" not in first or not all(
+            "unit_as_built" in truth.get(eye, {}) for eye in EYES):
+        return None
+    return {"render_options": {k: opts.get(k) for k in (
+                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist")},
+            "model_file": truth.get("model_file"),
+            "generated_scene": truth.get("generated_scene", False),
+            "T_base_from_world": first["T_base_from_world"],
+            "heads": {eye: truth[eye]["unit_as_built"] for eye in EYES}}
+
+
+@dataclass(frozen=True)
+class RenderTask:
+    """Render and calibrate the dataset of ``render`` (a cell's render parameters)."""
+
+    key: str
+    render: dict
+    seed: int
+    model_path: str | None = None
+    #: the spec file, for messages
+    where: str = "the spec"
+    #: the study's scratch folder (removed by the study, also when a worker is killed);
+    #: None or absent on this machine (a remote worker): the system's temporary folder
+    scratch: str | None = None
+
+
+@dataclass(frozen=True)
+class FolderTask:
+    """Calibrate the existing dataset folder ``folder`` (``[fixed] dataset``)."""
+
+    key: str
+    folder: str
+
+
+@dataclass(frozen=True)
+class PoseTask:
+    """Render the pose views of ``render``'s pose set in the scene of ``base`` (the
+    document of the dataset ``base_key``) and measure them with its intrinsics."""
+
+    key: str
+    base_key: str
+    render: dict
+    seed: int
+    where: str
+    model_path: str | None = None
+    base: dict | None = None
+
+
+def render_task(task: RenderTask) -> dict:
+    """Render one dataset in a temporary folder, calibrate it with the real pipeline
+    (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
+
+    Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
+    """
+    worker_environment()
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.sim.render import RenderOptions, render_dataset
+    from rasc.vision.dataset import load_dataset
+
+    r = task.render
+    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
+    options = RenderOptions(
+        poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
+        n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
+        seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
+        dist=tuple(full["distortion"]))
+    scratch = task.scratch if task.scratch and os.path.isdir(task.scratch) else None
+    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-", dir=scratch))
+    try:
+        folder = tmp / "dataset"
+        try:
+            render_dataset(folder, options, model_path=task.model_path, quiet=True,
+                           units=unit_builds(r))
+            ds = load_dataset(folder)
+            cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
+        except RascError as exc:     # name the cell's render parameters, not a CLI flag
+            what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
+            raise type(exc)(f"{task.where}: the dataset for {what}: "
+                            f"{spec_words(' '.join(str(exc).split()))}") from None
+        truth = json.loads((folder / "ground_truth.json").read_text())
+        return dataset_document(cal, ds.board, truth, key=task.key, render=r,
+                                seed=task.seed)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: the renderer's option names (its command's flags) and the spec's keys for them
+FLAG_KEYS = (("--intrinsics-views", "intrinsics_views"), ("--distance", "distance"),
+             ("--noise", "image_noise"), ("--blur", "blur"), ("--distortion", "distortion"),
+             ("--poses", "the positions (layout, positions, motion_deg)"),
+             ("--seed", "seed"))
+
+
+def spec_words(message: str) -> str:
+    """A renderer's message in the spec's words: each option named by its spec key."""
+    for flag, key in FLAG_KEYS:
+        message = message.replace(flag, key)
+    return message
+
+
+def folder_task(task: FolderTask) -> dict:
+    """Calibrate an existing dataset folder (``[fixed] dataset``) with the real pipeline;
+    its ``ground_truth.json``, when present, is the reference (else the measured RASC
+    solution, see :func:`dataset_document`)."""
+    worker_environment()
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.vision.dataset import load_dataset
+
+    folder = Path(task.folder)
+    ds = load_dataset(folder)
+    cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
+    gt = folder / "ground_truth.json"
+    truth = json.loads(gt.read_text()) if gt.is_file() else None
+    doc = dataset_document(cal, ds.board, truth, key=task.key)
+    return _in_metres(doc, dataset_metres(folder))
+
+
+#: the scene re-rendered for ``intrinsics_from = "dataset"`` must be the base's: the
+#: board's pose, the heads' constants within this (both come from the same model through
+#: quaternion round trips: ~1e-15 seen; a different scene differs by millimetres)
+SAME_SCENE_ATOL = 1e-9
+
+
+#: the generator of a pose-only render's image degradation: SeedSequence([seed, this, key])
+POSE_RENDER_KEY = 0x9053
+
+
+def same_poses(doc: dict, poses_deg) -> bool:
+    """Whether both eyes of a dataset document have exactly the pose set ``poses_deg``
+    (pan, tilt in degrees, in this order; within 1e-12 rad)."""
+    want = np.radians(np.asarray(poses_deg, float))
+    for eye in doc["eyes"].values():
+        have = np.asarray(eye["pan_tilt_rad"], float)
+        if have.shape != want.shape or np.abs(have - want).max() > 1e-12:
+            return False
+    return True
+
+
+def _differs(a, b, path: str = "") -> str | None:
+    """The first place two JSON trees differ (numbers within SAME_SCENE_ATOL), or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if k not in a or k not in b:
+                return f"{path}.{k}".lstrip(".")
+            d = _differs(a[k], b[k], f"{path}.{k}")
+            if d:
+                return d
+        return None
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        if len(a) != len(b):
+            return path.lstrip(".")
+        for k, (x, y) in enumerate(zip(a, b, strict=True)):
+            d = _differs(x, y, f"{path}[{k}]")
+            if d:
+                return d
+        return None
+    if isinstance(a, int | float) and isinstance(b, int | float) and \
+            not isinstance(a, bool) and not isinstance(b, bool):
+        return None if abs(float(a) - float(b)) <= SAME_SCENE_ATOL else path.lstrip(".")
+    return None if a == b else path.lstrip(".")
+
+
+def pose_task(task: PoseTask) -> dict:
+    """``intrinsics_from = "dataset"``: render only the pose views of ``task.render``'s
+    pose set in the base dataset's scene, detect their corners (the pipeline's detector)
+    and estimate each view's extrinsics with the base's intrinsics (docs/METHOD.md §7).
+    Returns a dataset document like :func:`render_task`'s (JSON-ready).
+
+    The scene: a base rendered by this study is re-rendered from its render parameters;
+    a given base from its ``scene`` record (the ground truth's render options, board
+    pose and heads, checked against the package model's within SAME_SCENE_ATOL).
+
+    Raises
+    ------
+    rasc.errors.InputError
+        The base has no scene record (not rendered by rasc), its scene is not the package
+        model's, or a pose view cannot see the board.
+    rasc.errors.DegenerateDataError
+        The board is not found in a rendered pose view.
+    """
+    worker_environment()
+    from rasc.head.pipeline import CalibrationOptions
+    from rasc.sim.render import RenderOptions, check_pose_views, distortion_of, view_image
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
+    from rasc.vision.board import Board
+    from rasc.vision.camera import detect_corners, estimate_extrinsics
+
+    base, r = task.base, task.render
+    where = task.where
+    full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
+    poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
+    if "render" in base:                   # rendered by this study: its own parameters
+        b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
+             if p.kind == "render"}
+        scene = {"seed": base["seed"], "target_distance": b["distance"],
+                 "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
+                 "dist": list(b["distortion"])}
+        model_path, units, record = task.model_path, unit_builds(base["render"]), None
+    else:
+        record = base.get("scene")
+        if record is None:
+            raise InputError(f"{where}: intrinsics_from = 'dataset' renders pose views in "
+                             "the dataset's scene, but the dataset records none (its "
+                             "ground_truth.json has no render_options, views and heads: "
+                             "not rendered by rasc render)")
+        if record.get("generated_scene"):
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset was "
+                             "rendered from a generated scene, which cannot be rendered again")
+        scene = record["render_options"]
+        model_path, units = None, None
+    board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
+    options = RenderOptions(poses_deg=poses, target_distance=scene["target_distance"],
+                            seed=scene["seed"], noise_sigma=scene["noise_sigma"] or 0.0,
+                            blur_sigma=scene["blur_sigma"] or 0.0,
+                            dist=tuple(scene["dist"] or ()))
+    dist, distorted = distortion_of(options)
+    rng = np.random.default_rng(np.random.SeedSequence(
+        [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
+    detector = CalibrationOptions().detector
+    images: dict[str, list] = {eye: [] for eye in EYES}
+    T_true: dict[str, list] = {eye: [] for eye in EYES}
+    with StereoHeadSim(model_path, units=units) as sim:
+        if sim.board != board:
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the scene's board "
+                             f"{sim.board} is not the dataset's {board}")
+        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        if record is not None:
+            gt = sim.ground_truth()
+            diff = _differs(sim.T_base_from_world.tolist(), record["T_base_from_world"]) \
+                and "T_base_from_world"
+            for eye in EYES:
+                diff = diff or _differs(gt[eye]["unit_as_built"], record["heads"][eye],
+                                        f"{eye}.unit_as_built")
+            if diff:
+                raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset's scene "
+                                 f"is not the package model's ({diff} differs); only a "
+                                 "dataset rendered from it can be rendered again")
+        check_pose_views(sim, options, dist if distorted else None)
+        warp = {eye: distortion_warp(sim.K(eye), dist, sim.image_size) for eye in EYES} \
+            if distorted else {}
+        for pan, tilt in poses:
+            for eye in EYES:
+                sim.set_angles(eye, np.radians(pan), np.radians(tilt))
+            for eye in EYES:
+                images[eye].append(view_image(sim, eye, warp, rng, options))
+                T_true[eye].append(sim.T_cam_from_world(eye).tolist())
+        X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
+    pan_tilt = np.radians(np.asarray(poses, float))
+    eyes = {}
+    for eye, data in base["eyes"].items():
+        X_true = np.asarray(data["T_cam_from_gaze_true"], float)
+        if np.abs(X_sim[eye] - X_true).max() > SAME_SCENE_ATOL:
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the rendered {eye} "
+                             "head's T_cam_from_gaze is not the dataset's truth")
+        K, d = np.asarray(data["K"], float), np.asarray(data["dist"], float)
+        files, corners, T_cw = [], [], []
+        for k, image in enumerate(images[eye]):
+            name = f"poses±{full['motion_deg']:g}/{eye}_{k:02d}"
+            c = detect_corners(image, board, method=detector)
+            if c is None:
+                raise DegenerateDataError(f"{where}: the pose view {name} (pan, tilt = "
+                                          f"{poses[k][0]:g}, {poses[k][1]:g} deg): board "
+                                          "not found")
+            files.append(name)
+            corners.append(np.asarray(c, float).tolist())
+            T_cw.append(estimate_extrinsics(c, board, K, d)[0].tolist())
+        eyes[eye] = {"files": files, "pan_tilt_rad": pan_tilt.tolist(), "T_cam_from_world": T_cw,
+                     "corners": corners, "K": data["K"], "dist": data["dist"],
+                     "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
+                     "T_cam_from_world_true": T_true[eye]}
+    out = {"format": "rasc-study-dataset/1", "key": task.key, "render": r,
+           "seed": task.seed, "intrinsics_of": task.base_key,
+           "board": base["board"], "eyes": eyes}
+    if record is not None:
+        out["scene"] = record
+    return out
+
+
+def _in_metres(doc: dict, metres: float) -> dict:
+    """A dataset document's lengths (the board's square size, every translation) scaled
+    by ``metres`` per unit: the cells measure errors and eq. 14 noise in metres."""
+    if metres == 1.0:
+        return doc
+    doc["board"]["square_size"] *= metres
+    if "scene" in doc:
+        T = np.asarray(doc["scene"]["T_base_from_world"], float)
+        T[:3, 3] *= metres
+        doc["scene"]["T_base_from_world"] = T.tolist()
+    for eye in doc["eyes"].values():
+        for key in ("T_cam_from_world", "T_cam_from_gaze_true", "T_cam_from_world_true"):
+            if key not in eye:
+                continue
+            T = np.asarray(eye[key], float)
+            T[..., :3, 3] *= metres
+            eye[key] = T.tolist()
+    return doc
+
+
+def cache_dir() -> Path | None:
+    """Where rendered study datasets are cached between runs: ``study-datasets`` under
+    :func:`rasc.io.cache_root` (``RASC_CACHE_DIR=none`` turns the cache off); entries are
+    the dataset service's (:class:`rasc.datasets.CacheStore`), verified when read."""
+    root = cache_root()
+    return None if root is None else root / "study-datasets"
+
+
+def cache_key(kind: str, task: RenderTask | PoseTask) -> str:
+    """The cache key of a render (``kind`` "render") or pose-set (``kind`` "poses") task:
+    the dataset service's key (:func:`rasc.datasets.cache_key`: the one code digest) of
+    the task's dataset key, render parameters (the model as its file's sha256), seed and,
+    for a pose set, its base dataset's sha256."""
+    from rasc.datasets import keys
+    what = {"key": task.key, "render": task.render, "seed": task.seed}
+    if kind == "poses":
+        what["base"] = dataset_digest_of(task.base)
+    return keys.cache_key(f"study-{kind}", what)
+
+
+def _check_dataset_doc(doc: dict) -> None:
+    """ValueError unless ``doc`` looks like a whole study dataset document."""
+    if doc.get("format") != "rasc-study-dataset/1":
+        raise ValueError(f"format {doc.get('format')!r}, not rasc-study-dataset/1")
+    eyes, board = doc.get("eyes"), doc.get("board")
+    if not isinstance(board, dict) or not isinstance(eyes, dict) or not eyes:
+        raise ValueError("no board or no eyes")
+    for name, eye in eyes.items():
+        if not isinstance(eye, dict):
+            raise ValueError(f"eyes.{name} is not an object")
+        n = None
+        for k in ("files", "pan_tilt_rad", "T_cam_from_world", "corners"):
+            v = eye.get(k)
+            if not isinstance(v, list) or n is not None and len(v) != n:
+                raise ValueError(f"eyes.{name}.{k} is missing or of another length")
+            n = len(v)
+        T = np.asarray(eye["T_cam_from_world"], float)
+        if T.shape != (n, 4, 4) or not np.all(np.isfinite(T)):
+            raise ValueError(f"eyes.{name}.T_cam_from_world is not {n} finite 4x4 matrices")
+        for k in ("K", "T_cam_from_gaze_true"):
+            if not isinstance(eye.get(k), list):
+                raise ValueError(f"eyes.{name}.{k} is missing")
+
+
+def dataset_digest_of(doc: dict) -> str:
+    """The key of a given dataset document: sha256 of its JSON (20 hex digits)."""
+    import hashlib
+    return hashlib.sha256(dumps_json(doc).encode()).hexdigest()[:20]
+
+
+def _found_datasets(out: Path, wanted, log: Callable[[str], None]) -> dict[str, dict]:
+    """The dataset files of ``wanted`` keys already in ``out/datasets`` that are whole
+    (:func:`_check_dataset_doc`, their key); a damaged one is left to be computed again,
+    with a note."""
+    found = {}
+    for k in wanted:
+        path = out / "datasets" / f"{k}.json"
+        if not os.path.lexists(path):
+            continue
+        try:
+            doc = read_json_document(path, "study dataset")
+            _check_dataset_doc(doc)
+            if doc.get("key") != k:
+                raise ValueError(f"its key is {doc.get('key')!r}, not {k!r}")
+        except (InputError, ValueError) as exc:
+            log(f"rasc study: note: {path} is incomplete or damaged "
+                f"({' '.join(str(exc).split())[:200]}); computing it again")
+            continue
+        found[k] = doc
+    return found
+
+
+def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
+            desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
+            log: Callable[[str], None] = print) -> dict[str, dict]:
+    """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
+    (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there
+    (verified: :class:`rasc.datasets.CacheStore`) is copied instead (``count["cached"]``)
+    and a rendered one stored there. Returns the documents by key (kept in memory)."""
+    from rasc.progress import progress
+
+    store = CacheStore(folder=cache, label="rasc study", log=log) if cache is not None \
+        else None
+    names = [cache_key(kind, t) for t in tasks] if store is not None else []
+    todo, docs = [], {}
+    for k, task in enumerate(tasks):
+        doc = store.get_json(names[k], _check_dataset_doc) if store is not None else None
+        if doc is not None and doc.get("key") == task.key:
+            write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
+            docs[task.key] = doc
+            count["cached"] += 1
+        else:
+            todo.append(k)
+    if not todo:
+        return docs
+    with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
+        for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
+            task = tasks[todo[i]]
+            write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
+            docs[task.key] = doc
+            if store is not None:
+                store.put_json(names[todo[i]], doc)
+            count["rendered"] += 1
+            bar.update(1)
+    return docs
