@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -262,14 +262,52 @@ def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> st
     return render_key(options, model_path)
 
 
+def unit_builds(units: Any) -> dict | None:
+    """The pan-tilt units of an imperfect head as :func:`rasc.sim.render.render_dataset`
+    takes them (``{eye: UnitBuild}``), from what a test may write:
+
+    * None: the ideal units;
+    * a path (str or PathLike): a unit file, as ``rasc render --unit FILE`` reads it
+      (tables ``[both]``, ``[left]``, ``[right]``; :func:`rasc.sim.units.read_unit_file`);
+    * a :class:`rasc.sim.units.UnitBuild`, or a dict of its fields: both units;
+    * ``{"left": ..., "right": ...}`` (each a UnitBuild or a dict of fields; an eye left
+      out is ideal).
+
+    Fields are checked as the unit file's are (one :class:`~rasc.errors.InputError` line
+    naming the field)."""
+    from rasc.sim.units import IDEAL_BUILD, UnitBuild, build_from_dict, read_unit_file
+
+    if units is None:
+        return None
+    if isinstance(units, str | os.PathLike):
+        return read_unit_file(units)
+
+    def one(v: Any, where: str) -> UnitBuild:
+        if isinstance(v, UnitBuild):
+            return build_from_dict(asdict(v), where)
+        if isinstance(v, dict):
+            return build_from_dict(v, where)
+        raise TypeError(f"{where}: expected a UnitBuild or a dict of its fields, got "
+                        f"{type(v).__name__}")
+
+    if isinstance(units, dict) and units and set(units) <= {"left", "right"}:
+        return {eye: one(units[eye], f"units.{eye}") if eye in units else IDEAL_BUILD
+                for eye in ("left", "right")}
+    build = one(units, "units")
+    return {"left": build, "right": build}
+
+
 def render_cached(cache_dir: str | os.PathLike | None,
-                  model_path: str | os.PathLike | None = None,
+                  model_path: str | os.PathLike | None = None, *, units: Any = None,
                   **options) -> RenderedDataset:
     """Render (or find in the cache folder ``cache_dir``) the dataset of
     ``RenderOptions(**options)``, through the dataset service
     (:func:`rasc.datasets.render.rendered`): entries verified by the sha256 of their
     content when read, a damaged one rendered again with a note. ``cache_dir`` None: no
-    cache (rendered into a temporary folder of the process)."""
+    cache (rendered into a temporary folder of the process). ``units``: an imperfect
+    head (:func:`unit_builds`: a unit file as ``rasc render --unit`` reads it, a
+    :class:`rasc.sim.units.UnitBuild` or its fields for both units, or per eye); its
+    ground truth is the true head, and the key covers the units."""
     from rasc.datasets import CacheStore
     from rasc.datasets.render import rendered
     from rasc.sim.render import RenderOptions
@@ -278,7 +316,7 @@ def render_cached(cache_dir: str | os.PathLike | None,
                             tuple(v) if k == "dist" else v for k, v in options.items()})
     store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
         else None
-    path, key = rendered(opts, model_path, store)
+    path, key = rendered(opts, model_path, store, units=unit_builds(units))
     gt = json.loads((path / "ground_truth.json").read_text(encoding="utf-8"))
     return RenderedDataset(path=path, options=opts, ground_truth=gt, key=key)
 
@@ -316,12 +354,14 @@ def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path | None:
 
 @pytest.fixture(scope="session")
 def rasc_render(request: pytest.FixtureRequest, tmp_path_factory):
-    """``rasc_render(**RenderOptions fields, model_path=None) -> RenderedDataset``,
-    cached on disk (see the module docstring)."""
+    """``rasc_render(**RenderOptions fields, model_path=None, units=None) ->
+    RenderedDataset``, cached on disk (see the module docstring); ``units`` renders an
+    imperfect head (:func:`unit_builds`: the unit options of ``rasc render --unit``)."""
     cache = _cache_dir(request.config, tmp_path_factory)
 
-    def render(model_path: str | os.PathLike | None = None, **options) -> RenderedDataset:
-        return render_cached(cache, model_path=model_path, **options)
+    def render(model_path: str | os.PathLike | None = None, *, units: Any = None,
+               **options) -> RenderedDataset:
+        return render_cached(cache, model_path=model_path, units=units, **options)
 
     return render
 

@@ -16,20 +16,27 @@ from rasc.datasets.cache import CacheStore
 from rasc.datasets.keys import cache_key
 
 
-def render_what(options: Any, model_path: str | os.PathLike | None = None) -> dict:
+def render_what(options: Any, model_path: str | os.PathLike | None = None,
+                units: dict | None = None) -> dict:
     """What a rendered dataset depends on beside the code: its
-    :class:`rasc.sim.render.RenderOptions` (as a dict) and the sha256 of the model file
-    it was rendered from (None: the package's model, part of the code digest)."""
+    :class:`rasc.sim.render.RenderOptions` (as a dict), the sha256 of the model file
+    it was rendered from (None: the package's model, part of the code digest) and, for
+    an imperfect head, its units (``{eye: rasc.sim.units.UnitBuild}``; None, the ideal
+    units, adds nothing, so the ideal head's keys are those of before)."""
     opts = options if isinstance(options, dict) else asdict(options)
     model = None if model_path is None else hashlib.sha256(
         Path(model_path).read_bytes()).hexdigest()
-    return json.loads(json.dumps({"options": opts, "model": model}, default=list))
+    what = {"options": opts, "model": model}
+    if units is not None:
+        what["units"] = {eye: asdict(b) for eye, b in sorted(units.items())}
+    return json.loads(json.dumps(what, default=list))
 
 
-def render_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
+def render_key(options: Any, model_path: str | os.PathLike | None = None,
+               units: dict | None = None) -> str:
     """The one cache key (:func:`rasc.datasets.cache_key`, kind ``render-folder``) of
     the dataset ``options`` render (with ``model_path``)."""
-    return cache_key("render-folder", render_what(options, model_path))
+    return cache_key("render-folder", render_what(options, model_path, units))
 
 
 _SCRATCH: list[Path] = []
@@ -46,19 +53,19 @@ def _scratch() -> Path:
 
 
 def rendered(options: Any, model_path: str | os.PathLike | None = None,
-             store: CacheStore | None = None) -> tuple[Path, str]:
+             store: CacheStore | None = None, units: dict | None = None) -> tuple[Path, str]:
     """``(folder, key)`` of the dataset ``options`` render: the store's verified entry,
     else rendered now (into a temporary folder, then moved into the store whole; without
     a store, or when it cannot be written, into this process's scratch folder)."""
     from rasc.sim.render import render_dataset
 
-    key = render_key(options, model_path)
+    key = render_key(options, model_path, units)
     path = store.get_tree(key) if store is not None and store.enabled else None
     if path is not None:
         return path, key
     tmp = Path(tempfile.mkdtemp(prefix="rasc-render-"))
     try:
-        render_dataset(tmp / "data", options, model_path=model_path, quiet=True)
+        render_dataset(tmp / "data", options, model_path=model_path, quiet=True, units=units)
         if store is not None and store.enabled:
             path = store.put_tree(key, tmp / "data", move=True)
         if path is None:
