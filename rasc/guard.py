@@ -51,6 +51,10 @@ def _time_limit(seconds: float | None, who: str) -> Iterator[None]:
     usable = (seconds is not None and math.isfinite(seconds) and seconds > 0
               and hasattr(signal, "setitimer")
               and threading.current_thread() is threading.main_thread())
+    # a guarded call inside another (a study's cell calling a plugin method, which guards
+    # its plugin too): the outer limit governs, its timer is left running
+    if usable and signal.getitimer(signal.ITIMER_REAL)[0] > 0:
+        usable = False
     if not usable:
         yield
         return

@@ -39,12 +39,10 @@ OpenCV entries import cv2 only when called.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import importlib
 import importlib.metadata
 import re
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -53,6 +51,7 @@ import numpy as np
 
 from rasc.errors import InputError, RascError, SolverFailure
 from rasc.geometry.transforms import RIGID_ATOL, rotvec_from_matrix
+from rasc.guard import PluginExited, PluginTimedOut, guarded
 from rasc.handeye.inverse import solve_rasc_inverse, solve_rasc_views
 from rasc.handeye.li import solve_li
 from rasc.handeye.opencv import CV_METHODS, solve_opencv
@@ -126,14 +125,17 @@ def _run_plugin(method: Method, T_cam_from_world, T_gaze_from_ptu, *,
                                        check_rigid=check_rigid)
     who = f"method {method.name}"
     try:
-        # what the plugin prints goes to stderr: stdout carries the result (a JSON document)
-        with contextlib.redirect_stdout(sys.stderr):
-            out = method.function(T_cw.copy(), T_gp.copy(), **options)
+        # rasc.guard: what the plugin prints goes to stderr (stdout carries the result, a
+        # JSON document); sys.exit / os._exit end the call, never the process; a call
+        # that hangs ends at the guard's time limit (generous: minutes)
+        out = guarded(method.function, T_cw.copy(), T_gp.copy(), who=who, **options)
+    except PluginExited as exc:
+        raise PluginError(f"{who} {str(exc).removeprefix(who + ': ')} instead of returning "
+                          "a result") from None
+    except PluginTimedOut as exc:
+        raise PluginError(str(exc)) from None
     except RascError as exc:  # the plugin's own one-line error keeps its class
         raise type(exc)(f"{who}: {exc}") from None
-    except SystemExit as exc:  # sys.exit() in a plugin ends the call, never the process
-        raise PluginError(f"{who} called sys.exit({exc.code!r}) instead of returning a "
-                          "result") from None
     except Exception as exc:  # noqa: BLE001 -- any failure of user code, in one line
         text = " ".join(str(exc).split())
         raise PluginError(f"{who} raised {type(exc).__name__}"

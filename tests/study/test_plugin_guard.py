@@ -39,3 +39,23 @@ def test_a_hang_is_cut_at_the_time_limit():
 def test_other_errors_pass_unchanged():
     with pytest.raises(ZeroDivisionError):
         guarded(lambda: 1 / 0)
+
+
+def test_a_guarded_call_inside_another_keeps_the_outer_time_limit():
+    """A study's cell guards a plugin method whose call guards its plugin again: the inner
+    guard leaves the outer timer running (it would otherwise cancel it on return), so a
+    hang after the inner call still ends at the outer limit."""
+    import signal
+
+    def inner():
+        return guarded(lambda: 1, who="inner", time_limit_s=5.0)
+
+    def outer():
+        assert inner() == 1
+        remaining = signal.getitimer(signal.ITIMER_REAL)[0]
+        assert 0 < remaining <= 0.5          # the outer timer, still running
+        time.sleep(5)                         # a hang: ended by the outer limit
+
+    with pytest.raises(PluginTimedOut, match="outer: did not return within"):
+        guarded(outer, who="outer", time_limit_s=0.5)
+    assert signal.getitimer(signal.ITIMER_REAL)[0] == 0
