@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from rasc import formats
 from rasc.datasets import CacheStore
 from rasc.errors import InputError
 from rasc.io import (
@@ -164,7 +165,7 @@ def dataset_store() -> CacheStore:
 
 
 #: the format of a cached calibration (bump it when the entry's layout changes)
-CALIBRATION_CACHE_FORMAT = "rasc-reproduce-calibration/2"
+CALIBRATION_CACHE_FORMAT = formats.REPRODUCE_CALIBRATION.tag
 
 
 def calibration_key(dataset: Path) -> dict:
@@ -314,7 +315,7 @@ class Context:
 
         import rasc
         from rasc.sim.render import RenderOptions
-        return json.loads(dumps_json({"format": "rasc-reproduce-dataset/1",
+        return json.loads(dumps_json({"format": formats.REPRODUCE_DATASET.tag,
                                       "rasc_version": rasc.__version__,
                                       "renderer_sha256": renderer_digest(),
                                       "libraries": {"numpy": np.__version__,

@@ -58,15 +58,19 @@ STUDY = Format("rasc-study", 1, "a study's TOML specification (and the spec echo
                "its summary.json)", "rasc.study.spec:load_spec", "rasc.study.spec:Spec.to_dict")
 STUDY_DATASET = Format("rasc-study-dataset", 1, "a study's calibrated dataset "
                        "(datasets/<key>.json, and its cache entry)",
-                       "rasc.study.engine:_cache_get",
-                       "rasc.study.engine:dataset_document")
-STUDY_CACHE = Format("rasc-study-cache", 1, "the key of a study's cache entry (hashed, "
-                     "never written out as a file)", "rasc.study.engine:cache_key",
-                     "rasc.study.engine:cache_key")
+                       "rasc.study.datasets:_check_dataset_doc",
+                       "rasc.study.datasets:dataset_document")
+CACHE_KEY = Format("rasc-cache", 2, "the record a cache key hashes (the one code digest, "
+                   "the kind and the parameters; never written out as a file)",
+                   "rasc.datasets.keys:cache_key", "rasc.datasets.keys:cache_key")
+CACHE_ENTRY = Format("rasc-cache-entry", 1, "a cache entry's header line (file entries) "
+                     "or entry.json (folder entries): the sha256 its content is verified "
+                     "against when read", "rasc.datasets.cache:CacheStore.get_bytes",
+                     "rasc.datasets.cache:CacheStore.put_bytes")
 REPRODUCE_DATASET = Format("rasc-reproduce-dataset", 1, "the reproduction's cached "
                            "default dataset record", "experiments._common",
                            "experiments._common")
-REPRODUCE_CALIBRATION = Format("rasc-reproduce-calibration", 1, "the reproduction's cached "
+REPRODUCE_CALIBRATION = Format("rasc-reproduce-calibration", 2, "the reproduction's cached "
                                "calibration of the default dataset", "experiments._common",
                                "experiments._common")
 
@@ -83,5 +87,5 @@ PIXEL_POINTS = Format("rasc-pixel-points", 1, "what rasc detect writes: the pixe
 #: Every format by tag.
 FORMATS: dict[str, Format] = {f.tag: f for f in (
     HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
-    LOOK_AT, STUDY, STUDY_DATASET, STUDY_CACHE, REPRODUCE_DATASET, REPRODUCE_CALIBRATION,
+    LOOK_AT, STUDY, STUDY_DATASET, CACHE_KEY, CACHE_ENTRY, REPRODUCE_DATASET, REPRODUCE_CALIBRATION,
     HEAD_COVARIANCE, PIXEL_POINTS)}

@@ -24,7 +24,7 @@ class Room(NamedTuple):
 
 
 ROOMS = (
-    Room("rasc/io.py, errors.py, formats.py, interrupt.py, progress.py, layout.py", 0,
+    Room("rasc/io.py, errors.py, formats.py, guard.py, interrupt.py, progress.py, layout.py", 0,
          "the ground floor: reading and writing files (the one JSON reader, atomic output, "
          "the one number check), the one-line errors, every file format "
          "(`rasc.formats`), one interrupt path for SIGINT and SIGTERM, progress bars, "
@@ -53,6 +53,9 @@ ROOMS = (
     Room("rasc/report/", 4, "`rasc report`: the calibration report (PDF) and its verdict"),
     Room("rasc/plan/", 4, "`rasc plan`: capture planning (greedy D-/A-optimal pan-tilt "
          "positions on the refinement's information matrix)"),
+    Room("rasc/datasets/", 4, "the dataset service: the one cache key over the one code "
+         "digest (`keys`), the one verified cache store (`cache`), rendered datasets "
+         "through it (`render`)"),
     Room("rasc/study/", 4, "declarative studies: `spec` (TOML), `engine`, `executors`, "
          "`figures`"),
     Room("rasc/testing.py", 5, "the pytest plugin: noisy pose sets, rendered datasets, "

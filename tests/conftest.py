@@ -440,3 +440,16 @@ def pytest_collection_modifyitems(config, items):
     # takes the second half of a busy one's pending tests, so what runs last is a short
     # test from the middle of this order, not a study test of 9 s at its end).
     items.sort(key=_schedule_key)
+
+
+@pytest.fixture
+def short_tmp():
+    """An empty folder with a short path, for a subprocess's TMPDIR: multiprocessing's
+    forkserver binds a Unix socket there, and a socket path has at most 107 bytes
+    (pytest's tmp_path under an xdist worker can be longer: "AF_UNIX path too long")."""
+    import shutil
+    import tempfile
+
+    path = Path(tempfile.mkdtemp(prefix="rasc-t-", dir="/tmp"))
+    yield path
+    shutil.rmtree(path, ignore_errors=True)

@@ -111,6 +111,7 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
 
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
+        from rasc.guard import PluginExited, PluginTimedOut
         from rasc.handeye.advice import input_warnings, solution_warnings, translation_warnings
         from rasc.handeye.document import load_handeye_input
         from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
@@ -127,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     kwargs = {} if args.home is None else {"home": args.home}
     try:
         result = solve(data.T_cam_from_world, data.T_gaze_from_ptu, **kwargs)
-    except PluginError:
+    except (PluginError, PluginExited, PluginTimedOut):
         raise  # names the plugin and what it did; the input is not at fault
     except DegenerateDataError as exc:
         raise DegenerateDataError(f"{source}: {exc}") from None

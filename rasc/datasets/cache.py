@@ -31,10 +31,11 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.io import cache_root, prune_cache, touch_cache_entry, tree_digest, write_bytes_atomic
 
-ENTRY_FORMAT = "rasc-cache-entry/1"
+ENTRY_FORMAT = formats.CACHE_ENTRY.tag
 #: the largest file entry read (a bigger one is ignored): no cached document comes near it
 MAX_ENTRY_BYTES = 512 * 2**20
 _HEADER_MAX = 200
@@ -134,9 +135,11 @@ class CacheStore:
 
     @property
     def enabled(self) -> bool:
+        """Whether the store caches at all (False: ``RASC_CACHE_DIR`` is none or off)."""
         return self.folder is not None
 
     def note(self, text: str) -> None:
+        """Say one line about the cache (an entry ignored, a write refused) and keep it."""
         line = f"{self.label}: note: {text}"
         self.notes.append(line)
         self.log(line)
@@ -147,6 +150,7 @@ class CacheStore:
     # ------------------------------------------------------------- file entries
 
     def path(self, key: str) -> Path | None:
+        """Where the file entry of ``key`` lives (None: no cache)."""
         return None if self.folder is None else self.folder / f"{key}.entry"
 
     def get_bytes(self, key: str) -> bytes | None:
@@ -202,12 +206,14 @@ class CacheStore:
         return doc
 
     def put_json(self, key: str, doc: dict) -> bool:
+        """Store ``doc`` as a JSON file entry (:meth:`put_bytes`); False when it cannot."""
         from rasc.io import dumps_json
         return self.put_bytes(key, dumps_json(doc).encode("utf-8"))
 
     # ------------------------------------------------------------- folder entries
 
     def tree(self, key: str) -> Path | None:
+        """Where the folder entry of ``key`` lives (None: no cache)."""
         return None if self.folder is None else self.folder / key
 
     def get_tree(self, key: str) -> Path | None:

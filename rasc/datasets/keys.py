@@ -9,12 +9,14 @@ import json
 from pathlib import Path
 from typing import Any
 
+from rasc import formats
+
 #: the distributions whose versions enter the code digest (the first of each group found)
 CACHE_LIBRARIES = (("numpy",), ("scipy",), ("mujoco",),
                    ("opencv-python-headless", "opencv-python", "opencv-contrib-python",
                     "opencv-contrib-python-headless"))
 #: the format of a cache key's record (bump it when an entry's layout changes)
-KEY_FORMAT = "rasc-cache/2"
+KEY_FORMAT = formats.CACHE_KEY.tag
 
 _CODE_DIGEST: list[str] = []
 

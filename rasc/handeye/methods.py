@@ -129,11 +129,11 @@ def _run_plugin(method: Method, T_cam_from_world, T_gaze_from_ptu, *,
         # JSON document); sys.exit / os._exit end the call, never the process; a call
         # that hangs ends at the guard's time limit (generous: minutes)
         out = guarded(method.function, T_cw.copy(), T_gp.copy(), who=who, **options)
-    except PluginExited as exc:
-        raise PluginError(f"{who} {str(exc).removeprefix(who + ': ')} instead of returning "
-                          "a result") from None
-    except PluginTimedOut as exc:
-        raise PluginError(str(exc)) from None
+    except PluginExited as exc:      # its class kept: a study counts "failed: PluginExited"
+        raise PluginExited(f"{who} {str(exc).removeprefix(who + ': ')} instead of "
+                           "returning a result") from None
+    except PluginTimedOut:
+        raise
     except RascError as exc:  # the plugin's own one-line error keeps its class
         raise type(exc)(f"{who}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 -- any failure of user code, in one line

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from rasc import formats
 from rasc.datasets.cache import CacheStore
 from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
 from rasc.errors import DegenerateDataError, InputError, RascError
@@ -99,7 +100,7 @@ def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
             "T_cam_from_gaze_true": ref, **extra_eye}
     scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
         if truth is not None else None
-    return {"format": "rasc-study-dataset/1", **extra,
+    return {"format": formats.STUDY_DATASET.tag, **extra,
             **({} if truth is not None else {"reference": "measured"}),
             **({"scene": scene} if scene is not None else {}),
             "board": {"inner_corners": list(board.inner_corners),
@@ -384,7 +385,7 @@ def pose_task(task: PoseTask) -> dict:
                      "corners": corners, "K": data["K"], "dist": data["dist"],
                      "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
                      "T_cam_from_world_true": T_true[eye]}
-    out = {"format": "rasc-study-dataset/1", "key": task.key, "render": r,
+    out = {"format": formats.STUDY_DATASET.tag, "key": task.key, "render": r,
            "seed": task.seed, "intrinsics_of": task.base_key,
            "board": base["board"], "eyes": eyes}
     if record is not None:
@@ -434,8 +435,8 @@ def cache_key(kind: str, task: RenderTask | PoseTask) -> str:
 
 def _check_dataset_doc(doc: dict) -> None:
     """ValueError unless ``doc`` looks like a whole study dataset document."""
-    if doc.get("format") != "rasc-study-dataset/1":
-        raise ValueError(f"format {doc.get('format')!r}, not rasc-study-dataset/1")
+    if doc.get("format") != formats.STUDY_DATASET.tag:
+        raise ValueError(f"format {doc.get('format')!r}, not {formats.STUDY_DATASET.tag}")
     eyes, board = doc.get("eyes"), doc.get("board")
     if not isinstance(board, dict) or not isinstance(eyes, dict) or not eyes:
         raise ValueError("no board or no eyes")

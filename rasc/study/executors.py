@@ -21,6 +21,7 @@ each worker process: mujoco issue #991, PR #2069; docs/NOTES.md, dask.distribute
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing
 import os
 import shutil
@@ -212,7 +213,11 @@ class DaskExecutor(Executor):
                                              # dashboard, and 8787 may be taken
                                              dashboard_address="127.0.0.1:0",
                                              host="127.0.0.1",
-                                             local_directory=self._scratch)
+                                             local_directory=self._scratch,
+                                             # distributed's own warnings (a worker
+                                             # ended by an interrupt: "exit status was
+                                             # already read") are not the user's news
+                                             silence_logs=logging.ERROR)
             except BaseException:
                 shutil.rmtree(self._scratch, ignore_errors=True)
                 raise

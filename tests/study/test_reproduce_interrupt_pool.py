@@ -32,9 +32,8 @@ def _marked(mark: str) -> list[int]:
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
-def test_ctrl_c_of_the_pooled_reproduction_leaves_nothing_behind(tmp_path):
-    tmp = tmp_path / "tmp"
-    tmp.mkdir()
+def test_ctrl_c_of_the_pooled_reproduction_leaves_nothing_behind(tmp_path, short_tmp):
+    tmp = short_tmp
     mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
     env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "MUJOCO_GL": "egl",
            "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get(

@@ -59,15 +59,14 @@ def _marked(mark: str) -> list[int]:
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
 @pytest.mark.parametrize("where", ["pool", "dask"])
-def test_ctrl_c_of_a_pooled_study_leaves_nothing_behind(tmp_path, where):
+def test_ctrl_c_of_a_pooled_study_leaves_nothing_behind(tmp_path, where, short_tmp):
     if where == "dask":
         pytest.importorskip("dask.distributed")
     (tmp_path / "hangplug.py").write_text(PLUGIN)
     spec = tmp_path / "spec.toml"
     spec.write_text("seed = 0\nsamples = 2\nmethods = ['rasc', 'hangplug:hangs']\n"
                     "[axes]\nnoise_level = [1, 2]\n")
-    tmp = tmp_path / "tmp"
-    tmp.mkdir()
+    tmp = short_tmp
     mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
     env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "PYTHONPATH": os.pathsep.join(
         [str(tmp_path), *filter(None, [os.environ.get("PYTHONPATH")])])}
@@ -99,7 +98,7 @@ def test_ctrl_c_of_a_pooled_study_leaves_nothing_behind(tmp_path, where):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
-def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path):
+def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path, short_tmp):
     """The command line, interrupted while its pool's workers render: one line, 130,
     no worker left, no render folder, no "leaked semaphore" line (a worker killed while
     it held a multiprocessing lock left one before)."""
@@ -107,8 +106,7 @@ def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path):
     spec.write_text("seed = 0\nsamples = 2\nmethods = ['rasc']\n[fixed]\npositions = 4\n"
                     "intrinsics_views = 6\n[axes]\nnoise_level = [1, 2]\n"
                     "image_noise = [0.0, 1.0]\n")
-    tmp = tmp_path / "tmp"
-    tmp.mkdir()
+    tmp = short_tmp
     mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
     env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "RASC_CACHE_DIR": "none"}
     proc = subprocess.Popen([sys.executable, "-m", "rasc", "study", str(spec), "--out",
