@@ -4,7 +4,7 @@ KUKA arm; Ali et al., Sensors 2019) with corrupted positions injected.
 The images are not redistributable: they are read in place (``--data``, default
 ``../shared/data/rwhe-kuka-1`` beside the repository) and the run stops with one line
 when they are absent. Detection, intrinsics and per-view extrinsics as
-tests/test_real_images.py does them (rasc.vision); the arm's poses
+tests/vision/test_real_images.py does them (rasc.vision); the arm's poses
 ``RobotPosesVec.txt`` (T_base_from_gripper, metres → mm). No truth exists: errors are
 against RASC on the clean 30. Corruptions as E9 (rasc.handeye.corruption, a wrong joint
 reading turning the arm's pose about a random axis), 0/5/20/50 % of the 30 positions,

@@ -1,6 +1,6 @@
 """The house, written once: where each part of rasc lives, what it holds, and on which
 floor (imports only run down: a room imports its own floor and those below;
-tests/test_layout.py checks the code against :data:`ROOMS`).
+tests/project/test_layout.py checks the code against :data:`ROOMS`).
 
 Pages show the table generated, never copied: :func:`markdown_table` renders a table and
 :func:`render_tables` fills a page's marked blocks (``<!-- table: NAME (generated from

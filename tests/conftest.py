@@ -29,7 +29,7 @@ Fixtures (session scope, built on first use):
   xdist workers share it (pickled). Treat it as read-only.
 - ``rasc_testing_cache``: one folder for rasc.testing's dataset cache, shared by the tests
   that run a user's suite in a subprocess (examples/my_solver's tests, the test file of
-  docs/guide/solver.md, the documentation's examples) and by tests/test_plugins.py, so
+  docs/guide/solver.md, the documentation's examples) and by tests/handeye/test_plugins.py, so
   the dataset they all ask for (10 intrinsics views) is rendered once per run.
 - ``quick_experiments``: ``quick_experiments(name)`` runs the reproduction's experiment
   ``experiments.<name>`` once per run (``--quick --seed 0 --workers 1`` on the default
@@ -352,7 +352,7 @@ def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tupl
     reproduction. ``ctx.out/data/dataset`` (also ``quick_experiments.dataset``) is a copy
     of :func:`default_dataset` with the render record ``ctx.dataset_dir()`` asks for, so
     that it is used, not rendered again (link to it from another run's folder).
-    Read-only. Shared by the experiment modules and tests/test_reproduce.py (whose pool
+    Read-only. Shared by the experiment modules and tests/e2e/test_reproduce.py (whose pool
     run must give the same bytes)."""
     import importlib
     import pickle
@@ -376,7 +376,7 @@ def quick_experiments(default_dataset, tmp_path_factory) -> Callable[[str], tupl
 
     def run(name: str) -> tuple:
         # calibrated in this process before ctx is used (Context keeps it), never read
-        # from the reproduction's cache: the fresh side of tests/test_reproduce_cache.py
+        # from the reproduction's cache: the fresh side of tests/e2e/test_reproduce_cache.py
         with pytest.MonkeyPatch.context() as mp:
             mp.setenv("RASC_CACHE_DIR", "none")
             ctx.calibration()
@@ -403,7 +403,7 @@ DATASET_FIXTURES = frozenset({"default_dataset", "default_cli_run", "default_cal
 #: tests. Only the order depends on this list; a test missing from it, or
 #: listed and gone, changes nothing else.
 LONGEST_FIRST = (
-    "docs/test_doc_examples.py::test_page_examples_run",   # the pages: 2-25 s each (renders)
+    "test_doc_examples.py::test_page_examples_run",   # the pages: 2-25 s each (renders)
     "test_reproduce.py::test_same_seed_same_bytes_for_any_worker_count",                # 12.6
     "test_cli_render_calibrate.py::test_distortion_is_rendered_and_recovered",           # 9.1
     "test_study.py::test_process_pool_and_dask_localcluster_give_the_same_bytes",        # 9.0
@@ -424,7 +424,9 @@ _LONGEST_RANK = {name: rank for rank, name in enumerate(LONGEST_FIRST)}
 
 
 def _schedule_key(item) -> tuple[bool, int]:
-    name = item.nodeid.split("[")[0].removeprefix("tests/")
+    # "room/test_x.py::test_y" -> "test_x.py::test_y" (module names are unique in tests/)
+    path, _, test = item.nodeid.split("[")[0].partition("::")
+    name = f"{path.rsplit('/', 1)[-1]}::{test}"
     return item.get_closest_marker("slow") is None, _LONGEST_RANK.get(name, len(LONGEST_FIRST))
 
 

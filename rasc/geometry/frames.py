@@ -2,7 +2,7 @@
 declared once (docs/METHOD.md §1, §10). Pages show them generated: :func:`render_tables`
 fills a page's marked blocks (docs/METHOD.md's two;
 tests/io/test_tables.py checks that they are current), and README.md's "Frames" section
-lists the same rows (tests/test_frames_readme.py compares them).
+lists the same rows (tests/geometry/test_frames_table.py compares them).
 
 ``T_a_from_b`` maps coordinates in frame b into frame a (``q_a = T_a_from_b q_b``);
 the paper writes it ``T_ab``. A point in base coordinates reaches camera coordinates

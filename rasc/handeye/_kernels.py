@@ -34,7 +34,7 @@ per sample of fixed shape (never one BLAS product whose size, and so whose kerne
 summation order, depends on the number of samples: measured to change last bits), and
 reductions along per-sample axes. So ``solve_rasc_batch(T)[k]``,
 ``solve_rasc_batch(T[k:k+1])`` and ``solve_rasc(T[k])`` are the same bits
-(tests/test_solver_batch.py). The batched form, which returns no diagnostics, bounds
+(tests/handeye/test_solver_batch.py). The batched form, which returns no diagnostics, bounds
 cond(CᵀC) without eigenvalues where it can (:func:`_cond_CtC_surely_ok`).
 A single solve of up to ``_ONE_MAX_VIEWS`` views in the common case (rigid to round-off,
 every pair used, no half turn) takes :func:`_solve_one`: the same operations on the same
@@ -484,7 +484,7 @@ def _solve(T_cw: np.ndarray, T_gp: np.ndarray, T_all: np.ndarray | None, pair: _
     power steps, half turns), per-sample LAPACK calls, products and reductions whose
     summation order does not depend on how many samples there are — so a sample's
     result has the same bits whatever batch it is solved in, alone or with others
-    (tests/test_solver_batch.py). A degenerate sample raises (naming it); the first
+    (tests/handeye/test_solver_batch.py). A degenerate sample raises (naming it); the first
     block that holds one raises first.
     """
     S, n = T_cw.shape[:2]
@@ -619,7 +619,7 @@ _ONE_MAX_VIEWS = 32
 def _solve_one(A: np.ndarray, B: np.ndarray, pair: _Pairs,
                min_rotation_rad: float) -> HandEyeResult | None:
     """One solve in the common case, in fewer numpy calls: the same numbers, to the bit,
-    as :func:`_solve` on a batch of one (tests/test_solver_paths.py).
+    as :func:`_solve` on a batch of one (tests/handeye/test_solver_paths.py).
 
     A = T_cam_from_world, B = T_gaze_from_ptu, float64 ndarrays (n, 4, 4), n ≤
     ``_ONE_MAX_VIEWS``. The common case: finite, last rows exactly ``0 0 0 1``, every

@@ -36,7 +36,7 @@ MAX_ROTATION_UNCERTAINTY_DEG = 1.0
 #: make the ratio 57 (or, wrapped past π, anything above ~10 for motions of a few
 #: degrees); radians read as degrees 1/57. Noise moves it little: at the paper's largest
 #: level (σ_r = 0.04 rad, literal eq. 13, ±8° motions) it stays within 0.69–1.12 over
-#: 200 samples (tests/test_handeye.py); 3 leaves room for smaller motions and worse data
+#: 200 samples (tests/handeye/test_handeye.py); 3 leaves room for smaller motions and worse data
 #: (±2° motions at that noise: 0.37–0.85).
 MAX_MOTION_ANGLE_RATIO = 3.0
 

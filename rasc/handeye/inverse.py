@@ -20,7 +20,7 @@ board 1 m away, tens of millimetres at its highest noise levels. With an exact d
 matrix that product has zero mean and the bias goes. Both pair formulations still carry
 the camera's rotation noise times the target distance in ``t_A``; the per-view equations
 of "rasc-views" do not, which halves the translation error under the paper's noise and
-under corner noise alike (measured: tests/test_inverse.py, README "Measured figures").
+under corner noise alike (measured: tests/handeye/test_inverse.py, README "Measured figures").
 
 The rotation is RASC's (eq. 6, 8, 9) and so is the quality (eq. 10, which depends only
 on the rotation); the pairs are all ordered pairs i ≠ j whose unit rotation is at least

@@ -358,7 +358,7 @@ def jackknife_uncertainty(method: str | Method | Callable[..., Any],
     small or one-sided motions), and works for any method (:func:`get_method`). Against
     the RMS of the real error over 200 seeded noisy calibrations it measured 1.08-1.25×
     it (slightly conservative) for nine positions at ±2°, ±8° and ±20° and σ_r from
-    0.0005 to 0.02 rad; tests/test_methods.py checks three of those settings with 100
+    0.0005 to 0.02 rad; tests/handeye/test_methods.py checks three of those settings with 100
     calibrations each. It does not see an error that every view shares (a focal-length
     error biasing all the extrinsics alike), and for a single calibration it is an
     estimate of the spread, not of that calibration's own error.

@@ -25,7 +25,7 @@ MIN_PAIR_ROTATION_RAD = 1e-3
 #: small λ3 (2.4e4 = cond(MᵀM) for the nine poses, where the third axis comes only from
 #: pan-tilt coupling) is harmless. For the same camera noise the rotation about, and the
 #: translation along, the dominant axis are amplified by about 1/√spread relative to
-#: well-spread motions. Measured (``tests/test_handeye.py``'s near-pan-only sweep: pan
+#: well-spread motions. Measured (``tests/handeye/test_handeye.py``'s near-pan-only sweep: pan
 #: ±8°, tilt ±a, the README example's noise of 0.03° / 0.5 mm, 30 seeds): a = 0.1°, 0.5°,
 #: 2°, 8° gives spread 1.6e-4, 3.9e-3, 6.2e-2, 1.0 and median errors 4.9°, 0.94°,
 #: 0.25°, 0.13° / 84, 20, 6.0, 2.6 mm. Below ``MIN_AXIS_SPREAD`` the data are rejected

@@ -24,7 +24,7 @@ the paper's (an error in pixels no choice of X removes). The warning threshold
 (:mod:`rasc.sim.synthetic`, default geometry, 0.02 and 0.05 px noise, seeds 0–3): the
 ideal head gave F of 0.76–2.15, a 5 mm tilt-axis offset 540–3800, a 1° non-orthogonal
 tilt axis ~2e4, a 1 % pan-scale error ~6e3; encoder offsets of 0.5° gave 1.2–1.5, rightly
-(the paper's model absorbs them exactly, docs/METHOD.md §10). tests/test_fit_check.py
+(the paper's model absorbs them exactly, docs/METHOD.md §10). tests/head/test_fit_check.py
 checks both sides.
 """
 

@@ -224,7 +224,7 @@ def scene_xml(board: Board = DEFAULT_BOARD, head_path: str | os.PathLike | None 
         rx=(nx + 1) / 2, ry=(ny + 1) / 2, s=s)
     # The builtin checker's first colour lands on the square between corners (0,0) and
     # (1,1) when the number of squares along x (nx + 1) is even; otherwise swap the colours
-    # (the colour rule, checked by sampling renders in tests/test_sim_render.py).
+    # (the colour rule, checked by sampling renders in tests/sim/test_sim_render.py).
     black, white = "0 0 0", "1 1 1"
     rgb1, rgb2 = (black, white) if (nx + 1) % 2 == 0 else (white, black)
     if isinstance(board, CharucoBoard):

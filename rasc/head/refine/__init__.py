@@ -53,7 +53,7 @@ parameters: a Cholesky solve of milliseconds). Its Jacobian (:meth:`_Problem.jac
 follows the block structure — a corner depends only on its eye's intrinsics and
 kinematics, the mounts (right eye) and its own board pose: the intrinsics and every board
 pose analytically (projection with distortion and K, the board's rotation through SO(3)'s
-left Jacobian; within 1e-7 of central differences, tests/test_refine_jacobian.py), the
+left Jacobian; within 1e-7 of central differences, tests/head/test_refine_jacobian.py), the
 kinematic parameters by differences on their own images only (forward in the iterations,
 central for the identifiability test and the covariance). That halved the forward
 Jacobian's time (57 → 26 ms on the default synthetic head) and cut E7's run per case by

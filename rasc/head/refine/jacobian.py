@@ -68,7 +68,7 @@ class _JacobianMixin:
         mounts) by differences on their own images as in :meth:`jacobian`: forward from
         ``r0`` (the residuals at ``x``; the iterations) or ``central`` (the
         identifiability test, the covariance). The same matrix as ``jacobian(...,
-        analytic=False)`` up to the differences' error (tests/test_refine_jacobian.py)."""
+        analytic=False)`` up to the differences' error (tests/head/test_refine_jacobian.py)."""
         n_img = len(self.img_eye)
         everything = np.arange(n_img)
         _, d = self._project(x, everything, self._chain(x, everything), derivatives=True)

@@ -2,10 +2,10 @@
 
 One quick run of both experiments (workers 1, seed 0, on the default dataset rendered
 once per test run) is checked for structure and the sanity of its numbers: conftest's
-``quick_experiments``, made once per test run and shared with tests/test_reproduce.py,
+``quick_experiments``, made once per test run and shared with tests/e2e/test_reproduce.py,
 whose claim it is that the same seed gives byte-identical result files for any worker
 count (its pool run, ``--workers 2``, against these); a second run here with --workers 2
-repeated it for E4 and E5 (see tests/test_experiments_e1_e3.py).
+repeated it for E4 and E5 (see tests/e2e/test_experiments_e1_e3.py).
 The exact-recovery tests use the true model built from the dataset's ground truth.
 """
 
@@ -20,7 +20,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 import numpy as np
 import pytest
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
 from experiments import e4_triangulation as e4  # noqa: E402

@@ -5,13 +5,13 @@ The default dataset is rendered once per test run and shared (symlinked) by ever
 output folder; each run calibrates it through the real pipeline. E6a runs twice: A
 (--quick) and F (the full protocol), E6b once: A; all with workers 1 (a pool of 2 cost F
 about 3 s more CPU than one process). The A runs are conftest's ``quick_experiments``
-(once per test run, shared with tests/test_reproduce.py). That the same seed gives
+(once per test run, shared with tests/e2e/test_reproduce.py). That the same seed gives
 byte-identical result files (CSV/JSON, the study's own files too) for any worker count is
-tests/test_reproduce.py's claim for every experiment (its pool run, ``--workers 2``,
+tests/e2e/test_reproduce.py's claim for every experiment (its pool run, ``--workers 2``,
 against these); runs C here with ``--workers 2`` repeated it for E6a and E6b (see
-tests/test_experiments_e1_e3.py for what the repeats cost). Failure
+tests/e2e/test_experiments_e1_e3.py for what the repeats cost). Failure
 counting is checked on the analysis functions with made-up study rows (the engine's
-classification itself: tests/test_study_pose_sets.py).
+classification itself: tests/study/test_study_pose_sets.py).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the experiments package
 
 import experiments._common as common  # noqa: E402
 from experiments import e6a_pixel_noise as e6a  # noqa: E402
@@ -154,7 +154,7 @@ def test_e6a_noise_free_row_is_the_pipeline_result(e6a_runs):
 
 def test_e6a_result_files(e6a_runs):
     """The result files and the study's own (same bytes for any worker count:
-    tests/test_reproduce.py)."""
+    tests/e2e/test_reproduce.py)."""
     assert len(result_files(e6a_runs["A"][0].out / e6a.NAME)) == 6
     assert "samples.csv" in result_files(e6a_runs["A"][0].out / e6a.NAME / e6a.SPEC)
 
@@ -247,7 +247,7 @@ def test_e6b_sanity(e6b_runs):
 
 def test_e6b_result_files(e6b_runs):
     """The result files and the study's own (same bytes for any worker count:
-    tests/test_reproduce.py)."""
+    tests/e2e/test_reproduce.py)."""
     assert len(result_files(e6b_runs["A"][0].out / e6b.NAME)) == 4
     assert "samples.csv" in result_files(e6b_runs["A"][0].out / e6b.NAME / e6b.SPEC)
 

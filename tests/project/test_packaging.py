@@ -24,7 +24,7 @@ import pytest
 
 from conftest import pip_build_flags
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.slow

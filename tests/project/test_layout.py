@@ -13,7 +13,7 @@ from pathlib import Path
 
 from rasc.layout import ROOMS
 
-RASC = Path(__file__).resolve().parents[1] / "rasc"
+RASC = Path(__file__).resolve().parents[2] / "rasc"
 
 #: Rooms and their floors, from the one layout table (rasc/layout.py): a room may import
 #: its own floor and the floors below it. The ground floor ("") is rasc/*.py's shared
@@ -124,7 +124,7 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 #: The package's public entry points, re-exported by ``rasc/__init__.py`` through a lazy
 #: module ``__getattr__`` (``rasc.load_calibration``): imported on first attribute access,
 #: never by ``import rasc``, so no floor below loads them (checked in
-#: tests/test_use_calibration.py).
+#: tests/head/test_use_calibration.py).
 FACADE = {"rasc": {"rasc.head.use"}}
 
 

@@ -102,7 +102,7 @@ def test_a_bad_budget_stops_the_reproduction_and_a_study_before_anything_is_writ
     monkeypatch.setenv("RASC_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setenv("RASC_CACHE_MAX_MB", "ten")
     assert reproduce.main(["--quick", "--out", str(tmp_path / "out")]) == 2
-    spec = Path(__file__).resolve().parents[1] / "experiments" / "specs" / "e2_home_view.toml"
+    spec = Path(__file__).resolve().parents[2] / "experiments" / "specs" / "e2_home_view.toml"
     assert rasc_main(["study", str(spec), "--out", str(tmp_path / "study")]) == 2
     err = capsys.readouterr().err.splitlines()
     assert err == ["reproduce: error: RASC_CACHE_MAX_MB: expected a number of MiB >= 0, "

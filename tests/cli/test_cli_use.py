@@ -24,7 +24,7 @@ from rasc.commands import _use_common as common
 from rasc.errors import InputError
 from rasc.head.model import EyeCalibration, HeadCalibration
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "use"
 sys.path.insert(0, str(REPO / "examples"))
 import make_use_example as gen  # noqa: E402

@@ -51,7 +51,7 @@ from rasc.cli import main
 
 from conftest import _locked, _shared_root
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
 #: a case that takes longer than this in-process is a hang (a FIFO read, an endless loop)
 ALARM_S = 20

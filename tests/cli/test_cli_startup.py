@@ -5,7 +5,7 @@ OpenCV, MuJoCo or matplotlib at its top (rasc.commands): ``rasc --help``, ``--ve
 a usage error cost a bare Python start-up. Each command loads its libraries at the start
 of its ``run()`` inside :func:`rasc.commands.loading`, which raises an interrupt that
 arrived while they loaded even when a library swallowed it (tested here by making
-``received()`` answer yes; real signals during the load: tests/test_hostile.py).
+``received()`` answer yes; real signals during the load: tests/cli/test_hostile.py).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import pytest
 import rasc.commands
 from rasc.cli import COMMANDS, main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 HEAVY = ("numpy", "scipy", "cv2", "mujoco", "matplotlib", "tqdm")
 
 

@@ -27,7 +27,7 @@ from rasc.handeye.document import load_handeye_input
 from rasc.io import MAX_DEPTH, MAX_INT_DIGITS, MAX_MAGNITUDE, read_json_document
 from rasc.vision.dataset import load_dataset
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,

@@ -3,7 +3,7 @@
 One test runs the real command line in subprocesses (``python -m rasc`` and the
 installed ``rasc`` script); the many bad-input cases call :func:`rasc.cli.main`
 in-process to keep the suite fast (refusals in a real process, exit status 2, one line
-and no file: tests/test_hostile.py, the poses file under /dev/zero and standard output
+and no file: tests/cli/test_hostile.py, the poses file under /dev/zero and standard output
 on a full device). Every bad input must give exit status 2, exactly one
 line on stderr naming the problem and where, nothing on stdout and no output file.
 """
@@ -35,7 +35,7 @@ from rasc.handeye.document import check_angle_unit
 
 from conftest import run_rasc
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
 GENERATOR = REPO / "examples" / "make_handeye_example.py"
 
@@ -335,7 +335,7 @@ def test_li_without_a_zero_pose_says_which_home_it_took(tmp_path, capsys):
 
 def test_unknown_method_is_one_line_naming_it(tmp_path, capsys):
     """--method takes any name (built-in, package.module:function, entry point): an
-    unknown one is refused in one line listing the built-in names (tests/test_plugins.py
+    unknown one is refused in one line listing the built-in names (tests/handeye/test_plugins.py
     covers the plugin forms)."""
     assert_bad_input([EXAMPLE, "--method", "magic"],
                      ["method 'magic': unknown", "rasc-inverse", "package.module:function"],

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "experiments"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "experiments"))
 import e7_model_mismatch as e7  # noqa: E402
 
 from rasc.head.fit import MISFIT_F_WARN  # noqa: E402

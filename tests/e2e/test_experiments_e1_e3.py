@@ -3,7 +3,7 @@ run through the study engine on the default dataset.
 
 Run A (E1, E2, E3 with workers 1, in one context, as the serial reproduction runs them)
 is conftest's ``quick_experiments``: made once per test run and shared with
-tests/test_reproduce.py, which checks that its pool run (``--workers 2``) writes the same
+tests/e2e/test_reproduce.py, which checks that its pool run (``--workers 2``) writes the same
 bytes for every experiment; a second E1–E3 run here with ``--workers 2`` repeated that
 claim. Run C is E3 alone in a fresh folder (workers 1): its E3 files (CSV, JSON and
 figures) must be byte-identical to A's (which reused E1's samples). The default dataset
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the experiments package
 
 import experiments._common as common  # noqa: E402
 from experiments import e1_noise as e1  # noqa: E402
@@ -313,7 +313,7 @@ def test_e3_samples_at_the_papers_sets_are_e1s(runs):
 
 def test_e3_alone_gives_the_same_bytes_as_after_e1_and_e2(runs):
     """C (E3 alone, a fresh folder) against A (E3 after E1 and E2): the same seed gives the
-    same files, whatever ran before. (Any worker count: tests/test_reproduce.py.)"""
+    same files, whatever ran before. (Any worker count: tests/e2e/test_reproduce.py.)"""
     a = result_files(runs["A"]["ctx"].out, ("e3",))
     assert any(k.endswith(".csv") for k in a) and any(k.endswith(".png") for k in a)
     c = result_files(runs["C"]["ctx"].out, ("e3",))

@@ -26,7 +26,7 @@ from rasc.handeye.solver import solve_rasc  # noqa: E402
 
 from conftest import PAPER, R_CAM_FROM_GAZE_NOMINAL  # noqa: E402
 
-TABB = Path(__file__).parent / "data" / "tabb-rwhe-dataset1"
+TABB = Path(__file__).resolve().parents[1] / "data" / "tabb-rwhe-dataset1"
 
 
 # ------------------------------------------- a port of OpenCV's test generator

@@ -35,7 +35,7 @@ from rasc.handeye.solver import diagnose, solve_rasc
 from conftest import PAPER
 from conftest import rig as conftest_rig
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
 
 PLUGIN_SOURCE = '''

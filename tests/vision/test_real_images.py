@@ -32,8 +32,8 @@ from rasc.vision.camera import (
     read_image,
 )
 
-STEREO_DIR = Path(__file__).parent / "data" / "opencv-stereo-samples"
-KUKA_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "rwhe-kuka-1"
+STEREO_DIR = Path(__file__).resolve().parents[1] / "data" / "opencv-stereo-samples"
+KUKA_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "rwhe-kuka-1"
 STEREO_BOARD = Board((9, 6), 1.0)
 KUKA_BOARD = Board((28, 17), 20.0)  # millimetres (squaresize.txt: 20mm)
 PAIRS = ["01", "02", "03", "04", "05", "06", "07", "08", "09", "11", "12", "13", "14"]

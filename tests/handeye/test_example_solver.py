@@ -18,7 +18,7 @@ import pytest
 
 from conftest import MY_SOLVER as EXAMPLE_PKG
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 POSES = REPO / "examples" / "handeye_nine_poses.json"
 
 

@@ -29,7 +29,7 @@ import pytest
 
 from conftest import _locked, _shared_root
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "experiments"
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
 
 from experiments import reproduce  # noqa: E402

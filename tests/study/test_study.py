@@ -25,7 +25,7 @@ from rasc.study.spec import pose_grid  # noqa: E402
 @pytest.fixture(scope="module", autouse=True)
 def no_dataset_cache():
     """Without the dataset cache (RASC_CACHE_DIR=none): every study here renders what it
-    needs, in the executor under test (the cache: tests/test_study_pose_sets.py)."""
+    needs, in the executor under test (the cache: tests/study/test_study_pose_sets.py)."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("RASC_CACHE_DIR", "none")
         yield
@@ -292,7 +292,7 @@ def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
 # --------------------------------------------------------------- shipped specs
 # (the guide's study examples run in docs/guide/studies.md, by tests/docs)
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_shipped_specs_of_the_papers_experiments_load():

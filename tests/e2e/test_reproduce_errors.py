@@ -12,7 +12,7 @@ import importlib
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the experiments package
 
 from experiments import reproduce  # noqa: E402
 from experiments._common import PARTIAL_PREFIX, Section  # noqa: E402

@@ -5,7 +5,7 @@ in subprocesses (``python -m rasc``; the session fixture ``default_cli_run`` of
 tests/conftest.py, shared with the other modules that need that dataset); the other
 datasets (same seed again, a modified head model, image noise, lens distortion) and the
 many bad inputs go through :func:`rasc.cli.main` in-process to keep the module fast (a
-refusal in a real process, exit status 2 and one line: tests/test_hostile.py, for
+refusal in a real process, exit status 2 and one line: tests/cli/test_hostile.py, for
 calibrate's input documents under /dev/zero and for the second of two renders into one
 --out).
 Expected values come from each dataset's ``ground_truth.json`` (read from the MuJoCo
@@ -39,7 +39,7 @@ from rasc.vision.board import DEFAULT_BOARD
 
 from conftest import run_rasc
 
-#: Same bounds as tests/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
+#: Same bounds as tests/head/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
 HANDEYE_ROT_DEG = 0.05
 HANDEYE_TRANS_M = 1.5e-3

@@ -32,7 +32,7 @@ from rasc.study.engine import (
 )
 
 HEAD = "seed = 5\nsamples = 4\nmethods = ['rasc', 'li']\n"
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(autouse=True)

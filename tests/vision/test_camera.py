@@ -29,7 +29,8 @@ from rasc.vision.camera import (
 )
 
 BOARD = Board((9, 6), 0.03)
-STEREO_LEFT01 = Path(__file__).parent / "data" / "opencv-stereo-samples" / "left01.jpg"
+STEREO_LEFT01 = (Path(__file__).resolve().parents[1] / "data" / "opencv-stereo-samples"
+                 / "left01.jpg")
 STEREO_BOARD_9x6 = Board((9, 6), 1.0)        # the OpenCV sample's board (1 unit squares)
 K_TRUE = np.array([[800.0, 0.0, 330.0], [0.0, 805.0, 245.0], [0.0, 0.0, 1.0]])
 DIST_TRUE = np.array([-0.2, 0.1, 0.001, -0.0005, 0.0])

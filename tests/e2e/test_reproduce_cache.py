@@ -18,7 +18,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the experiments package
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the experiments package
 
 from experiments import _common  # noqa: E402
 from experiments import e4_triangulation as e4  # noqa: E402
