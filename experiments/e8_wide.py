@@ -266,8 +266,10 @@ def figure(results: list[dict], folder: Path) -> Path:
             ax.grid(True, alpha=0.3)
     # one legend for all panels, below them (inside, it hid points)
     handles, names = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0.09, 1, 1))
+    ncol = 3 if len(heads) > 1 else 2         # one head (--quick): a narrower figure
+    rows = -(-len(names) // ncol)
+    fig.legend(handles, names, loc="lower center", ncol=ncol, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, (0.25 * rows + 0.2) / 8.6, 1, 1))
     from rasc.io import write_bytes_atomic
 
     buf = io.BytesIO()
@@ -351,6 +353,10 @@ def run(ctx):
     args = argparse.Namespace(seed=ctx.seed, synthetic=ctx.quick, quick=ctx.quick)
     text = markdown(results, args, folder)
     body = text.split("\n", 1)[1] if text.startswith("## ") else text
+    # in the report the figure is shown, not named (e8.md beside it names the file)
+    body = body.replace(f"Figure: `{Path(fig).name}`.",
+                        f"![E8: hand-eye translation error against the motion amplitude, "
+                        f"with the 1/θ law]({NAME}/{Path(fig).name})")
     return Section(NAME, "E8 — beyond the paper: wide motions with a ChArUco board",
                    body, files=[fig])
 

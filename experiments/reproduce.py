@@ -56,6 +56,8 @@ EXPERIMENTS = (
     ("e6a_pixel_noise", "E6a — beyond the paper: error against image-space noise"),
     ("e6b_shootout", "E6b — beyond the paper: hand-eye shoot-out at small motions"),
     ("e7_model_mismatch", "E7 — beyond the paper: model mismatch (real pan-tilt units)"),
+    ("e8_wide", "E8 — beyond the paper: wide motions with a ChArUco board"),
+    ("e9_outliers", "E9 — beyond the paper: bad positions and unknown scale"),
 )
 
 
