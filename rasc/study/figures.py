@@ -46,10 +46,15 @@ def _label(v) -> str:
 
 
 def plot_study(spec, summary: list[list], folder: Path) -> list[Path]:
-    """One figure per axis of ``spec`` from the summary rows (as
-    :func:`rasc.study.engine.summarise` returns them); none when there is no axis."""
+    """One figure per axis of ``spec`` that takes two values or more, from the summary
+    rows (as :func:`rasc.study.engine.summarise` returns them): error against that axis,
+    one curve per method and combination of the other varying axes. An axis with one
+    value has no figure of its own and no part in the legends (it is held: the title says
+    at what). None when no axis varies."""
     axes = list(spec.axes)
-    if not axes:
+    varying = [a for a in axes if len(spec.axes[a]) > 1]
+    held = [a for a in axes if len(spec.axes[a]) == 1]
+    if not varying:
         return []
     import matplotlib
     matplotlib.use("Agg")
@@ -61,11 +66,13 @@ def plot_study(spec, summary: list[list], folder: Path) -> list[Path]:
     n_ax = len(axes)
     col = {name: 1 + n_ax + k for k, name in enumerate(SUMMARY_TAIL)}
     files = []
-    for a_index, axis in enumerate(axes):
+    held_text = "; ".join(f"{o} = {_label(spec.axes[o][0])}" for o in held)
+    for axis in varying:
+        a_index = axes.index(axis)
         values = list(spec.axes[axis])
         numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
         xpos = {v: (float(v) if numeric else k) for k, v in enumerate(values)}
-        others = [o for o in axes if o != axis]
+        others = [o for o in varying if o != axis]
         combos = list(itertools.product(*(spec.axes[o] for o in others)))
         fig, panels = plt.subplots(1, 2, figsize=(10, 4.2))
         for m_index, method in enumerate(spec.methods):
@@ -99,7 +106,8 @@ def plot_study(spec, summary: list[list], folder: Path) -> list[Path]:
         if handles:
             panels[0].legend(fontsize=7)
         fig.suptitle(f"{spec.name}: error against {axis} (mean, {spec.confidence:.0%} "
-                     f"bootstrap CI; {spec.samples} samples per cell)", fontsize=10)
+                     f"bootstrap CI; {spec.samples} samples per cell)"
+                     + (f"\nheld: {held_text}" if held_text else ""), fontsize=10)
         files += save_figure(fig, folder / axis)
         plt.close(fig)
     return files
