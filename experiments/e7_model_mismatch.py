@@ -56,7 +56,6 @@ import json
 import os
 import sys
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -400,14 +399,11 @@ def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool)
     # one seed for every case (the same intrinsics views and noise draws: only the unit
     # differs), so the results depend neither on the case list nor on the worker count
     tasks = [(c, f, seed, synthetic) for c, f in cases]
-    if workers > 1:
-        with ProcessPoolExecutor(workers) as ex:
-            results = list(ex.map(run_case, tasks))
-    else:
-        results = []
-        for t in tasks:
-            print(f"e7: {t[0]}", file=sys.stderr, flush=True)
-            results.append(run_case(t))
+    # rasc.study's executors (one pool runner; an interrupt stops every worker), with
+    # progress; results in task order, whatever the worker count
+    from experiments._common import run_tasks
+
+    results = run_tasks(run_case, tasks, workers, label="e7 cases")
     write_raw(results, folder)
     return results
 

@@ -44,7 +44,6 @@ import json
 import os
 import sys
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -331,14 +330,11 @@ def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool,
              for k in range(seeds)
              for h, _, f in HEADS if not quick or h in QUICK_HEADS
              for p, kind, amp in PROTOCOLS if not quick or p in QUICK_PROTOCOLS]
-    if workers > 1:
-        with ProcessPoolExecutor(workers) as ex:
-            results = list(ex.map(run_case, tasks))
-    else:
-        results = []
-        for t in tasks:
-            print(f"e8: {t[0]} {t[2]} seed {t[5]}", file=sys.stderr, flush=True)
-            results.append(run_case(t))
+    # rasc.study's executors (one pool runner; an interrupt stops every worker), with
+    # progress; results in task order, whatever the worker count
+    from experiments._common import run_tasks
+
+    results = run_tasks(run_case, tasks, workers, label="e8 cases")
     write_raw(results, folder)
     return results
 
