@@ -125,11 +125,13 @@ class ImportConfig:
 
 
 def _number(value, where: str, positive: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-            not math.isfinite(value) or (positive and value <= 0):
-        raise InputError(f"{where}: must be a {'positive ' if positive else ''}number, "
-                         f"got {value!r}")
-    return float(value)
+    """The one number check (:func:`rasc.io.finite_number`), and above 0 if ``positive``."""
+    from rasc.io import finite_number, shown
+
+    x = finite_number(value, where)
+    if positive and x <= 0:
+        raise InputError(f"{where}: must be a positive number, got {shown(value)}")
+    return x
 
 
 def _text(value, where: str) -> str:
