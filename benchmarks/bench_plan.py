@@ -33,4 +33,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from _markdown import run_main
+
+    raise SystemExit(run_main(main, "Capture planning: nine positions from a 2-degree grid",
+                              __file__))

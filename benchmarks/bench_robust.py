@@ -101,4 +101,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from _markdown import run_main
+
+    raise SystemExit(run_main(main, "Robust hand-eye: time per solve beside RASC", __file__))
