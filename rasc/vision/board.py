@@ -32,8 +32,37 @@ def _is_integral(v) -> bool:
 SQUARE_SIZE_RANGE = (1e-6, 1e6)
 
 
+class _CornerGrid:
+    """The grid of inner corners both targets share (the chessboard's, and a ChArUco
+    board's by id): a subclass gives ``inner_corners`` (nx, ny) and ``square_size``."""
+
+    @property
+    def nx(self) -> int:
+        """Inner corners along the board's x (first) direction."""
+        return self.inner_corners[0]
+
+    @property
+    def ny(self) -> int:
+        """Inner corners along the board's y (second) direction."""
+        return self.inner_corners[1]
+
+    @property
+    def n_corners(self) -> int:
+        """The number of inner corners, ``nx * ny``."""
+        return self.nx * self.ny
+
+    def object_points(self) -> np.ndarray:
+        """Corners in the board frame, (N, 3): corner (i, j), id j·nx + i, at
+        (i·s, j·s, 0), i fastest."""
+        j, i = np.mgrid[0:self.ny, 0:self.nx]
+        P = np.zeros((self.n_corners, 3))
+        P[:, 0] = i.ravel() * self.square_size
+        P[:, 1] = j.ravel() * self.square_size
+        return P
+
+
 @dataclass(frozen=True)
-class Board:
+class Board(_CornerGrid):
     """A chessboard target: ``inner_corners`` (nx, ny), ``square_size`` (any length unit).
 
     nx + ny must be odd: only then does a 180° turn of the board swap the colours of its
@@ -72,29 +101,6 @@ class Board:
         object.__setattr__(self, "inner_corners", (nx, ny))
         object.__setattr__(self, "square_size", float(s))
 
-    @property
-    def nx(self) -> int:
-        """Inner corners along the board's x (first) direction."""
-        return self.inner_corners[0]
-
-    @property
-    def ny(self) -> int:
-        """Inner corners along the board's y (second) direction."""
-        return self.inner_corners[1]
-
-    @property
-    def n_corners(self) -> int:
-        """The number of inner corners, ``nx * ny``."""
-        return self.nx * self.ny
-
-    def object_points(self) -> np.ndarray:
-        """Corners in the board frame, (N, 3): corner (i, j) at (i·s, j·s, 0), i fastest."""
-        j, i = np.mgrid[0:self.ny, 0:self.nx]
-        P = np.zeros((self.n_corners, 3))
-        P[:, 0] = i.ravel() * self.square_size
-        P[:, 1] = j.ravel() * self.square_size
-        return P
-
     def to_dict(self) -> dict:
         """JSON-ready dict: ``inner_corners`` [nx, ny] and ``square_size``."""
         return {"inner_corners": [self.nx, self.ny], "square_size": self.square_size}
@@ -127,7 +133,7 @@ TARGET_TYPES = ("chessboard", "charuco")
 
 
 @dataclass(frozen=True)
-class CharucoBoard:
+class CharucoBoard(_CornerGrid):
     """A ChArUco target (OpenCV's ``cv2.aruco.CharucoBoard``): a chessboard of
     ``squares`` (sx, sy) squares of ``square_size`` whose white squares carry ArUco
     markers of ``marker_size`` (same length unit) from ``dictionary``.
@@ -191,25 +197,6 @@ class CharucoBoard:
     def inner_corners(self) -> tuple[int, int]:
         """(nx, ny): the inner (chessboard) corners, one fewer than the squares each way."""
         return self.squares[0] - 1, self.squares[1] - 1
-
-    @property
-    def nx(self) -> int:
-        """Inner corners along the board's x."""
-        return self.inner_corners[0]
-
-    @property
-    def ny(self) -> int:
-        """Inner corners along the board's y."""
-        return self.inner_corners[1]
-
-    @property
-    def n_corners(self) -> int:
-        """How many inner corners the board has (each with its id)."""
-        return self.nx * self.ny
-
-    def object_points(self) -> np.ndarray:
-        """Corners by id in the board frame, (N, 3): id j·nx + i at (i·s, j·s, 0)."""
-        return Board.object_points(self)   # the same grid as the chessboard's
 
     def to_dict(self) -> dict:
         """The board as a dataset manifest names it (``board.type = "charuco"``)."""
