@@ -132,6 +132,46 @@ def prune_cache(folder: str | os.PathLike, max_bytes: int | None = None,
     return removed
 
 
+@contextlib.contextmanager
+def folder_built_atomically(out: str | os.PathLike, flag: str = "--out",
+                            meanwhile: str = ""):
+    """A temporary folder beside ``out`` (with the usual permissions, not mkdtemp's 0700)
+    to build a dataset folder in; renamed to ``out`` when the block ends without error
+    (atomic: it replaces an empty folder and fails on a non-empty one, so two writers
+    cannot mix their files), removed otherwise. An interrupt removes it and raises
+    :class:`rasc.interrupt.Interrupted` saying nothing was written. ``meanwhile`` is added
+    to the message when ``out`` appeared during the work (e.g. " (another render?)")."""
+    import shutil
+
+    from rasc.interrupt import Interrupted, shielded
+
+    out = Path(out)
+    parent = out.parent if str(out.parent) else Path(".")
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        raise InputError(f"{flag} {out}: cannot create a folder in {parent}: "
+                         f"{exc.strerror or exc}") from None
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)
+        yield tmp
+        try:
+            os.rename(tmp, out)
+        except OSError as exc:
+            raise InputError(f"{flag} {out}: appeared meanwhile{meanwhile}: "
+                             f"{exc.strerror or exc}; nothing written") from None
+    except KeyboardInterrupt:
+        with shielded(reraise=False):
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise Interrupted(f"nothing written (removed the partial dataset {tmp})") from None
+    except BaseException:
+        with shielded():
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
 def tree_digest(root: str | os.PathLike, files) -> str:
     """sha256 over the path relative to ``root``, the length and the bytes of every
     regular file of ``files`` (in sorted order; ``__pycache__`` and ``.pyc`` left out):

@@ -11,16 +11,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from rasc.commands import loading
 from rasc.errors import InputError
-from rasc.interrupt import Interrupted, shielded
 
 
 def _floats(text: str, flag: str) -> tuple[float, ...]:
@@ -132,6 +128,7 @@ def _check_out(out: str, model: str | None) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
+        from rasc.io import folder_built_atomically
         from rasc.sim.render import RenderOptions, parse_poses, render_dataset
         from rasc.vision.board import parse_target
 
@@ -148,34 +145,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--target draws the target around the stock head: give --target or "
                          "--model, not both")
     t0 = time.perf_counter()
-    parent = out.parent if str(out.parent) else Path(".")
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
-    except OSError as exc:
-        raise InputError(f"--out {out}: cannot create a folder in {parent}: "
-                         f"{exc.strerror or exc}") from None
-    try:
-        # mkdtemp makes the folder private (0700); the dataset gets the usual mode
-        umask = os.umask(0)
-        os.umask(umask)
-        tmp.chmod(0o777 & ~umask)
+    with folder_built_atomically(out, meanwhile=" (another render?)") as tmp:
         render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units,
                        board=board)
-        try:
-            # atomic: replaces an empty folder, fails on a non-empty one, so two renders
-            # into one --out cannot mix their files
-            os.rename(tmp, out)
-        except OSError as exc:
-            raise InputError(f"--out {out}: appeared meanwhile (another render?): "
-                             f"{exc.strerror or exc}; nothing written") from None
-    except KeyboardInterrupt:
-        with shielded(reraise=False):
-            shutil.rmtree(tmp, ignore_errors=True)
-        raise Interrupted(f"nothing written (removed the partial dataset {tmp})") from None
-    except BaseException:
-        with shielded():
-            shutil.rmtree(tmp, ignore_errors=True)
-        raise
     if not args.quiet:
         print(f"render: wrote {out}/manifest.json ({time.perf_counter() - t0:.1f} s)",
               file=sys.stderr)

@@ -15,7 +15,6 @@ import csv
 import math
 import os
 import shutil
-import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -132,37 +131,16 @@ def plan_intrinsics(sc: BagScan, cfg: ImportConfig) -> dict[str, list[int]]:
 @contextlib.contextmanager
 def building(out: str | os.PathLike) -> Iterator[Path]:
     """A temporary folder beside ``out`` to build it in; renamed to ``out`` when the block
-    ends without error, removed otherwise. ``out`` must not exist, or be an empty folder."""
-    from rasc.interrupt import Interrupted, shielded
+    ends without error, removed otherwise (:func:`rasc.io.folder_built_atomically`).
+    ``out`` must not exist, or be an empty folder."""
+    from rasc.io import folder_built_atomically
 
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise InputError(f"--out {out}: exists and is not an empty folder; rasc import never "
                          "replaces files: name a new folder")
-    parent = out.parent if str(out.parent) else Path(".")
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
-    except OSError as exc:
-        raise InputError(f"--out {out}: cannot create a folder in {parent}: "
-                         f"{exc.strerror or exc}") from None
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        tmp.chmod(0o777 & ~umask)
+    with folder_built_atomically(out) as tmp:
         yield tmp
-        try:
-            os.rename(tmp, out)
-        except OSError as exc:
-            raise InputError(f"--out {out}: appeared meanwhile: {exc.strerror or exc}; "
-                             "nothing written") from None
-    except KeyboardInterrupt:
-        with shielded(reraise=False):
-            shutil.rmtree(tmp, ignore_errors=True)
-        raise Interrupted(f"nothing written (removed the partial dataset {tmp})") from None
-    except BaseException:
-        with shielded():
-            shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def _write_image(folder: Path, rel: str, pixels, ext: str) -> str:
