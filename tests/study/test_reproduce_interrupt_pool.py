@@ -14,20 +14,9 @@ from pathlib import Path
 
 import pytest
 
+from conftest import marked_processes
+
 REPO = Path(__file__).resolve().parents[2]
-
-
-def _marked(mark: str) -> list[int]:
-    """The processes whose environment holds ``mark``."""
-    pids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                if mark.encode() in (d / "environ").read_bytes():
-                    pids.append(int(d.name))
-            except OSError:
-                continue
-    return pids
 
 
 @pytest.mark.slow
@@ -53,5 +42,5 @@ def test_ctrl_c_of_the_pooled_reproduction_leaves_nothing_behind(tmp_path, short
     assert "reproduce: interrupted: " in err and "leaked semaphore" not in err, err
     assert "Traceback" not in err, err
     time.sleep(2)
-    assert _marked(mark) == []
+    assert marked_processes(mark) == []
     assert list(tmp.iterdir()) == []

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import marked_processes
+
 SCRIPT = '''
 import sys, time
 sys.path.insert(0, sys.argv[1])
@@ -41,19 +43,6 @@ def hangs(T_cw, T_gp, **kw):
     while True:
         time.sleep(0.05)
 '''
-
-
-def _marked(mark: str) -> list[int]:
-    """The processes whose environment holds ``mark``."""
-    pids = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                if mark.encode() in (d / "environ").read_bytes():
-                    pids.append(int(d.name))
-            except OSError:
-                continue
-    return pids
 
 
 @pytest.mark.slow
@@ -90,7 +79,7 @@ def test_ctrl_c_of_a_pooled_study_leaves_nothing_behind(tmp_path, where, short_t
                                                    "finished cells"), err
     assert took < 15, took                           # within seconds (2 cores, loaded)
     time.sleep(2)
-    assert _marked(mark) == []                       # every worker process gone
+    assert marked_processes(mark) == []                       # every worker process gone
     assert list(tmp.iterdir()) == []                 # no pymp-*, no dask scratch
     assert not (tmp_path / "dask-scratch-space").exists()
     assert not (out / "samples.csv").exists()
@@ -123,5 +112,5 @@ def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path, short_tmp):
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("rasc study: interrupted: "), err
     time.sleep(2)
-    assert _marked(mark) == []
+    assert marked_processes(mark) == []
     assert list(tmp.iterdir()) == []
