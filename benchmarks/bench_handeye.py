@@ -65,9 +65,10 @@ def median_time(fn, repeat: int, clock=time.perf_counter) -> float:
     return statistics.median(times)
 
 
-def median_times(fns, repeat: int, block: int = 5) -> list[float]:
+def median_times(fns, repeat: int, block: int = 5, clock=time.perf_counter) -> list[float]:
     """Median time per call of each of ``fns``, timed in turn in blocks of ``block``
     calls, ``repeat`` calls each: on a shared machine every function sees the same load.
+    ``clock``: wall time by default (``time.process_time`` for CPU time).
 
     The order rotates from round to round, so that each function follows each other one
     equally often: whatever runs right after OpenCV's calibrateHandEye was measured about
@@ -79,10 +80,10 @@ def median_times(fns, repeat: int, block: int = 5) -> list[float]:
     m = len(fns)
     for r in range(max(1, repeat // block)):
         for k in [(r + o) % m for o in range(m)]:
-            t0 = time.perf_counter()
+            t0 = clock()
             for _ in range(block):
                 fns[k]()
-            times[k].append((time.perf_counter() - t0) / block)
+            times[k].append((clock() - t0) / block)
     return [statistics.median(t) for t in times]
 
 

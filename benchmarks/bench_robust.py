@@ -18,7 +18,6 @@ hundred is what its design costs.
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -70,17 +69,12 @@ def cases() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 def side_by_side(fns: dict, repeat: int, block: int = 5) -> dict[str, float]:
-    """Median CPU time per call of each function, timed alternately in blocks."""
-    for fn in fns.values():
-        fn()                                                      # warm-up
-    times = {k: [] for k in fns}
-    for _ in range(max(1, repeat // block)):
-        for k, fn in fns.items():
-            t0 = time.process_time()
-            for _ in range(block):
-                fn()
-            times[k].append((time.process_time() - t0) / block)
-    return {k: statistics.median(v) for k, v in times.items()}
+    """Median CPU time per call of each function, timed alternately in blocks
+    (bench_handeye's :func:`median_times`, on the CPU clock)."""
+    from bench_handeye import median_times
+
+    return dict(zip(fns, median_times(list(fns.values()), repeat, block,
+                                      clock=time.process_time), strict=True))
 
 
 def main(argv=None) -> int:
