@@ -2,7 +2,7 @@
 
 The default dataset is rendered and calibrated once per test run by the real command line
 in subprocesses (``python -m rasc``; the session fixture ``default_cli_run`` of
-tests/conftest.py, shared with the other modules that need that dataset); the other
+tests/shared_fixtures.py, shared with the other modules that need that dataset); the other
 datasets (same seed again, a modified head model, image noise, lens distortion) and the
 many bad inputs go through :func:`rasc.cli.main` in-process to keep the module fast (a
 refusal in a real process, exit status 2 and one line: tests/cli/test_hostile.py, for
@@ -37,7 +37,7 @@ from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
 from rasc.sim.scene import HEAD_XML, scene_xml
 from rasc.vision.board import DEFAULT_BOARD
 
-from conftest import run_rasc
+from running import run_rasc
 
 #: Same bounds as tests/head/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).

@@ -18,7 +18,7 @@ from rasc.handeye import _kernels, paper, solver
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 
-from conftest import PAPER, pan_tilt, random_rigid, rig
+from nominal_rig import PAPER, pan_tilt, random_rigid, rig
 
 
 def scene(kind: str, seed: int):

@@ -20,8 +20,8 @@ from rasc.geometry.transforms import invert_transform, make_transform
 from rasc.head import use
 from rasc.head.model import MAX_ABS_ANGLE_RAD, EyeCalibration, HeadCalibration
 
-from conftest import HEAD_IMAGE_SIZE as SIZE
-from conftest import R_CAM_FROM_GAZE_NOMINAL, plausible_head
+from nominal_rig import HEAD_IMAGE_SIZE as SIZE
+from nominal_rig import R_CAM_FROM_GAZE_NOMINAL, plausible_head
 
 
 def make_head(seed=0):

@@ -29,7 +29,7 @@ from rasc.sim.scene import GROUND_TRUTH_TOL, HEAD_XML, StereoHeadSim, import_muj
 from rasc.sim.units import UnitBuild, read_unit_file
 from rasc.vision.board import DEFAULT_BOARD
 
-from conftest import run_rasc
+from running import run_rasc
 
 SMALL = RenderOptions(poses_deg=((0.0, 0.0), (8.0, 8.0), (-8.0, -6.0)), n_intrinsics=3)
 SKEW_DEG = 1.0
