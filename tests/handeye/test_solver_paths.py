@@ -230,6 +230,9 @@ def test_one_solve_path_only_for_its_arguments():
         solve_rasc(T_cw, PAPER, pairs="some")
     with pytest.raises(solver.InputError, match="min_rotation_rad"):
         solve_rasc(T_cw, PAPER, min_rotation_rad=-1.0)
+    with pytest.raises(solver.InputError,
+                       match='^min_rotation_rad: expected a number, got "1e-3"$'):
+        solve_rasc(T_cw, PAPER, min_rotation_rad="1e-3")
 
 
 def test_deferred_quality_and_diagnostics_are_those_of_the_solve():

@@ -69,6 +69,10 @@ def test_bad_pixel_sigma_is_refused():
     uvl, uvr = head.project(POINTS, *ANGLES)
     with pytest.raises(InputError, match="pixel_sigma"):
         point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma=-1.0)
+    with pytest.raises(InputError, match=r"^pixel_sigma: must be finite, got NaN$"):
+        point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma=float("nan"))
+    with pytest.raises(InputError, match=r'^pixel_sigma: expected a number, got "0.5"$'):
+        point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma="0.5")
 
 
 @pytest.fixture(scope="module")
