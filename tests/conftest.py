@@ -2,7 +2,7 @@
 each room's rig comes from.
 
 The tests stand in room folders (tests/<room>/), each with a conftest.py naming the
-fixtures its tests use; a room without one uses none. Beside them, three helper modules
+fixtures its tests use; a room without one uses none. Beside them, four helper modules
 (tests/ is on sys.path through this conftest, so any test module imports them):
 
 - :mod:`nominal_rig`: the nominal rig (``R_CAM_FROM_GAZE_NOMINAL``, ``PAPER``, ``rig``,
@@ -12,6 +12,7 @@ fixtures its tests use; a room without one uses none. Beside them, three helper 
   (``rasc`` in this process), ``pip_build_flags``, ``marked_processes``.
 - :mod:`shared_fixtures`: the fixtures several rooms use, and the run's shared folder
   and file lock (``shared_root``, ``locked``) for work done once per run.
+- :mod:`json_strategies`: ``json_documents``, hypothesis strategies for the JSON readers.
 
 Which room's conftest has which fixture (* defined there, the others from
 shared_fixtures):
