@@ -16,11 +16,11 @@ from pathlib import Path
 
 from rasc.commands import loading
 from rasc.errors import InputError
-from rasc.io import finite_numbers
 
 
 def _units(args: argparse.Namespace) -> dict | None:
     """{eye: UnitBuild} from ``--unit FILE`` and the convenience options, or None."""
+    from rasc.io import finite_numbers
     from rasc.sim.units import IDEAL_BUILD, MAX_SKEW_DEG, merge, read_unit_file
 
     units = read_unit_file(args.unit) if args.unit else None
@@ -111,7 +111,7 @@ def _check_out(out: str, model: str | None) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
-        from rasc.io import folder_built_atomically
+        from rasc.io import finite_numbers, folder_built_atomically
         from rasc.sim.render import RenderOptions, parse_poses, render_dataset
         from rasc.vision.board import parse_target
 

@@ -395,3 +395,23 @@ def test_bad_input_is_refused(sim, tmp_path):
     garbage.write_text("<mujoco><worldbody><body></mujoco>")
     with pytest.raises(InputError, match="MuJoCo cannot load the model"):
         StereoHeadSim(garbage)
+
+
+def test_interrupt_while_mujoco_loads_is_an_interrupt_not_a_gl_error(monkeypatch):
+    """A SIGTERM that arrives while mujoco's extension loads surfaces as that import's own
+    error; it must stay an interrupt (exit 130, "interrupted"), not become "cannot render
+    offscreen; install …" (seen under `timeout 3 rasc render` on a loaded machine)."""
+    import sys as _sys
+
+    from rasc import interrupt
+    from rasc.errors import RascError
+    from rasc.sim import scene
+
+    monkeypatch.setitem(_sys.modules, "mujoco", None)       # `import mujoco` raises ImportError
+    monkeypatch.setattr(scene, "_gl_choice", "egl")
+    monkeypatch.setattr(interrupt, "_RECEIVED", [])
+    with pytest.raises(RascError, match="cannot render offscreen"):
+        import_mujoco()                                      # no signal: a broken backend
+    monkeypatch.setattr(interrupt, "_RECEIVED", [15])
+    with pytest.raises(KeyboardInterrupt):
+        import_mujoco()
