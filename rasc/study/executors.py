@@ -46,6 +46,16 @@ class WorkerCrashed(RascError):
 #: how long stopping a pool's workers may take before they are killed, s
 STOP_GRACE_S = 2.0
 
+#: how a message names each option of :func:`make_executor` (and of
+#: :func:`rasc.study.run_study`) when the caller gives no ``names`` of its own: the
+#: library's parameter; a command passes its flags (``{"workers": "--workers", ...}``)
+OPTION_NAMES = {"out": "out", "resume": "resume=True", "workers": "workers", "dask": "dask"}
+
+
+def option_names(names: dict[str, str] | None = None) -> dict[str, str]:
+    """:data:`OPTION_NAMES` with the caller's ``names`` over them."""
+    return {**OPTION_NAMES, **(names or {})}
+
 
 def worker_environment() -> None:
     """What every worker process sets before its first task (idempotent)."""
@@ -178,12 +188,14 @@ class DaskExecutor(Executor):
     """dask.distributed: ``address`` "local" starts a LocalCluster on loopback with
     ``workers`` single-threaded worker processes; ``tcp://host:port`` joins a cluster."""
 
-    def __init__(self, address: str, workers: int) -> None:
+    def __init__(self, address: str, workers: int, names: dict[str, str] | None = None
+                 ) -> None:
+        name = option_names(names)["dask"]
         try:
             from dask.distributed import Client, LocalCluster
         except ImportError:
-            raise InputError("--dask: dask.distributed is not installed; install the extra: "
-                             "pip install 'rasc[dask]'") from None
+            raise InputError(f"{name}: dask.distributed is not installed; install the "
+                             "extra: pip install 'rasc[dask]'") from None
         self._cluster = None
         self._scratch = None
         worker_environment()          # inherited by the LocalCluster's worker processes
@@ -229,12 +241,12 @@ class DaskExecutor(Executor):
             self.description = f"a dask LocalCluster of {workers} workers"
         else:
             if not address.startswith(("tcp://", "tls://")):
-                raise InputError(f"--dask: expected 'local' or a scheduler address such as "
+                raise InputError(f"{name}: expected 'local' or a scheduler address such as "
                                  f"tcp://host:8786, got {address!r}")
             try:
                 self.client = Client(address, timeout="10s")
             except (OSError, TimeoutError) as exc:
-                raise InputError(f"--dask {address}: cannot reach the scheduler: "
+                raise InputError(f"{name} {address}: cannot reach the scheduler: "
                                  f"{' '.join(str(exc).split())}") from None
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
@@ -269,10 +281,14 @@ class DaskExecutor(Executor):
             self._scratch = None
 
 
-def make_executor(workers: int = 1, dask: str | None = None) -> Executor:
-    """The executor for ``--workers N`` / ``--dask ADDRESS``."""
+def make_executor(workers: int = 1, dask: str | None = None,
+                  names: dict[str, str] | None = None) -> Executor:
+    """The executor for ``workers`` processes (1: this process) or the dask cluster
+    ``dask``. ``names``: how messages name ``workers`` and ``dask`` (default: so,
+    :data:`OPTION_NAMES`; the command line passes its flags)."""
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"--workers: expected an integer >= 1, got {workers!r}")
+        raise InputError(f"{option_names(names)['workers']}: expected an integer >= 1, "
+                         f"got {workers!r}")
     if dask is not None:
-        return DaskExecutor(dask, workers)
+        return DaskExecutor(dask, workers, names)
     return Executor() if workers == 1 else ProcessExecutor(workers)
