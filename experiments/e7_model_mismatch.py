@@ -50,8 +50,6 @@ from those ``fig_model_mismatch.png`` and ``e7.md`` (the report section).
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import json
 import os
 import sys
@@ -238,13 +236,10 @@ def _synthetic(fields: dict, seed: int):
 # ----------------------------------------------------------------------------- outputs
 
 def _csv(path: Path, header: list[str], rows: list[list]) -> None:
-    from rasc.io import write_text_atomic
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    w.writerows(rows)
-    write_text_atomic(path, buf.getvalue())
+    """The experiments' CSV writer (:func:`experiments._common.write_csv`, on the study's
+    :func:`rasc.study.summary.csv_text`); E8 writes through it too."""
+    from experiments._common import write_csv
+    write_csv(path, header, rows)
 
 
 def write_raw(results: list[dict], folder: Path) -> None:
