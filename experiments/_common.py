@@ -14,7 +14,6 @@ import csv
 import io
 import json
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -429,23 +428,6 @@ def run_experiment(job: tuple[Context, str]) -> tuple[str, Section, float]:
     t0 = time.perf_counter()
     section = module.run(ctx)
     return name, section, time.perf_counter() - t0
-
-
-def init_experiment_worker() -> None:
-    """A reproduce.py worker: single-threaded libraries; Ctrl-C is the parent's to handle
-    (it reaches the whole process group), so the worker ignores SIGINT; its progress
-    bars' lock is a thread lock (a multiprocessing one is a named semaphore that a worker
-    terminated after an interrupt leaves to the resource tracker, which reports it)."""
-    from rasc.interrupt import end_by_sigterm
-    from rasc.study.executors import no_process_locks
-
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    # terminated (an interrupt of reproduce.py): the temporary folders of the study
-    # running here are removed, then the worker ends at once
-    signal.signal(signal.SIGTERM, end_by_sigterm)
-    no_process_locks()
 
 
 def script_main(run: Callable[[Context], Section], doc: str,

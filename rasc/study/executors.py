@@ -28,7 +28,7 @@ import shutil
 import tempfile
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
 from rasc.errors import InputError, RascError
@@ -55,6 +55,12 @@ OPTION_NAMES = {"out": "out", "resume": "resume=True", "workers": "workers", "da
 def option_names(names: dict[str, str] | None = None) -> dict[str, str]:
     """:data:`OPTION_NAMES` with the caller's ``names`` over them."""
     return {**OPTION_NAMES, **(names or {})}
+
+
+def _order(key: Any) -> tuple:
+    """Futures finished together are handed over in the order of their keys (task
+    indices), whatever the keys' type."""
+    return (0, key) if isinstance(key, int) else (1, str(key))
 
 
 def worker_environment() -> None:
@@ -91,7 +97,10 @@ def _pool_worker_init() -> None:
 
 
 class Executor:
-    """Runs ``fn(task)`` for each task; :meth:`map_unordered` yields ``(index, result)``."""
+    """Runs ``fn(task)`` for each task: :meth:`map_unordered` yields ``(index, result)``
+    for a list of tasks; :meth:`submit` and :meth:`completed` are the same one task at a
+    time, for a caller that submits while it computes (reproduce.py starts the
+    experiments that need no default dataset while it calibrates that dataset)."""
 
     description = "in this process"
     workers = 1
@@ -102,6 +111,41 @@ class Executor:
         order, in this process)."""
         for k, task in enumerate(tasks):
             yield k, fn(task)
+
+    def submit(self, fn: Callable[[Any], Any], task: Any) -> Future:
+        """Start ``fn(task)``; its future (here: run now, in this process; an exception
+        it raises is the future's)."""
+        fut: Future = Future()
+        try:
+            fut.set_result(fn(task))
+        except Exception as exc:  # noqa: BLE001 -- handed over by Future.result()
+            fut.set_exception(exc)
+        return fut
+
+    def completed(self, futures: dict[Future, Any]) -> Iterator[tuple[Any, Any]]:
+        """Wait for ``futures`` (a dict future → the caller's key); yield ``(key, result)``
+        as each finishes, taking them out of the dict. A task's exception is raised here;
+        a worker process that ended while it ran one raises :class:`WorkerCrashed`. Not
+        yet started futures left in the dict on an exit from the loop are cancelled."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            while futures:
+                done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for fut in sorted(done, key=lambda f: _order(futures[f])):
+                    key = futures.pop(fut)
+                    try:
+                        result = fut.result()
+                    except BrokenProcessPool:
+                        self.abort()
+                        which = f"task {key}" if isinstance(key, int) else key
+                        raise WorkerCrashed(f"a worker process ended while it ran "
+                                            f"{getattr(fut, 'rasc_what', 'a task')} "
+                                            f"({which})") from None
+                    yield key, result
+        finally:
+            for fut in futures:
+                fut.cancel()
 
     def close(self) -> None:
         """Release the executor's workers (nothing to release in this process)."""
@@ -129,32 +173,21 @@ class ProcessExecutor(Executor):
         self.description = f"a local process pool of {workers} workers"
         self._pool: ProcessPoolExecutor | None = None
 
-    def map_unordered(self, fn, tasks):
+    def submit(self, fn, task):
+        """Start ``fn(task)`` in a worker process (the pool starts on first use)."""
         if self._pool is None:
             # forkserver: workers fork from a fresh server process, never from this one,
             # which may hold an EGL context (a forked copy of one crashes the worker)
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers, initializer=_pool_worker_init,
                 mp_context=multiprocessing.get_context("forkserver"))
-        from concurrent.futures.process import BrokenProcessPool
+        fut = self._pool.submit(fn, task)
+        fut.rasc_what = getattr(fn, "__name__", "a task")
+        return fut
 
-        pending = {self._pool.submit(fn, task): k for k, task in enumerate(tasks)}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in sorted(done, key=pending.__getitem__):
-                    k = pending.pop(fut)
-                    try:
-                        result = fut.result()
-                    except BrokenProcessPool:
-                        self.abort()
-                        raise WorkerCrashed(f"a worker process ended while it ran "
-                                            f"{getattr(fn, '__name__', 'a task')} (task "
-                                            f"{k})") from None
-                    yield k, result
-        finally:
-            for fut in pending:
-                fut.cancel()
+    def map_unordered(self, fn, tasks):
+        pending = {self.submit(fn, task): k for k, task in enumerate(tasks)}
+        yield from self.completed(pending)
 
     def close(self) -> None:
         """Shut the process pool down, cancelling tasks not yet started."""
@@ -253,16 +286,25 @@ class DaskExecutor(Executor):
         self.client.run(worker_environment)
         self.client.run(no_process_locks)
 
-    def map_unordered(self, fn, tasks):
+    def submit(self, fn, task):
+        """Start ``fn(task)`` on the cluster; its dask future."""
+        return self.client.submit(fn, task, pure=False)
+
+    def completed(self, futures):
+        """:meth:`Executor.completed` for dask futures."""
         from dask.distributed import as_completed
 
-        futures = [self.client.submit(fn, task, pure=False) for task in tasks]
-        index = {f.key: k for k, f in enumerate(futures)}
+        by_key = {f.key: f for f in futures}
         try:
-            for fut in as_completed(futures):
-                yield index[fut.key], fut.result()
+            for fut in as_completed(list(futures)):
+                key = futures.pop(by_key[fut.key])
+                yield key, fut.result()
         finally:
             self.client.cancel([f for f in futures if not f.done()])
+
+    def map_unordered(self, fn, tasks):
+        pending = {self.submit(fn, task): k for k, task in enumerate(tasks)}
+        yield from self.completed(pending)
 
     def close(self) -> None:
         """Close the dask client (and the local cluster, if this executor started one)."""
