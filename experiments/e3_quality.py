@@ -277,7 +277,7 @@ def _reading(s_all: dict, s_paper: dict, ratio: list[float], lv: list[dict]) -> 
                     "eq. 10 does not see.")
     if half:
         text.append(f"With ±8° motions half the solutions are unusable from set "
-                    f"{half[0]['level']} (σ_r = {float(half[0]['sigma_r']):.3f} rad) on, "
+                    f"{half[0]['noise_level']} (σ_r = {float(half[0]['sigma_r']):.3f} rad) on, "
                     f"where the median quality is only {float(half[0]['quality_median']):.3g}.")
     bt = s_all["best_threshold"]
     if bt:
