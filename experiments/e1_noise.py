@@ -21,7 +21,10 @@ are tested here per level with paired Wilcoxon signed-rank tests on the same sam
 Output in ``<out>/e1/``: ``noise_samples.csv`` (raw, one row per sample and method),
 ``noise_summary.csv`` and ``paired_tests.csv`` (computed from the raw file),
 ``inputs.json`` (protocol and the poses that were perturbed; E3 checks it before reusing
-the raw file), ``summary.json``, and the figures, plotted from the summary CSV.
+the raw file), ``summary.json``, and the figures, plotted from the summary CSV. The raw
+rows carry the study's column names (``noise_model``, ``noise_level``, ``translation_mm``,
+``rotation_fro``, ``rotation_deg``, ``quality``, the estimate's ``t_x_mm`` … ``R_33``), as
+the study's ``samples.csv`` does.
 """
 
 from __future__ import annotations

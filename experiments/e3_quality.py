@@ -8,7 +8,7 @@ RASC sample of E1 (sets 0–8, both eyes, both noise variants: the study
 ``experiments/specs/e3_quality.toml`` holds E1's cells, whose keys and therefore draws are
 E1's, recomputed here for RASC alone) plus larger noise sets, because the paper's
 levels leave the quality far below the paper's threshold of 1: sets k = 12, 16, 24, 32,
-48, 64, 80 at (0.005k rad, k mm) (up to 0.4 rad / 80 mm; the ``level`` column is k),
+48, 64, 80 at (0.005k rad, k mm) (up to 0.4 rad / 80 mm; the ``noise_level`` column is k),
 30 samples (quick: sets 0, 1, 4, 8, 32 and 80, 6 samples).
 
 "Unusable" is defined here (the paper does not define it): rotation error > 5° or
