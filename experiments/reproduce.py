@@ -325,7 +325,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
     cache_root()               # a bad RASC_CACHE_MAX_MB is refused before anything starts
     if _requested_workers(argv) > 1:
         start_forkserver()
-    from experiments._common import REPO, Context, md_table, stage
+    from experiments._common import REPO, Context, stage
     from rasc.io import write_text_atomic
 
     ctx = Context.from_argv(__doc__, argv)
@@ -369,6 +369,16 @@ def _run(argv: list[str] | None, state: dict) -> int:
         sections.append(section)
         timings.append((title, seconds))
     total = time.perf_counter() - t_start
+    write_text_atomic(ctx.out / "REPORT.md", report_text(ctx, sections, timings, total))
+    print(f"reproduce: wrote {ctx.out / 'REPORT.md'} ({total:.1f} s)", file=sys.stderr)
+    return 0
+
+
+def report_text(ctx: Context, sections: list[Section], timings: list[tuple[str, float]],
+                total: float) -> str:
+    """REPORT.md: the command, the source, the sections in order, the software versions
+    and the wall time of every stage (``total`` s in all)."""
+    from experiments._common import md_table
 
     v = versions()
     mode = "quick (reduced protocol, for tests)" if ctx.quick else "full protocol"
@@ -395,9 +405,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         [("**total**", f"**{total:.1f}**")])
         + f"\nOn {ctx.workers} worker process(es); wall times vary with the machine's load "
           "and are not part of the results.\n")
-    write_text_atomic(ctx.out / "REPORT.md", "\n".join(parts))
-    print(f"reproduce: wrote {ctx.out / 'REPORT.md'} ({total:.1f} s)", file=sys.stderr)
-    return 0
+    return "\n".join(parts)
 
 
 if __name__ == "__main__":

@@ -202,7 +202,8 @@ class ProcessExecutor(Executor):
         if pool is None:
             return
         import time
-        procs = list(getattr(pool, "_processes", {}).values())
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        _drop_cancelled(pool)               # (the pool forgets its processes here)
         for p in procs:
             with contextlib.suppress(Exception):
                 p.terminate()
@@ -215,6 +216,23 @@ class ProcessExecutor(Executor):
                     p.join(1.0)
         with contextlib.suppress(Exception):
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _drop_cancelled(pool: ProcessPoolExecutor, timeout_s: float = 1.0) -> None:
+    """Let the pool's manager thread drop the futures cancelled before they reached a
+    worker, before the workers are ended: Python 3.11's manager then sets an exception on
+    every future it still holds, raises InvalidStateError on a cancelled one and dies
+    with a traceback on stderr, before it has cleaned up (fixed in 3.12). Shutting down
+    with ``cancel_futures`` makes it drop them; it says it has by clearing the flag."""
+    with contextlib.suppress(Exception):
+        pool.shutdown(wait=False, cancel_futures=True)
+        import time
+        manager = getattr(pool, "_executor_manager_thread", None)
+        deadline = time.monotonic() + timeout_s
+        while (manager is not None and manager.is_alive()
+               and getattr(pool, "_cancel_pending_futures", False)
+               and time.monotonic() < deadline):
+            time.sleep(0.005)
 
 
 class DaskExecutor(Executor):

@@ -41,3 +41,23 @@ def test_pool_worker_that_ends_is_one_line_naming_the_task():
         list(ex.completed({ex.submit(os._exit, 3): "e7"}))
     msg = str(info.value)
     assert "\n" not in msg and "_exit (e7)" in msg, msg
+
+
+@pytest.mark.slow
+def test_abort_after_a_failed_task_leaves_no_thread_traceback(monkeypatch):
+    """A task fails while others wait in the pool: the waiting ones are cancelled and
+    the workers stopped; the pool's manager thread must not die on the cancelled
+    futures (Python 3.11 raised InvalidStateError there: "Exception in thread", a
+    traceback on stderr after the interrupt's one line)."""
+    import threading
+    died = []
+    monkeypatch.setattr(threading, "excepthook", died.append)
+    ex = make_executor(2)
+    futures = {ex.submit(math.sqrt, -1.0): "bad"}
+    futures.update({ex.submit(time.sleep, 0.5): f"s{k}" for k in range(8)})
+    with pytest.raises(ValueError):
+        list(ex.completed(futures))
+    ex.abort()
+    ex.close()
+    time.sleep(1.0)                         # the manager thread's end, if it were to fail
+    assert [d.exc_type.__name__ for d in died] == []
