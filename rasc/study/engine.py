@@ -283,17 +283,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         raise InputError(f"{out}: {option_names(names)['out']}: would overwrite the spec "
                          f"{spec.path}")
     cells = spec.cells()
-    given = None
-    if dataset is not None:
-        if spec.dataset_path() is not None:
-            raise InputError(f"{spec.path}: fixed.dataset: the caller gives the dataset "
-                             "already; leave it out of the spec")
-        def fail(key: str, msg: str):
-            raise InputError(f"{spec.path}: {key}: {msg}")
-        check_beside_dataset(spec.fixed, spec.axes, fail, "the study runs on a given dataset")
-        given = dataset_digest_of(dataset)
-    elif spec.dataset_path() is not None:
-        given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    given = _given_dataset(spec, dataset)
     cache_dir()          # a bad RASC_CACHE_MAX_MB is refused before anything is made
     prepare_folder(out, spec, resume, given, names)
     created = _make_folder(out)
@@ -304,6 +294,24 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
                            resume=resume, quiet=quiet, executor=executor, log=log,
                            dataset=dataset, estimates=estimates, figures=figures,
                            pose_errors=pose_errors, names=names)
+
+
+def _given_dataset(spec: Spec, dataset: dict | None) -> str | None:
+    """The identity of the dataset every cell runs on, when there is one: a calibrated
+    dataset the caller gives (then the spec may name no dataset nor render parameter) or
+    the spec's ``[fixed] dataset``; None when the study renders its own."""
+    if dataset is not None:
+        if spec.dataset_path() is not None:
+            raise InputError(f"{spec.path}: fixed.dataset: the caller gives the dataset "
+                             "already; leave it out of the spec")
+
+        def fail(key: str, msg: str):
+            raise InputError(f"{spec.path}: {key}: {msg}")
+        check_beside_dataset(spec.fixed, spec.axes, fail, "the study runs on a given dataset")
+        return dataset_digest_of(dataset)
+    if spec.dataset_path() is not None:
+        return spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    return None
 
 
 @dataclass
