@@ -14,7 +14,6 @@ import csv
 import io
 import json
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -431,23 +430,6 @@ def run_experiment(job: tuple[Context, str]) -> tuple[str, Section, float]:
     return name, section, time.perf_counter() - t0
 
 
-def init_experiment_worker() -> None:
-    """A reproduce.py worker: single-threaded libraries; Ctrl-C is the parent's to handle
-    (it reaches the whole process group), so the worker ignores SIGINT; its progress
-    bars' lock is a thread lock (a multiprocessing one is a named semaphore that a worker
-    terminated after an interrupt leaves to the resource tracker, which reports it)."""
-    from rasc.interrupt import end_by_sigterm
-    from rasc.study.executors import no_process_locks
-
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    # terminated (an interrupt of reproduce.py): the temporary folders of the study
-    # running here are removed, then the worker ends at once
-    signal.signal(signal.SIGTERM, end_by_sigterm)
-    no_process_locks()
-
-
 def script_main(run: Callable[[Context], Section], doc: str,
                 argv: Sequence[str] | None = None) -> int:
     """What every experiment script's ``main`` does: arguments → ``run`` → its section
@@ -538,9 +520,9 @@ def run_spec(ctx: Context, name: str, folder: Path, *, estimates: bool = False,
 
 def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,
                estimates: bool = True) -> list[list]:
-    """The tidy samples of a pose-noise study in the E1 layout (:data:`HEADER`), in the
-    study's order: eye, variant (= noise_model), level (the cell's ``noise_level``, 1 when
-    σ is given directly), σ_r, σ_t mm, sample, method, status, errors, quality, estimate.
+    """The tidy samples of a pose-noise study in the E1 layout (:data:`HEADER`, the
+    study's column names), in the study's order: eye, noise_model, noise_level (1 when σ
+    is given directly), σ_r, σ_t mm, sample, method, status, errors, quality, estimate.
     With ``one_noise_free`` a cell without noise keeps only sample 0 (its samples are the
     same pose set, solved once). Without ``estimates`` (a study run without them) the
     estimate columns are empty."""
@@ -552,8 +534,7 @@ def noise_rows(spec, rows: list[dict], one_noise_free: bool = True,
             continue
         level = p["noise_level"] if p["noise_level"] is not None else 1
         status = r["status"]
-        nums = ([float(r[k]) for k in ("translation_mm", "rotation_fro", "rotation_deg",
-                                       "quality")]
+        nums = ([float(r[k]) for k in ERROR_COLS]
                 + ([float(r[k]) for k in ("t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)]
                    if estimates else [""] * 12)
                 if status == "ok" else [""] * (len(HEADER) - 8))
@@ -571,10 +552,13 @@ METHOD_NAMES = ("rasc", "li")
 
 RAW_CSV = "noise_samples.csv"
 R_COLS = tuple(f"R_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
-#: the raw rows of E1 and E2 (:func:`noise_rows`): one per sample and method
-HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "method", "status",
-          "t_err_mm", "R_err_fro", "R_err_deg", "quality", "t_x_mm", "t_y_mm", "t_z_mm",
-          *R_COLS)
+#: the errors of a sample, in the raw rows' order (the study's column names)
+ERROR_COLS = ("translation_mm", "rotation_fro", "rotation_deg", "quality")
+#: the raw rows of E1 and E2 (:func:`noise_rows`): one per sample and method; the
+#: study's column names (rasc.study's samples.csv: its axes, SAMPLE_COLUMNS,
+#: ESTIMATE_COLUMNS)
+HEADER = ("eye", "noise_model", "noise_level", "sigma_r", "sigma_t_mm", "sample", "method",
+          "status", *ERROR_COLS, "t_x_mm", "t_y_mm", "t_z_mm", *R_COLS)
 
 
 def mean_std(values) -> tuple[float, float]:

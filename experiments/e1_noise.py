@@ -21,7 +21,10 @@ are tested here per level with paired Wilcoxon signed-rank tests on the same sam
 Output in ``<out>/e1/``: ``noise_samples.csv`` (raw, one row per sample and method),
 ``noise_summary.csv`` and ``paired_tests.csv`` (computed from the raw file),
 ``inputs.json`` (protocol and the poses that were perturbed; E3 checks it before reusing
-the raw file), ``summary.json``, and the figures, plotted from the summary CSV.
+the raw file), ``summary.json``, and the figures, plotted from the summary CSV. The raw
+rows carry the study's column names (``noise_model``, ``noise_level``, ``translation_mm``,
+``rotation_fro``, ``rotation_deg``, ``quality``, the estimate's ``t_x_mm`` … ``R_33``), as
+the study's ``samples.csv`` does.
 """
 
 from __future__ import annotations
@@ -61,10 +64,10 @@ PAPER_SIGMA_R, PAPER_SIGMA_T_MM = PAPER_LEVELS[0]
 #: significance level of the paired tests (per level, uncorrected; stated in the report)
 ALPHA = 0.05
 SUMMARY_CSV, TESTS_CSV = "noise_summary.csv", "paired_tests.csv"
-SUMMARY_HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "method", "n_ok",
+SUMMARY_HEADER = ("eye", "noise_model", "noise_level", "sigma_r", "sigma_t_mm", "method", "n_ok",
                   "n_failed", "t_err_mean_mm", "t_std_mm", "R_fro_mean", "R_std_fro",
                   "R_deg_mean", "quality_mean", "quality_median")
-TESTS_HEADER = ("eye", "variant", "level", "quantity", "n", "rasc_mean", "li_mean",
+TESTS_HEADER = ("eye", "noise_model", "noise_level", "quantity", "n", "rasc_mean", "li_mean",
                 "median_li_minus_rasc", "frac_rasc_better", "wilcoxon_p", "sign_p")
 
 # ------------------------------------------------------------------- statistics
@@ -82,7 +85,7 @@ def summarise(raw: list[dict]) -> list[list]:
     estimates (sample std, ddof = 1; empty for a single sample)."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in raw:
-        groups[(r["eye"], r["variant"], int(r["level"]), r["method"])].append(r)
+        groups[(r["eye"], r["noise_model"], int(r["noise_level"]), r["method"])].append(r)
     out = []
     for (eye, variant, level, method), rows in groups.items():
         ok = _ok(rows)
@@ -97,9 +100,9 @@ def summarise(raw: list[dict]) -> list[list]:
         # a single estimate (set 0) has no spread: std left empty, not 0
         std = (lambda a: float(np.linalg.norm(a.std(axis=0, ddof=1)))) if len(ok) > 1 \
             else (lambda a: "")
-        out.append(head + [float(_col(ok, "t_err_mm").mean()), std(t),
-                           float(_col(ok, "R_err_fro").mean()), std(R),
-                           float(_col(ok, "R_err_deg").mean()), float(q.mean()),
+        out.append(head + [float(_col(ok, "translation_mm").mean()), std(t),
+                           float(_col(ok, "rotation_fro").mean()), std(R),
+                           float(_col(ok, "rotation_deg").mean()), float(q.mean()),
                            float(np.median(q))])
     return out
 
@@ -108,8 +111,8 @@ def _paired(rasc: list[dict], li: list[dict], key: str) -> dict | None:
     """Paired comparison of one error over the samples both methods solved."""
     from scipy.stats import binomtest, wilcoxon
 
-    a = {(r["level"], r["sample"]): float(r[key]) for r in _ok(rasc)}
-    b = {(r["level"], r["sample"]): float(r[key]) for r in _ok(li)}
+    a = {(r["noise_level"], r["sample"]): float(r[key]) for r in _ok(rasc)}
+    b = {(r["noise_level"], r["sample"]): float(r[key]) for r in _ok(li)}
     common = sorted(set(a) & set(b))
     if len(common) < 6:        # the exact signed-rank test cannot reach p < 0.05 below 6
         return None
@@ -128,24 +131,24 @@ def paired_tests(raw: list[dict]) -> list[list]:
     pooled over the levels ("all") per eye and over both eyes ("both")."""
     by: dict[tuple, list[dict]] = defaultdict(list)
     for r in raw:
-        if int(r["level"]) > 0:
-            by[(r["eye"], r["variant"], r["method"])].append(r)
+        if int(r["noise_level"]) > 0:
+            by[(r["eye"], r["noise_model"], r["method"])].append(r)
     out = []
     for variant in VARIANTS:
         for eye in (*EYES, "both"):
             eyes = EYES if eye == "both" else (eye,)
-            rasc = [dict(r, level=f"{e}{r['level']}") if eye == "both" else r
+            rasc = [dict(r, noise_level=f"{e}{r['noise_level']}") if eye == "both" else r
                     for e in eyes for r in by[(e, variant, "rasc")]]
-            li = [dict(r, level=f"{e}{r['level']}") if eye == "both" else r
+            li = [dict(r, noise_level=f"{e}{r['noise_level']}") if eye == "both" else r
                   for e in eyes for r in by[(e, variant, "li")]]
-            levels_here = sorted({int(r["level"]) for r in by[(eyes[0], variant, "rasc")]})
+            levels_here = sorted({int(r["noise_level"]) for r in by[(eyes[0], variant, "rasc")]})
             subsets = [("all", rasc, li)]
             if eye != "both":
-                subsets = [(lv, [r for r in rasc if int(r["level"]) == lv],
-                            [r for r in li if int(r["level"]) == lv])
+                subsets = [(lv, [r for r in rasc if int(r["noise_level"]) == lv],
+                            [r for r in li if int(r["noise_level"]) == lv])
                            for lv in levels_here] + subsets
             for lv, ra, lr in subsets:
-                for key in ("t_err_mm", "R_err_fro"):
+                for key in ("translation_mm", "rotation_fro"):
                     res = _paired(ra, lr, key)
                     if res is not None:
                         out.append([eye, variant, lv, key] + [res[c] for c in TESTS_HEADER[4:]])
@@ -173,7 +176,7 @@ def plot_figures(summary_csv: Path, variant: str, folder: Path,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [r for r in read_csv(summary_csv) if r["variant"] == variant and r["n_ok"] != "0"]
+    rows = [r for r in read_csv(summary_csv) if r["noise_model"] == variant and r["n_ok"] != "0"]
     suffix = "" if variant == MAIN_VARIANT else f"_{variant}"
     files = []
     for fig_no, stem, (mean_key, std_key), ylabel in (
@@ -187,7 +190,7 @@ def plot_figures(summary_csv: Path, variant: str, folder: Path,
                 for method, style in (("rasc", "o-"), ("li", "s--")):
                     sel = [r for r in rows if r["eye"] == eye and r["method"] == method
                            and r[key] != ""]
-                    ax.plot([int(r["level"]) for r in sel], [float(r[key]) for r in sel],
+                    ax.plot([int(r["noise_level"]) for r in sel], [float(r[key]) for r in sel],
                             style, label="RASC" if method == "rasc" else "Li", ms=4)
                 _log_y(ax, draft)
                 ax.set_title(f"{eye} eye: {what}", fontsize=10)
@@ -212,28 +215,30 @@ def _f(x: str | float, nd: int = 2) -> str:
 def claims(summary: list[dict], tests: list[dict], variant: str) -> list[dict]:
     """The paper's four claims, counted over the levels ≥ 1 of ``variant``, per eye."""
     out = []
-    lv = lambda r: int(r["level"])  # noqa: E731
+    lv = lambda r: int(r["noise_level"])  # noqa: E731
     s = {(r["eye"], lv(r), r["method"]): r for r in summary
-         if r["variant"] == variant and lv(r) > 0 and r["n_ok"] != "0"}
+         if r["noise_model"] == variant and lv(r) > 0 and r["n_ok"] != "0"}
     levels_ = sorted({k[1] for k in s})
     for eye in EYES:
-        t = {(r["level"], r["quantity"]): r for r in tests
-             if r["eye"] == eye and r["variant"] == variant}
+        t = {(r["noise_level"], r["quantity"]): r for r in tests
+             if r["eye"] == eye and r["noise_model"] == variant}
         def lower(key, eye=eye):
             return sum(float(s[(eye, k, "rasc")][key]) < float(s[(eye, k, "li")][key])
                        for k in levels_)
-        sig_t = sum(float(t[(str(k), "t_err_mm")]["wilcoxon_p"]) < ALPHA
-                    and float(t[(str(k), "t_err_mm")]["median_li_minus_rasc"]) > 0
+        sig_t = sum(float(t[(str(k), "translation_mm")]["wilcoxon_p"]) < ALPHA
+                    and float(t[(str(k), "translation_mm")]["median_li_minus_rasc"]) > 0
                     for k in levels_)
-        sig_R = sum(float(t[(str(k), "R_err_fro")]["wilcoxon_p"]) < ALPHA for k in levels_)
+        sig_R = sum(float(t[(str(k), "rotation_fro")]["wilcoxon_p"]) < ALPHA for k in levels_)
         out.append({"eye": eye, "n_levels": len(levels_),
                     "t_mean_lower": lower("t_err_mean_mm"), "t_std_lower": lower("t_std_mm"),
                     "R_mean_lower": lower("R_fro_mean"), "R_std_lower": lower("R_std_fro"),
                     "t_significant_better": sig_t, "R_significant": sig_R,
-                    "t_pooled_p": float(t[("all", "t_err_mm")]["wilcoxon_p"]),
-                    "t_pooled_median_diff": float(t[("all", "t_err_mm")]["median_li_minus_rasc"]),
-                    "R_pooled_p": float(t[("all", "R_err_fro")]["wilcoxon_p"]),
-                    "R_pooled_median_diff": float(t[("all", "R_err_fro")]["median_li_minus_rasc"])})
+                    "t_pooled_p": float(t[("all", "translation_mm")]["wilcoxon_p"]),
+                    "t_pooled_median_diff":
+                        float(t[("all", "translation_mm")]["median_li_minus_rasc"]),
+                    "R_pooled_p": float(t[("all", "rotation_fro")]["wilcoxon_p"]),
+                    "R_pooled_median_diff":
+                        float(t[("all", "rotation_fro")]["median_li_minus_rasc"])})
     return out
 
 
@@ -277,9 +282,10 @@ def _claims_table(cl: list[dict], cl_other: list[dict], other: str) -> str:
 
 
 def _level_table(summary: list[dict], tests: list[dict], variant: str) -> str:
-    s = {(r["eye"], r["level"], r["method"]): r for r in summary if r["variant"] == variant}
-    p = {(r["eye"], r["level"], r["quantity"]): r["wilcoxon_p"] for r in tests
-         if r["variant"] == variant}
+    s = {(r["eye"], r["noise_level"], r["method"]): r for r in summary
+         if r["noise_model"] == variant}
+    p = {(r["eye"], r["noise_level"], r["quantity"]): r["wilcoxon_p"] for r in tests
+         if r["noise_model"] == variant}
     rows = []
     for eye in EYES:
         for lv in sorted({int(k[1]) for k in s if k[0] == eye}):
@@ -287,10 +293,10 @@ def _level_table(summary: list[dict], tests: list[dict], variant: str) -> str:
             rows.append((eye, lv, f"{float(a['sigma_r']):.3f} / {float(a['sigma_t_mm']):g}",
                          f"{_f(a['t_err_mean_mm'])} ± {_f(a['t_std_mm'])}",
                          f"{_f(b['t_err_mean_mm'])} ± {_f(b['t_std_mm'])}",
-                         _f(p.get((eye, str(lv), "t_err_mm"), ""), 3) if lv else "",
+                         _f(p.get((eye, str(lv), "translation_mm"), ""), 3) if lv else "",
                          f"{_f(a['R_fro_mean'], 4)} ± {_f(a['R_std_fro'], 4)}",
                          f"{_f(b['R_fro_mean'], 4)} ± {_f(b['R_std_fro'], 4)}",
-                         _f(p.get((eye, str(lv), "R_err_fro"), ""), 3) if lv else "",
+                         _f(p.get((eye, str(lv), "rotation_fro"), ""), 3) if lv else "",
                          f"{_f(a['R_deg_mean'])} / {_f(b['R_deg_mean'])}",
                          f"{int(a['n_failed'])} / {int(b['n_failed'])}"))
     return md_table(("eye", "set", "σ_r rad / σ_t mm", "RASC ‖Δt‖ mm (mean ± std)",
@@ -327,7 +333,7 @@ def run(ctx: Context) -> Section:
         peers, tidy = run_spec(ctx, PEERS_SPEC, folder, estimates=True)
         proto = protocol(ctx, spec, peers)
         write_json(folder / "inputs.json", proto)
-        same = [r for r in raw if r["variant"] == ALL_VARIANT]   # RASC and Li, as above
+        same = [r for r in raw if r["noise_model"] == ALL_VARIANT]   # RASC and Li, as above
         write_csv(folder / ALL_RAW_CSV, HEADER,
                   [[r[k] for k in HEADER] for r in same] + noise_rows(peers, tidy))
         all_raw = read_csv(folder / ALL_RAW_CSV)
@@ -375,7 +381,7 @@ def peer_verdict(summary: list[dict]) -> dict:
     """Per eye: the sets (level ≥ 1) where some method has a lower mean translation error
     than RASC, by how much, and whether its rotation error is the same as RASC's (within
     SAME_ROTATION_REL): then the gain comes from the translation step alone."""
-    s = {(r["eye"], int(r["level"]), r["method"]): r for r in summary}
+    s = {(r["eye"], int(r["noise_level"]), r["method"]): r for r in summary}
     methods = sorted({r["method"] for r in summary})
     out: dict = {"variant": ALL_VARIANT, "methods": methods, "eyes": {}}
     for eye in EYES:
@@ -423,7 +429,7 @@ def plot_all_methods(summary: list[dict], folder: Path,
             for k, m in enumerate(methods):
                 if m in empty:
                     continue
-                sel = sorted((int(r["level"]), float(r[key])) for r in summary
+                sel = sorted((int(r["noise_level"]), float(r[key])) for r in summary
                              if r["eye"] == eye and r["method"] == m and r[key] != "")
                 ax.plot([x for x, _ in sel], [y for _, y in sel], marker="osD^v<>px"[k % 9],
                         linestyle="-" if m.startswith("rasc") else "--", ms=4, label=m)
@@ -444,7 +450,7 @@ def plot_all_methods(summary: list[dict], folder: Path,
 
 def _all_methods_markdown(summary: list[dict], verdict: dict, proto: dict) -> str:
     methods = sorted({r["method"] for r in summary}, key=lambda m: (m != "rasc", m))
-    s = {(r["eye"], int(r["level"]), r["method"]): r for r in summary}
+    s = {(r["eye"], int(r["noise_level"]), r["method"]): r for r in summary}
     rows = []
     for eye in EYES:
         for lv in sorted({k[1] for k in s if k[0] == eye}):
@@ -528,8 +534,8 @@ error (°) per set; raw rows in `e1/{ALL_RAW_CSV}`, summary in `e1/{ALL_SUMMARY_
 def _summary(summary: list[dict], tests: list[dict], proto: dict) -> dict:
     def get(eye, variant, level, method, key):
         for r in summary:
-            if (r["eye"], r["variant"], r["level"], r["method"]) == (eye, variant, str(level),
-                                                                     method):
+            if (r["eye"], r["noise_model"], r["noise_level"], r["method"]) == (
+                    eye, variant, str(level), method):
                 return float(r[key]) if r[key] != "" else None
         return None
     lv = [x[0] for x in proto["levels"]]

@@ -49,7 +49,7 @@ PAPER_RATIO = 10.0
 
 RAW_CSV, SUMMARY_CSV = "home_samples.csv", "home_summary.csv"
 HEADER = HEADER
-SUMMARY_HEADER = ("eye", "variant", "n_ok_rasc", "n_ok_li", "rasc_t_mean_mm", "li_t_mean_mm",
+SUMMARY_HEADER = ("eye", "noise_model", "n_ok_rasc", "n_ok_li", "rasc_t_mean_mm", "li_t_mean_mm",
                   "ratio_t", "median_ratio_t", "rasc_R_fro_mean", "li_R_fro_mean", "ratio_R",
                   "median_ratio_R", "rasc_R_deg_mean", "li_R_deg_mean", "frac_li_worse_t",
                   "frac_li_worse_R")
@@ -61,21 +61,21 @@ def summarise(raw: list[dict]) -> list[list]:
     groups: dict[tuple, dict[str, dict]] = defaultdict(dict)
     for r in raw:
         if r["status"] == "ok":
-            groups[(r["eye"], r["variant"])].setdefault(r["method"], {})[r["sample"]] = r
+            groups[(r["eye"], r["noise_model"])].setdefault(r["method"], {})[r["sample"]] = r
     out = []
     for (eye, variant), by in groups.items():
         ra, li = by.get("rasc", {}), by.get("li", {})
         common = sorted(set(ra) & set(li), key=int)
         row = [eye, variant, len(ra), len(li)]
-        for key in ("t_err_mm", "R_err_fro"):
+        for key in ("translation_mm", "rotation_fro"):
             a = np.array([float(ra[s][key]) for s in common])
             b = np.array([float(li[s][key]) for s in common])
             row += [float(a.mean()), float(b.mean()), float(b.mean() / a.mean()),
                     float(np.median(b / a))]
-        row += [float(np.mean([float(ra[s]["R_err_deg"]) for s in common])),
-                float(np.mean([float(li[s]["R_err_deg"]) for s in common]))]
+        row += [float(np.mean([float(ra[s]["rotation_deg"]) for s in common])),
+                float(np.mean([float(li[s]["rotation_deg"]) for s in common]))]
         row += [float(np.mean([float(li[s][k]) > float(ra[s][k]) for s in common]))
-                for k in ("t_err_mm", "R_err_fro")]
+                for k in ("translation_mm", "rotation_fro")]
         out.append(row)
     return out
 
@@ -86,10 +86,10 @@ def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    raw = [r for r in read_csv(raw_csv) if r["variant"] == variant and r["status"] == "ok"]
+    raw = [r for r in read_csv(raw_csv) if r["noise_model"] == variant and r["status"] == "ok"]
     fig, axes = plt.subplots(1, 2, figsize=(8.5, 3.8), layout="constrained")
-    for ax, (key, label) in zip(axes, (("t_err_mm", "‖t − t_true‖ (mm)"),
-                                       ("R_err_deg", "rotation error (°)")), strict=True):
+    for ax, (key, label) in zip(axes, (("translation_mm", "‖t − t_true‖ (mm)"),
+                                       ("rotation_deg", "rotation error (°)")), strict=True):
         data, names = [], []
         for eye in EYES:
             for m in METHOD_NAMES:
@@ -125,8 +125,8 @@ def run(ctx: Context) -> Section:
                   "spec_sha256": spec.digest,
                   "home": {eye: home_view(cal["eyes"][eye]["pan_tilt_rad"], eye)
                            for eye in EYES},
-                  **{f"{r['eye']}_{r['variant']}": {k: float(v) for k, v in r.items()
-                                                    if k not in ("eye", "variant")}
+                  **{f"{r['eye']}_{r['noise_model']}": {k: float(v) for k, v in r.items()
+                                                    if k not in ("eye", "noise_model")}
                      for r in summary}}
         write_json(folder / "summary.json", result)
         files.append(folder / "summary.json")
@@ -137,7 +137,7 @@ def run(ctx: Context) -> Section:
 def _markdown(summary: list[dict], result: dict) -> str:
     rows = []
     for r in summary:
-        rows.append((r["eye"], r["variant"], f"{float(r['rasc_t_mean_mm']):.2f}",
+        rows.append((r["eye"], r["noise_model"], f"{float(r['rasc_t_mean_mm']):.2f}",
                      f"{float(r['li_t_mean_mm']):.2f}", f"**{float(r['ratio_t']):.1f}**",
                      f"{float(r['median_ratio_t']):.1f}",
                      f"{float(r['rasc_R_fro_mean']):.4f} ({float(r['rasc_R_deg_mean']):.2f}°)",
@@ -145,7 +145,7 @@ def _markdown(summary: list[dict], result: dict) -> str:
                      f"**{float(r['ratio_R']):.1f}**", f"{float(r['median_ratio_R']):.1f}",
                      f"{float(r['frac_li_worse_t']):.2f} / {float(r['frac_li_worse_R']):.2f}",
                      f"≈ {PAPER_RATIO:g}×"))
-    main = [r for r in summary if r["variant"] == MAIN_VARIANT]
+    main = [r for r in summary if r["noise_model"] == MAIN_VARIANT]
     rt = [float(r["ratio_t"]) for r in main]
     rR = [float(r["ratio_R"]) for r in main]
     return f"""\

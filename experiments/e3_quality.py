@@ -8,7 +8,7 @@ RASC sample of E1 (sets 0–8, both eyes, both noise variants: the study
 ``experiments/specs/e3_quality.toml`` holds E1's cells, whose keys and therefore draws are
 E1's, recomputed here for RASC alone) plus larger noise sets, because the paper's
 levels leave the quality far below the paper's threshold of 1: sets k = 12, 16, 24, 32,
-48, 64, 80 at (0.005k rad, k mm) (up to 0.4 rad / 80 mm; the ``level`` column is k),
+48, 64, 80 at (0.005k rad, k mm) (up to 0.4 rad / 80 mm; the ``noise_level`` column is k),
 30 samples (quick: sets 0, 1, 4, 8, 32 and 80, 6 samples).
 
 "Unusable" is defined here (the paper does not define it): rotation error > 5° or
@@ -62,11 +62,11 @@ MAX_ROTATION_DEG, MAX_TRANSLATION_MM = 5.0, 50.0
 
 RAW_CSV, LEVELS_CSV, ANALYSIS_JSON = ("quality_samples.csv", "quality_levels.csv",
                                       "quality_analysis.json")
-HEADER = ("eye", "variant", "level", "sigma_r", "sigma_t_mm", "sample", "source", "quality",
-          "R_err_deg", "R_err_fro", "t_err_mm", "unusable")
-LEVELS_HEADER = ("variant", "level", "sigma_r", "sigma_t_mm", "n", "quality_median",
-                 "quality_max", "frac_quality_above_1", "frac_unusable", "R_err_deg_median",
-                 "t_err_mm_median", "quality_over_sigma_r")
+HEADER = ("eye", "noise_model", "noise_level", "sigma_r", "sigma_t_mm", "sample", "source",
+          "quality", "rotation_deg", "rotation_fro", "translation_mm", "unusable")
+LEVELS_HEADER = ("noise_model", "noise_level", "sigma_r", "sigma_t_mm", "n", "quality_median",
+                 "quality_max", "frac_quality_above_1", "frac_unusable", "rotation_deg_median",
+                 "translation_mm_median", "quality_over_sigma_r")
 
 
 def sample_rows(rows: list[dict], source: str) -> list[list]:
@@ -75,10 +75,10 @@ def sample_rows(rows: list[dict], source: str) -> list[list]:
     for r in rows:
         if r["status"] != "ok":
             continue
-        R_deg, t_mm = float(r["R_err_deg"]), float(r["t_err_mm"])
-        out.append([r["eye"], r["variant"], int(r["level"]), float(r["sigma_r"]),
+        R_deg, t_mm = float(r["rotation_deg"]), float(r["translation_mm"])
+        out.append([r["eye"], r["noise_model"], int(r["noise_level"]), float(r["sigma_r"]),
                     float(r["sigma_t_mm"]), int(r["sample"]), source, float(r["quality"]),
-                    R_deg, float(r["R_err_fro"]), t_mm,
+                    R_deg, float(r["rotation_fro"]), t_mm,
                     int(R_deg > MAX_ROTATION_DEG or t_mm > MAX_TRANSLATION_MM)])
     return out
 
@@ -130,12 +130,12 @@ def analyse(raw: list[dict]) -> dict:
     for variant in VARIANTS:
         per = {}
         for subset, keep in (("all", lambda r: True),
-                             ("paper_sets", lambda r: int(r["level"]) <= 8)):
-            rows = [r for r in raw if r["variant"] == variant and keep(r)]
+                             ("paper_sets", lambda r: int(r["noise_level"]) <= 8)):
+            rows = [r for r in raw if r["noise_model"] == variant and keep(r)]
             q = np.array([float(r["quality"]) for r in rows])
             bad = np.array([r["unusable"] == "1" for r in rows])
-            R_deg = np.array([float(r["R_err_deg"]) for r in rows])
-            t_mm = np.array([float(r["t_err_mm"]) for r in rows])
+            R_deg = np.array([float(r["rotation_deg"]) for r in rows])
+            t_mm = np.array([float(r["translation_mm"]) for r in rows])
             rho_R, p_R = spearmanr(q, R_deg)
             rho_t, p_t = spearmanr(q, t_mm)
             per[subset] = {
@@ -148,8 +148,8 @@ def analyse(raw: list[dict]) -> dict:
                 "min_quality_unusable": float(q[bad].min()) if bad.any() else None}
         if per["all"]["best_threshold"] is not None:
             per["all"]["confusion_at_best"] = confusion(
-                np.array([float(r["quality"]) for r in raw if r["variant"] == variant]),
-                np.array([r["unusable"] == "1" for r in raw if r["variant"] == variant]),
+                np.array([float(r["quality"]) for r in raw if r["noise_model"] == variant]),
+                np.array([r["unusable"] == "1" for r in raw if r["noise_model"] == variant]),
                 per["all"]["best_threshold"]["threshold"])
         out[variant] = per
     return out
@@ -158,7 +158,7 @@ def analyse(raw: list[dict]) -> dict:
 def per_level(raw: list[dict]) -> list[list]:
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in raw:
-        groups[(r["variant"], int(r["level"]))].append(r)
+        groups[(r["noise_model"], int(r["noise_level"]))].append(r)
     out = []
     for (variant, level), rows in sorted(groups.items()):
         q = np.array([float(r["quality"]) for r in rows])
@@ -166,8 +166,8 @@ def per_level(raw: list[dict]) -> list[list]:
         out.append([variant, level, sr, float(rows[0]["sigma_t_mm"]), len(rows),
                     float(np.median(q)), float(q.max()), float((q > PAPER_THRESHOLD).mean()),
                     float(np.mean([r["unusable"] == "1" for r in rows])),
-                    float(np.median([float(r["R_err_deg"]) for r in rows])),
-                    float(np.median([float(r["t_err_mm"]) for r in rows])),
+                    float(np.median([float(r["rotation_deg"]) for r in rows])),
+                    float(np.median([float(r["translation_mm"]) for r in rows])),
                     float(np.median(q) / sr) if sr > 0 else ""])
     return out
 
@@ -179,13 +179,13 @@ def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    raw = [r for r in read_csv(raw_csv) if r["variant"] == variant]
+    raw = [r for r in read_csv(raw_csv) if r["noise_model"] == variant]
     q = np.array([float(r["quality"]) for r in raw])
-    level = np.array([int(r["level"]) for r in raw])
+    level = np.array([int(r["noise_level"]) for r in raw])
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
     for ax, (key, label, limit, unit) in zip(axes, (
-            ("R_err_deg", "rotation error of T_cam_from_gaze (°)", MAX_ROTATION_DEG, "°"),
-            ("t_err_mm", "translation error of T_cam_from_gaze (mm)", MAX_TRANSLATION_MM,
+            ("rotation_deg", "rotation error of T_cam_from_gaze (°)", MAX_ROTATION_DEG, "°"),
+            ("translation_mm", "translation error of T_cam_from_gaze (mm)", MAX_TRANSLATION_MM,
              " mm")), strict=True):
         y = np.array([float(r[key]) for r in raw])
         sc = ax.scatter(q, y, c=level, cmap="viridis", s=9, alpha=0.75, vmin=0,
@@ -198,7 +198,7 @@ def plot(raw_csv: Path, variant: str, folder: Path, draft: bool = False) -> list
         ax.set_ylabel(label)
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)
-    # E1's names: set k is σ_r = 0.005k rad, σ_t = k mm (the column "level" holds k)
+    # E1's names: set k is σ_r = 0.005k rad, σ_t = k mm (the column "noise_level" holds k)
     fig.colorbar(sc, ax=axes, label=f"noise set k: 0 none, 1–8 the paper's, "
                                     f"{min(EXT_K)}–{max(EXT_K)} extended")
     fig.suptitle(f"E3: RASC quality measure against the true error ({variant} noise, "
@@ -222,8 +222,8 @@ def run(ctx: Context) -> Section:
                 for r in noise_rows(spec, tidy, estimates=False)]
         failed = sum(r["status"] != "ok" for r in rows)
         write_csv(folder / RAW_CSV, HEADER,
-                  sample_rows([r for r in rows if int(r["level"]) <= 8], "e1")
-                  + sample_rows([r for r in rows if int(r["level"]) > 8], "e3"))
+                  sample_rows([r for r in rows if int(r["noise_level"]) <= 8], "e1")
+                  + sample_rows([r for r in rows if int(r["noise_level"]) > 8], "e3"))
         raw = read_csv(folder / RAW_CSV)
         write_csv(folder / LEVELS_CSV, LEVELS_HEADER, per_level(raw))
         analysis = analyse(raw)
@@ -245,7 +245,7 @@ def _g(x, nd=3) -> str:
 
 def _reading(s_all: dict, s_paper: dict, ratio: list[float], lv: list[dict]) -> str:
     """The verdict paragraph, worded from the numbers (``lv``: per-set rows, main variant)."""
-    max_q_paper = max(float(r["quality_max"]) for r in lv if int(r["level"]) <= 8)
+    max_q_paper = max(float(r["quality_max"]) for r in lv if int(r["noise_level"]) <= 8)
     half = [r for r in lv if float(r["frac_unusable"]) >= 0.5]
     c = s_all["confusion_at_1"]
     rho_R = s_all["spearman_quality_R_err"]["rho"]
@@ -277,7 +277,7 @@ def _reading(s_all: dict, s_paper: dict, ratio: list[float], lv: list[dict]) -> 
                     "eq. 10 does not see.")
     if half:
         text.append(f"With ±8° motions half the solutions are unusable from set "
-                    f"{half[0]['level']} (σ_r = {float(half[0]['sigma_r']):.3f} rad) on, "
+                    f"{half[0]['noise_level']} (σ_r = {float(half[0]['sigma_r']):.3f} rad) on, "
                     f"where the median quality is only {float(half[0]['quality_median']):.3g}.")
     bt = s_all["best_threshold"]
     if bt:
@@ -305,16 +305,16 @@ def _markdown(a: dict, levels_rows: list[dict]) -> str:
                          f"{s['spearman_quality_R_err']['rho']:.3f} / "
                          f"{s['spearman_quality_t_err']['rho']:.3f}",
                          _g(s["roc_auc"]), _g(bt["threshold"] if bt else None)))
-    lv_rows = [(r["level"], f"{float(r['sigma_r']):.3f} / {float(r['sigma_t_mm']):g}", r["n"],
+    lv_rows = [(r["noise_level"], f"{float(r['sigma_r']):.3f} / {float(r['sigma_t_mm']):g}", r["n"],
                 _g(r["quality_median"]), _g(r["quality_max"]),
                 f"{float(r['frac_quality_above_1']):.2f}", f"{float(r['frac_unusable']):.2f}",
-                _g(r["R_err_deg_median"]), _g(r["t_err_mm_median"]))
-               for r in levels_rows if r["variant"] == main]
+                _g(r["rotation_deg_median"]), _g(r["translation_mm_median"]))
+               for r in levels_rows if r["noise_model"] == main]
     s_all, s_paper = a[main]["all"], a[main]["paper_sets"]
     ratio = [float(r["quality_over_sigma_r"]) for r in levels_rows
-             if r["variant"] == main and r["quality_over_sigma_r"] != ""]
+             if r["noise_model"] == main and r["quality_over_sigma_r"] != ""]
     reading = _reading(s_all, s_paper, ratio,
-                       [r for r in levels_rows if r["variant"] == main])
+                       [r for r in levels_rows if r["noise_model"] == main])
     return f"""\
 **Protocol.** Every RASC sample of E1 (sets 0–8, {a['samples']} samples per set and eye,
 seed {a['seed']}) plus extended sets {', '.join(f"{k}: ({sr:.3f} rad, {st:g} mm)"

@@ -37,6 +37,7 @@ levels with 100, both variants, and the figure as PNG only.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -135,27 +136,40 @@ def errors_batch(T_est: np.ndarray, T_true: np.ndarray) -> np.ndarray:
     return np.stack([rot, trans, base], axis=1)
 
 
-def montecarlo_task(task: dict) -> np.ndarray:
-    """One noise level: (2, S, 3) errors for the variants ("resolved", "fixed").
+@dataclass(frozen=True)
+class MonteCarloTask:
+    """One noise level of the loop-closure Monte-Carlo (:func:`montecarlo_task`)."""
 
-    ``task``: ``level`` (index), ``sigma_r`` (rad), ``sigma_t`` (m), ``seed``,
-    ``n_samples``, and the views: ``T_cw`` {eye: (m, 4, 4)}, ``T_gp`` {eye: (m, 4, 4)},
-    ``T_cg`` {eye: (4, 4)}, ``T_true`` (4, 4).
-    """
-    (rng,) = spawn_rngs(task["seed"], 1, KEY, task["level"])
-    S = task["n_samples"]
+    #: the level's index (its generator's key)
+    level: int
+    sigma_r: float                  # rad
+    sigma_t: float                  # m
+    seed: int
+    n_samples: int
+    #: the views both eyes saw at once: {eye: (m, 4, 4)}
+    T_cw: dict
+    T_gp: dict
+    #: the calibrated hand-eye transforms {eye: (4, 4)}, the true T_ptuL_from_ptuR (4, 4)
+    T_cg: dict
+    T_true: np.ndarray
+
+
+def montecarlo_task(task: MonteCarloTask) -> np.ndarray:
+    """One noise level: (2, S, 3) errors for the variants ("resolved", "fixed")."""
+    (rng,) = spawn_rngs(task.seed, 1, KEY, task.level)
+    S = task.n_samples
     noisy = {}
     for eye in ("left", "right"):   # left first, then right: a fixed draw order
-        T = np.broadcast_to(task["T_cw"][eye], (S, *task["T_cw"][eye].shape))
-        noisy[eye] = perturb_T_cam_from_world(T, task["sigma_r"], task["sigma_t"], rng,
+        T = np.broadcast_to(task.T_cw[eye], (S, *task.T_cw[eye].shape))
+        noisy[eye] = perturb_T_cam_from_world(T, task.sigma_r, task.sigma_t, rng,
                                               variant="exponential")
-    T_cg_resolved = {eye: solve_rasc_batch(noisy[eye], task["T_gp"][eye]).T_cam_from_gaze
+    T_cg_resolved = {eye: solve_rasc_batch(noisy[eye], task.T_gp[eye]).T_cam_from_gaze
                      for eye in ("left", "right")}
     out = []
-    for T_cg in (T_cg_resolved, task["T_cg"]):
+    for T_cg in (T_cg_resolved, task.T_cg):
         T = loop_closure_batch(noisy["left"], noisy["right"], T_cg["left"], T_cg["right"],
-                               task["T_gp"]["left"], task["T_gp"]["right"])
-        out.append(errors_batch(T, task["T_true"]))
+                               task.T_gp["left"], task.T_gp["right"])
+        out.append(errors_batch(T, task.T_true))
     return np.stack(out)
 
 
@@ -208,9 +222,9 @@ def run(ctx: Context) -> Section:
               ["draw", "rotation_deg", "translation_mm", "baseline_length_mm"], rows)
 
     # Monte-Carlo: eq. 13–14 noise on both eyes' views, loop closure
-    tasks = [{"level": k, "sigma_r": sr, "sigma_t": st / 1000.0, "seed": ctx.seed,
-              "n_samples": n_samples, "T_cw": T_cw, "T_gp": T_gp, "T_cg": T_cg,
-              "T_true": T_true} for k, (sr, st) in enumerate(levels)]
+    tasks = [MonteCarloTask(level=k, sigma_r=sr, sigma_t=st / 1000.0, seed=ctx.seed,
+                            n_samples=n_samples, T_cw=T_cw, T_gp=T_gp, T_cg=T_cg,
+                            T_true=T_true) for k, (sr, st) in enumerate(levels)]
     results = run_tasks(montecarlo_task, tasks, ctx.workers, label="E5 loop closure")
     write_csv(out / "montecarlo.csv",
               ["level", "sigma_r_rad", "sigma_t_mm", "variant", "sample", "rotation_deg",

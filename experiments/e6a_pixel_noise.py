@@ -69,11 +69,11 @@ ALL_METHODS = (*SOLVERS, MODEL)
 
 # ------------------------------------------------------------------------ E6a itself
 
-RAW_HEADER = ("sigma_px", "sample", "eye", "method", "status", "rotation_deg",
+RAW_HEADER = ("corner_noise_px", "sample", "eye", "method", "status", "rotation_deg",
               "translation_mm", "quality", "detail")
 AXES = ("x", "y", "z")
-POSE_HEADER = ("sigma_px", "sample", "eye", *(f"rot_rms_{a}_rad" for a in AXES),
-               *(f"t_rms_{a}_mm" for a in AXES))
+POSE_HEADER = ("corner_noise_px", "sample", "eye", *(f"pose_rot_{a}_rad" for a in AXES),
+               *(f"pose_t_{a}_mm" for a in AXES))
 
 
 def raw_rows(tidy: list[dict]) -> list[tuple]:
@@ -122,7 +122,7 @@ def matched_model(dataset: dict, pose_rows: list[dict], n_samples: int,
     """
     rows = []
     for p in pose_rows:
-        sigma = float(p["sigma_px"])
+        sigma = float(p["corner_noise_px"])
         if sigma == 0:
             continue
         sigma_r, sigma_t = float(p["eq13_sigma_r_rad"]), float(p["eq13_sigma_t_mm"]) / 1000
@@ -149,7 +149,7 @@ def summarise(raw: list[dict]) -> list[tuple]:
     over the non-failed samples, mean quality (eq. 10)."""
     groups: dict[tuple, list[dict]] = {}
     for r in raw:
-        groups.setdefault((float(r["sigma_px"]), r["method"], r["eye"]), []).append(r)
+        groups.setdefault((float(r["corner_noise_px"]), r["method"], r["eye"]), []).append(r)
     out = []
     for (sigma, method, eye), rs in sorted(groups.items(),
                                            key=lambda kv: (kv[0][0], ALL_METHODS.index(kv[0][1]),
@@ -162,7 +162,7 @@ def summarise(raw: list[dict]) -> list[tuple]:
     return out
 
 
-SUMMARY_HEADER = ("sigma_px", "method", "eye", "n", "failures", "rotation_mean_deg",
+SUMMARY_HEADER = ("corner_noise_px", "method", "eye", "n", "failures", "rotation_mean_deg",
                   "rotation_std_deg", "translation_mean_mm", "translation_std_mm",
                   "quality_mean")
 
@@ -172,23 +172,23 @@ def summarise_pose_noise(raw: list[dict]) -> list[tuple]:
     (sigma_r, sigma_t = RMS over the three axes) as a multiple of the paper's level 1."""
     groups: dict[float, list[dict]] = {}
     for r in raw:
-        groups.setdefault(float(r["sigma_px"]), []).append(r)
+        groups.setdefault(float(r["corner_noise_px"]), []).append(r)
     out = []
     for sigma in sorted(groups):
         rs = groups[sigma]
 
         def rms(col, rs=rs):
             return float(np.sqrt(np.mean([float(r[col]) ** 2 for r in rs])))
-        rot = [rms(f"rot_rms_{a}_rad") for a in AXES]
-        tr = [rms(f"t_rms_{a}_mm") for a in AXES]
+        rot = [rms(f"pose_rot_{a}_rad") for a in AXES]
+        tr = [rms(f"pose_t_{a}_mm") for a in AXES]
         sr, st = float(np.sqrt(np.mean(np.square(rot)))), float(np.sqrt(np.mean(np.square(tr))))
         out.append((sigma, sr, st, sr / PAPER_LEVELS[0][0], st / PAPER_LEVELS[0][1], *rot, *tr))
     return out
 
 
-POSE_SUMMARY_HEADER = ("sigma_px", "eq13_sigma_r_rad", "eq13_sigma_t_mm",
+POSE_SUMMARY_HEADER = ("corner_noise_px", "eq13_sigma_r_rad", "eq13_sigma_t_mm",
                        "multiple_of_paper_level1_r", "multiple_of_paper_level1_t",
-                       *(f"rot_rms_{a}_rad" for a in AXES), *(f"t_rms_{a}_mm" for a in AXES))
+                       *(f"pose_rot_{a}_rad" for a in AXES), *(f"pose_t_{a}_mm" for a in AXES))
 
 
 def slopes(summary: list[dict]) -> dict[str, float]:
@@ -198,8 +198,8 @@ def slopes(summary: list[dict]) -> dict[str, float]:
     for method in SOLVERS:
         for eye in EYES:
             rs = [r for r in summary if r["method"] == method and r["eye"] == eye
-                  and float(r["sigma_px"]) > 0]
-            s = np.array([float(r["sigma_px"]) for r in rs])
+                  and float(r["corner_noise_px"]) > 0]
+            s = np.array([float(r["corner_noise_px"]) for r in rs])
             for col, unit in (("rotation_mean_deg", "deg"), ("translation_mean_mm", "mm")):
                 y = np.array([float(r[col]) for r in rs])
                 out[f"{method}_{eye}_{unit}_per_px"] = float(s @ y / (s @ s))
@@ -224,9 +224,9 @@ def plot(summary_csv, stem, draft: bool = False) -> list:
             ls, marker, lw, name = styles[method]
             for eye in EYES:
                 rs = [r for r in rows if r["method"] == method and r["eye"] == eye]
-                pos = [(float(r["sigma_px"]), float(r[col])) for r in rs
-                       if float(r["sigma_px"]) > 0]
-                zero = [float(r[col]) for r in rs if float(r["sigma_px"]) == 0]
+                pos = [(float(r["corner_noise_px"]), float(r[col])) for r in rs
+                       if float(r["corner_noise_px"]) > 0]
+                zero = [float(r[col]) for r in rs if float(r["corner_noise_px"]) == 0]
                 if pos:
                     s, y = zip(*pos, strict=True)
                     ax.plot(s, y, ls=ls, marker=marker, lw=lw, color=colours[eye],
@@ -263,7 +263,7 @@ def analyse(summary: list[dict], pose: list[dict], spec, camera: dict, n_model: 
     """summary.json from the summary and pose-noise files (pure): failures, slopes, RASC
     against Li, image noise against the matched model, the pixels per paper level."""
     sigmas = tuple(spec.axes["corner_noise_px"])
-    by = {(float(r["sigma_px"]), r["method"], r["eye"]): r for r in summary}
+    by = {(float(r["corner_noise_px"]), r["method"], r["eye"]): r for r in summary}
     pos = [s for s in sigmas if s > 0]
     top = max(pos)
     # RASC vs Li over every (sigma > 0, eye, component) cell; image vs matched model
@@ -281,7 +281,7 @@ def analyse(summary: list[dict], pose: list[dict], spec, camera: dict, n_model: 
     model_ratio = {c: float(np.mean([float(by[(s, "rasc", e)][c]) / float(by[(s, MODEL, e)][c])
                                      for s in pos for e in EYES]))
                    for c in ("rotation_mean_deg", "translation_mean_mm")}
-    pr = {float(r["sigma_px"]): r for r in pose}
+    pr = {float(r["corner_noise_px"]): r for r in pose}
     px_per_level1 = {
         "rotation": PAPER_LEVELS[0][0] / _fit_slope(pos, [float(pr[s]["eq13_sigma_r_rad"])
                                                           for s in pos]),
@@ -306,8 +306,8 @@ def analyse(summary: list[dict], pose: list[dict], spec, camera: dict, n_model: 
         "camera": camera,
         # per camera axis at the largest sigma: how unlike eq. 13-14's isotropic draws
         "extrinsics_rms_per_camera_axis_at_max_sigma": {
-            "rotation_rad": [float(pr[top][f"rot_rms_{a}_rad"]) for a in AXES],
-            "translation_mm": [float(pr[top][f"t_rms_{a}_mm"]) for a in AXES]},
+            "rotation_rad": [float(pr[top][f"pose_rot_{a}_rad"]) for a in AXES],
+            "translation_mm": [float(pr[top][f"pose_t_{a}_mm"]) for a in AXES]},
     }
 
 
@@ -343,8 +343,8 @@ def run(ctx: Context) -> Section:
               "square_size": data["board"]["square_size"],
               "distance": truth.get("render_options", {}).get("target_distance", 1.0)}
     doc = analyse(summ_rows, pose_rows_, spec, camera, n_model)
-    by = {(float(r["sigma_px"]), r["method"], r["eye"]): r for r in summ_rows}
-    pr = {float(r["sigma_px"]): r for r in pose_rows_}
+    by = {(float(r["corner_noise_px"]), r["method"], r["eye"]): r for r in summ_rows}
+    pr = {float(r["corner_noise_px"]): r for r in pose_rows_}
     pos = [s for s in sigmas if s > 0]
     top, low = max(pos), min(pos)
     px_per_level1 = doc["px_per_paper_level1"]

@@ -49,9 +49,9 @@ SPEC = "e6b_shootout"
 DATASET_AMPLITUDE_DEG = 8.0
 
 
-RAW_HEADER = ("pose_set_deg", "sigma_px", "sample", "eye", "method", "status",
+RAW_HEADER = ("motion_deg", "corner_noise_px", "sample", "eye", "method", "status",
               "rotation_deg", "translation_mm", "quality", "detail")
-POSE_HEADER = ("pose_set_deg", "sigma_px", "sample", "eye", "eq13_sigma_r_rad",
+POSE_HEADER = ("motion_deg", "corner_noise_px", "sample", "eye", "eq13_sigma_r_rad",
                "eq13_sigma_t_mm")
 #: the engine's status → this experiment's failure kind
 KINDS = {"ok": "ok", "non-finite": "nan", "gross": "gross"}
@@ -110,7 +110,7 @@ def pose_rows(tidy: list[dict]) -> list[tuple]:
     return out
 
 
-SUMMARY_HEADER = ("pose_set_deg", "method", "n", "failures", "exceptions", "nans", "gross",
+SUMMARY_HEADER = ("motion_deg", "method", "n", "failures", "exceptions", "nans", "gross",
                   "rotation_median_deg", "rotation_mean_deg", "translation_median_mm",
                   "translation_mean_mm", "clean_failures", "clean_rotation_deg",
                   "clean_translation_mm", "first_failure")
@@ -121,13 +121,13 @@ def summarise(raw: list[dict], methods: tuple[str, ...]) -> list[tuple]:
     kind and median/mean errors over the runs that did not fail; noise-free run → its
     failures and mean errors over the eyes; the first failure's detail."""
     out = []
-    sets = sorted({float(r["pose_set_deg"]) for r in raw}, reverse=True)
+    sets = sorted({float(r["motion_deg"]) for r in raw}, reverse=True)
     nan = float("nan")
     for a in sets:
         for m in methods:
-            rs = [r for r in raw if float(r["pose_set_deg"]) == a and r["method"] == m]
-            noisy = [r for r in rs if float(r["sigma_px"]) > 0]
-            clean = [r for r in rs if float(r["sigma_px"]) == 0]
+            rs = [r for r in raw if float(r["motion_deg"]) == a and r["method"] == m]
+            noisy = [r for r in rs if float(r["corner_noise_px"]) > 0]
+            clean = [r for r in rs if float(r["corner_noise_px"]) == 0]
             ok = [r for r in noisy if r["status"] == "ok"]
             clean_ok = [r for r in clean if r["status"] == "ok"]
             rot = np.array([float(r["rotation_deg"]) for r in ok])
@@ -148,11 +148,11 @@ def summarise(raw: list[dict], methods: tuple[str, ...]) -> list[tuple]:
 
 def analyse(summary: list[dict], pose: list[dict], spec) -> dict:
     """summary.json from the summary and pose-noise files (pure)."""
-    sets = sorted({float(r["pose_set_deg"]) for r in summary}, reverse=True)
+    sets = sorted({float(r["motion_deg"]) for r in summary}, reverse=True)
     methods = tuple(dict.fromkeys(r["method"] for r in summary))
-    by = {(float(r["pose_set_deg"]), r["method"]): r for r in summary}
+    by = {(float(r["motion_deg"]), r["method"]): r for r in summary}
     sigma = max(spec.axes["corner_noise_px"])
-    noisy = [r for r in pose if float(r["sigma_px"]) > 0]
+    noisy = [r for r in pose if float(r["corner_noise_px"]) > 0]
     eq13 = {k: float(np.sqrt(np.mean([float(r[k]) ** 2 for r in noisy])))
             for k in ("eq13_sigma_r_rad", "eq13_sigma_t_mm")}
     doc = {
@@ -187,19 +187,19 @@ def plot(summary_csv, stem, draft: bool = False) -> list:
 
     rows = read_csv(summary_csv)
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    sets = sorted({float(r["pose_set_deg"]) for r in rows})
+    sets = sorted({float(r["motion_deg"]) for r in rows})
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.4))
     width = 0.8 / max(1, len(methods))
     for k, m in enumerate(methods):
-        rs = sorted((r for r in rows if r["method"] == m), key=lambda r: float(r["pose_set_deg"]))
-        a = [float(r["pose_set_deg"]) for r in rs]
+        rs = sorted((r for r in rows if r["method"] == m), key=lambda r: float(r["motion_deg"]))
+        a = [float(r["motion_deg"]) for r in rs]
         style = dict(marker=MARKERS[k % len(MARKERS)], label=m, color=f"C{k % 10}",
                      lw=2.0 if m == "rasc" else 1.0)
         for ax, col in ((axes[0], "rotation_median_deg"), (axes[1], "translation_median_mm")):
             y = [float(r[col]) for r in rs]
             ax.plot(a, y, **style)
         x = np.arange(len(sets)) + (k - (len(methods) - 1) / 2) * width
-        fails = [int(next(r["failures"] for r in rs if float(r["pose_set_deg"]) == s))
+        fails = [int(next(r["failures"] for r in rs if float(r["motion_deg"]) == s))
                  for s in sets]
         axes[2].bar(x, fails, width=width, color=f"C{k % 10}",
                     label=m if any(fails) else None)
@@ -257,7 +257,7 @@ def run(ctx: Context) -> Section:
     doc = analyse(rows, read_csv(out / "pose_noise_raw.csv"), spec)
     write_json(out / "summary.json", doc)
     fig_paths = plot(out / "summary.csv", out / "e6b_shootout", draft=ctx.quick)
-    by = {(float(r["pose_set_deg"]), r["method"]): r for r in rows}
+    by = {(float(r["motion_deg"]), r["method"]): r for r in rows}
     sets = tuple(doc["protocol"]["pose_sets_deg"])
     md = _markdown(ctx, sets, spec.samples, methods, by, doc)
     headline = {"failures": doc["failures"], "clean_failures": doc["clean_failures"],

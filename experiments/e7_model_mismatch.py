@@ -50,12 +50,11 @@ from those ``fig_model_mismatch.png`` and ``e7.md`` (the report section).
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import json
 import os
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -162,10 +161,22 @@ def triangulation_errors(true: tuple, est) -> list[dict]:
 
 # ----------------------------------------------------------------------------- one case
 
-def run_case(task: tuple) -> dict:
+@dataclass(frozen=True)
+class CaseTask:
+    """One case of E7 (:func:`run_case`): its name, the unit's imperfections (fields of
+    :class:`rasc.sim.units.UnitBuild`; none: the ideal unit), the seed, and whether it
+    is projected (``synthetic``) instead of rendered."""
+
+    case: str
+    fields: dict
+    seed: int
+    synthetic: bool
+
+
+def run_case(task: CaseTask) -> dict:
     """Render (or project) one case, calibrate with both models, score. Seeded."""
     os.environ.setdefault("MUJOCO_GL", "egl")
-    case, fields, seed, synthetic = task
+    case, fields, seed, synthetic = task.case, task.fields, task.seed, task.synthetic
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, refine_calibration
 
     if synthetic:
@@ -238,13 +249,10 @@ def _synthetic(fields: dict, seed: int):
 # ----------------------------------------------------------------------------- outputs
 
 def _csv(path: Path, header: list[str], rows: list[list]) -> None:
-    from rasc.io import write_text_atomic
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    w.writerows(rows)
-    write_text_atomic(path, buf.getvalue())
+    """The experiments' CSV writer (:func:`experiments._common.write_csv`, on the study's
+    :func:`rasc.study.summary.csv_text`); E8 writes through it too."""
+    from experiments._common import write_csv
+    write_csv(path, header, rows)
 
 
 def write_raw(results: list[dict], folder: Path) -> None:
@@ -398,7 +406,7 @@ def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool)
     cases = [(c, f) for c, _, f in CASES if not quick or c in QUICK]
     # one seed for every case (the same intrinsics views and noise draws: only the unit
     # differs), so the results depend neither on the case list nor on the worker count
-    tasks = [(c, f, seed, synthetic) for c, f in cases]
+    tasks = [CaseTask(c, f, seed, synthetic) for c, f in cases]
     # rasc.study's executors (one pool runner; an interrupt stops every worker), with
     # progress; results in task order, whatever the worker count
     from experiments._common import run_tasks

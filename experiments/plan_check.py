@@ -26,8 +26,6 @@ Writes ``<out>/plan_check/plan_check.csv`` and prints it.
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import os
 import sys
 from pathlib import Path
@@ -141,15 +139,13 @@ def main(argv=None) -> int:
                          ";".join(f"{a:g},{b:g}" for a, b in poses)])
             print(f"{name:8s} {key:30s} predicted {pred[key]:.4g} measured RMS {rms:.4g} "
                   f"(ratio {rms / pred[key]:.2f})", file=sys.stderr, flush=True)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["positions", "quantity", "predicted_sigma", "measured_rms", "ratio",
-                "captures", "positions_deg"])
-    w.writerows(rows)
+    from rasc.study.summary import csv_text  # rasc's one CSV writer
+    text = csv_text(["positions", "quantity", "predicted_sigma", "measured_rms", "ratio",
+                     "captures", "positions_deg"], rows, field=str)
     folder = args.out / ("plan_check_rendered" if args.rendered else "plan_check")
     folder.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(folder / "plan_check.csv", buf.getvalue())
-    print(buf.getvalue())
+    write_text_atomic(folder / "plan_check.csv", text)
+    print(text)
     return 0
 
 

@@ -11,10 +11,11 @@ are byte-identical for the same seed, whatever ``--workers``.
 
 ``--quick`` is the reduced protocol, for tests (each module's docstring says what it
 keeps; E4 and E5 then save their figures as PNG only). With ``--workers N`` (N > 1) the
-experiments run in a pool of N processes forked from a forkserver that has imported the
-libraries and the experiment modules once (``experiments._warm``); the pool is built, and
-E7 (which needs neither the default dataset nor its calibration) started, while this
-process renders and calibrates the default dataset.
+experiments run on rasc.study's process pool (``rasc.study.executors``): N processes
+forked from a forkserver that has imported the libraries and the experiment modules once
+(``experiments._warm``); the pool is built, and E7 (which needs neither the default
+dataset nor its calibration) started, while this process renders and calibrates the
+default dataset.
 
 Reuse: ``DIR/data/dataset`` is reused only when its ``render_options.json`` matches this
 run exactly (seed, render options, rasc version); otherwise it is rendered afresh (so
@@ -233,23 +234,26 @@ def _finish(ctx: Context, state: dict, name: str, key: str, section: Section,
 
 
 class _ParallelRun:
-    """The experiments in ``ctx.workers`` processes (forkserver: none inherits this
-    process's EGL context), each single-threaded.
+    """The experiments in ``ctx.workers`` processes, on rasc.study's process pool
+    (:class:`rasc.study.executors.ProcessExecutor`: forkserver workers, so none inherits
+    this process's EGL context; single-threaded libraries; SIGINT left to this process;
+    stopped at once by an interrupt).
 
     :meth:`start` builds the pool in a background thread (the forkserver imports
     ``experiments._warm`` once: numpy, scipy, OpenCV, mujoco, matplotlib and its fonts,
     every experiment module; the workers are forked from it warm) and submits the
     :data:`EARLY` experiments, while the main thread renders and calibrates the default
     dataset; :meth:`finish` then submits the others, longest first
-    (:data:`LONGEST_FIRST`), and collects them. Results do not depend on the order they
-    finish. An interrupt terminates the workers."""
+    (:data:`LONGEST_FIRST`), and collects them as they finish. Results do not depend on
+    the order they finish."""
 
     def __init__(self, ctx: Context, state: dict) -> None:
         self.ctx, self.state = ctx, state
         self.keys = {name: importlib.import_module(f"experiments.{name}").NAME
                      for name, _ in EXPERIMENTS}
+        #: the submitted experiments not yet collected: future → module name
         self.pending: dict = {}
-        self.pool = None
+        self.executor = None
         self.error: BaseException | None = None
         self.thread = None
 
@@ -263,21 +267,19 @@ class _ParallelRun:
     def _submit(self, name: str, child: Context) -> None:
         from experiments._common import run_experiment
         print(f"== {dict(EXPERIMENTS)[name]}", file=sys.stderr, flush=True)
-        self.pending[name] = self.pool.apply_async(run_experiment, ((child, name),))
+        self.pending[self.executor.submit(run_experiment, (child, name))] = name
         self.state["running"].append(self.keys[name])
 
     def _build(self, early: list[str], child: Context) -> None:
         import multiprocessing
 
-        from experiments._common import init_experiment_worker
+        from rasc.study.executors import ProcessExecutor
         try:
             from multiprocessing import forkserver
 
-            mp = multiprocessing.get_context("forkserver")
-            mp.set_forkserver_preload(PRELOAD)
+            multiprocessing.get_context("forkserver").set_forkserver_preload(PRELOAD)
             _ensure_forkserver(forkserver)  # (if start_forkserver did not: no-op if it did)
-            self.pool = mp.Pool(processes=min(self.ctx.workers, len(EXPERIMENTS)),
-                                initializer=init_experiment_worker)
+            self.executor = ProcessExecutor(min(self.ctx.workers, len(EXPERIMENTS)))
             for name in early:
                 self._submit(name, child)
         except BaseException as exc:   # re-raised in the main thread by finish()
@@ -297,31 +299,25 @@ class _ParallelRun:
             raise self.error
         child = self._child()       # now with the default dataset's calibration
         order = [n for n in LONGEST_FIRST if n in dict(EXPERIMENTS)]
+        submitted = set(self.pending.values())
         for name in order + [n for n, _ in EXPERIMENTS if n not in order]:
-            if name not in self.pending:
+            if name not in submitted:
                 self._submit(name, child)
-        while self.pending:
-            done = [n for n, r in self.pending.items() if r.ready()]
-            if not done:
-                time.sleep(0.02)
-            for name in done:
-                _, section, seconds = self.pending.pop(name).get()
-                print(f"== {dict(EXPERIMENTS)[name]}: {seconds:.1f} s", file=sys.stderr,
-                      flush=True)
-                _finish(self.ctx, self.state, name, self.keys[name], section, seconds,
-                        finished)
+        for name, (_, section, seconds) in self.executor.completed(self.pending):
+            print(f"== {dict(EXPERIMENTS)[name]}: {seconds:.1f} s", file=sys.stderr,
+                  flush=True)
+            _finish(self.ctx, self.state, name, self.keys[name], section, seconds, finished)
 
     def close(self, ok: bool) -> None:
-        """Let the pool's workers end (``ok``) or terminate them (an error, an interrupt)."""
+        """Let the pool's workers end (``ok``) or stop them at once (an error, an
+        interrupt: :meth:`~rasc.study.executors.ProcessExecutor.abort`)."""
         if self.thread is not None:
             self.thread.join()
-        if self.pool is None:
+        if self.executor is None:
             return
-        if ok:
-            self.pool.close()
-        else:
-            self.pool.terminate()
-        self.pool.join()
+        if not ok:
+            self.executor.abort()
+        self.executor.close()
 
 
 def _run(argv: list[str] | None, state: dict) -> int:
@@ -329,7 +325,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
     cache_root()               # a bad RASC_CACHE_MAX_MB is refused before anything starts
     if _requested_workers(argv) > 1:
         start_forkserver()
-    from experiments._common import REPO, Context, md_table, stage
+    from experiments._common import REPO, Context, stage
     from rasc.io import write_text_atomic
 
     ctx = Context.from_argv(__doc__, argv)
@@ -373,6 +369,16 @@ def _run(argv: list[str] | None, state: dict) -> int:
         sections.append(section)
         timings.append((title, seconds))
     total = time.perf_counter() - t_start
+    write_text_atomic(ctx.out / "REPORT.md", report_text(ctx, sections, timings, total))
+    print(f"reproduce: wrote {ctx.out / 'REPORT.md'} ({total:.1f} s)", file=sys.stderr)
+    return 0
+
+
+def report_text(ctx: Context, sections: list[Section], timings: list[tuple[str, float]],
+                total: float) -> str:
+    """REPORT.md: the command, the source, the sections in order, the software versions
+    and the wall time of every stage (``total`` s in all)."""
+    from experiments._common import md_table
 
     v = versions()
     mode = "quick (reduced protocol, for tests)" if ctx.quick else "full protocol"
@@ -399,9 +405,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         [("**total**", f"**{total:.1f}**")])
         + f"\nOn {ctx.workers} worker process(es); wall times vary with the machine's load "
           "and are not part of the results.\n")
-    write_text_atomic(ctx.out / "REPORT.md", "\n".join(parts))
-    print(f"reproduce: wrote {ctx.out / 'REPORT.md'} ({total:.1f} s)", file=sys.stderr)
-    return 0
+    return "\n".join(parts)
 
 
 if __name__ == "__main__":

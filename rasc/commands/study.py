@@ -11,6 +11,9 @@ import time
 from rasc.commands import loading
 from rasc.errors import InputError
 
+#: how the library's messages name the options of :func:`rasc.study.run_study` here
+FLAGS = {"out": "--out", "resume": "--resume", "workers": "--workers", "dask": "--dask"}
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
@@ -43,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec)
     t0 = time.perf_counter()
     result = run_study(spec, args.out, workers=args.workers, dask=args.dask,
-                       resume=args.resume, quiet=args.quiet)
+                       resume=args.resume, quiet=args.quiet, names=FLAGS)
     if not args.quiet:
         print(f"rasc study: {result.cells} cells ({result.cells_computed} computed, "
               f"{result.datasets_rendered} dataset(s) rendered) in "

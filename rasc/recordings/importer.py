@@ -137,7 +137,7 @@ def building(out: str | os.PathLike) -> Iterator[Path]:
 
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise InputError(f"--out {out}: exists and is not an empty folder; rasc import never "
+        raise InputError(f"{out}: exists and is not an empty folder; an import never "
                          "replaces files: name a new folder")
     with folder_built_atomically(out) as tmp:
         yield tmp

@@ -178,24 +178,54 @@ def cell_task(task: CellTask | dict) -> list[list]:
     (and the estimate, :data:`ESTIMATE_COLUMNS`, with ``task.estimates``).
 
     A cell without sample-level noise (σ = 0 and no corner noise) solves once and repeats
-    that row for every sample: its samples are the same pose set."""
+    that row for every sample: its samples are the same pose set. The stages: the
+    samples' pose sets (:func:`noisy_pose_sets`), every method on them, the rows
+    (:func:`_cell_rows`)."""
     worker_environment()
     from rasc.geometry.kinematics import T_gaze_from_ptu
+
+    task = CellTask.of(task)
+    p = task.cell.params
+    eye = task.dataset["eyes"][p["eye"]]
+    pan_tilt = np.asarray(eye["pan_tilt_rad"], float)
+    T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
+    T_true = np.asarray(eye["T_cam_from_gaze_true"], float)
+    literal = p["noise_model"] == "literal"
+    sets = noisy_pose_sets(task)
+    scored = {m: _score_samples(m, sets, T_gp, T_true, literal, task.time_limit_s)
+              for m in task.methods}
+    gross = task.gross
+    if gross != (None, None):
+        scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
+    pose_err = None
+    if task.pose_errors:
+        truth = eye.get("T_cam_from_world_true")
+        pose_err = ([pose_error_rms(T, np.asarray(truth, float)) for T in sets]
+                    if truth is not None else [[float("nan")] * 6] * len(sets))
+    return _cell_rows(task, scored, pose_err, noisy=_noisy(p))
+
+
+def _noisy(p: dict[str, Any]) -> bool:
+    """Whether a cell's samples differ (pose noise or corner noise)."""
+    return p["sigma_r"] > 0 or p["sigma_t_mm"] > 0 or p["corner_noise_px"] > 0
+
+
+def noisy_pose_sets(task: CellTask) -> np.ndarray:
+    """The pose sets ``T_cam_from_world`` (samples, views, 4, 4) the cell's methods
+    solve: per sample, the dataset's poses measured again from its corners with corner
+    noise (``corner_noise_px``), then eq. 13-14 pose noise on every view or on the home
+    view only (``noise_on``); one set (the dataset's) for a cell without noise. Each
+    sample draws from its own generator (:func:`sample_rng`)."""
     from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
     from rasc.vision.board import Board
     from rasc.vision.camera import estimate_extrinsics
 
-    task = CellTask.of(task)
     cell: Cell = task.cell
     p, data = cell.params, task.dataset
     eye = data["eyes"][p["eye"]]
     T_cw0 = np.asarray(eye["T_cam_from_world"], float)
     pan_tilt = np.asarray(eye["pan_tilt_rad"], float)
-    T_gp = T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
-    T_true = np.asarray(eye["T_cam_from_gaze_true"], float)
-    literal = p["noise_model"] == "literal"
     pose_noise = p["sigma_r"] > 0 or p["sigma_t_mm"] > 0
-    noisy = pose_noise or p["corner_noise_px"] > 0
     home = (home_view(pan_tilt, f"the {p['eye']} eye's dataset")
             if pose_noise and p.get("noise_on", "all") == "home" else None)
     if p["corner_noise_px"] > 0:
@@ -203,7 +233,7 @@ def cell_task(task: CellTask | dict) -> list[list]:
         corners = [np.asarray(c, float) for c in eye["corners"]]
         K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
     sets = []
-    for s in range(task.samples if noisy else 1):
+    for s in range(task.samples if _noisy(p) else 1):
         rng = sample_rng(task.seed, cell, s)
         T_cw = T_cw0
         if p["corner_noise_px"] > 0:
@@ -218,17 +248,13 @@ def cell_task(task: CellTask | dict) -> list[list]:
                 T_cw = perturb_one_view(T_cw, home, p["sigma_r"], p["sigma_t_mm"] / 1000.0,
                                         rng, p["noise_model"])
         sets.append(T_cw)
-    sets = np.array(sets)
-    scored = {m: _score_samples(m, sets, T_gp, T_true, literal, task.time_limit_s)
-              for m in task.methods}
-    gross = task.gross
-    if gross != (None, None):
-        scored = {m: [classify_gross(r, gross) for r in rs] for m, rs in scored.items()}
-    pose_err = None
-    if task.pose_errors:
-        truth = eye.get("T_cam_from_world_true")
-        pose_err = ([pose_error_rms(T, np.asarray(truth, float)) for T in sets]
-                    if truth is not None else [[float("nan")] * 6] * len(sets))
+    return np.array(sets)
+
+
+def _cell_rows(task: CellTask, scored: dict[str, list], pose_err: list | None,
+               noisy: bool) -> list[list]:
+    """The cell's rows, sample by sample and method by method (a cell without noise
+    repeats its one solve for every sample)."""
     rows = []
     for s in range(task.samples):
         for method in task.methods:

@@ -110,7 +110,7 @@ from rasc.study.datasets import (  # noqa: F401
     spec_words,
     unit_builds,
 )
-from rasc.study.executors import Executor, WorkerCrashed, make_executor
+from rasc.study.executors import Executor, WorkerCrashed, make_executor, option_names
 from rasc.study.spec import (
     FORMAT,
     PARAMS,
@@ -159,40 +159,45 @@ def _manifest(spec: Spec, cells: list[Cell], dataset: str | None = None) -> dict
     return out
 
 
-def prepare_folder(out: Path, spec: Spec, resume: bool, dataset: str | None = None) -> None:
+def prepare_folder(out: Path, spec: Spec, resume: bool, dataset: str | None = None,
+                   names: dict[str, str] | None = None) -> None:
     """Check ``out`` before any work: new or empty (or, with ``resume``, a study of this
-    very spec); never the spec itself or a folder holding it as an output name."""
+    very spec); never the spec itself or a folder holding it as an output name.
+    ``names``: how messages name the options ``out`` and ``resume``
+    (:func:`rasc.study.executors.option_names`)."""
+    n = option_names(names)
     out = Path(out)
     manifest = out / "study.json"
     if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: --out exists and is not a folder")
+        raise InputError(f"{out}: {n['out']}: exists and is not a folder")
     if not out.exists():
         if not out.parent.is_dir():
             raise InputError(f"{out}: parent folder {out.parent} does not exist")
         if resume:
-            raise InputError(f"{out}: --resume: no study to resume (the folder does not exist)")
+            raise InputError(f"{out}: {n['resume']}: no study to resume (the folder does "
+                             "not exist)")
         return
     if resume:
         if not manifest.is_file():
-            raise InputError(f"{out}: --resume: no study.json (not a study folder)")
+            raise InputError(f"{out}: {n['resume']}: no study.json (not a study folder)")
         try:
             doc = json.loads(manifest.read_text())
             old, old_dataset = doc.get("spec_sha256"), doc.get("dataset")
         except (OSError, ValueError, AttributeError) as exc:
             raise InputError(f"{manifest}: unreadable study manifest ({exc})") from None
         if old == spec.digest and old_dataset != dataset:
-            raise InputError(f"{out}: --resume: the folder holds this study on another "
-                             "dataset; --resume continues only the same dataset")
+            raise InputError(f"{out}: {n['resume']}: the folder holds this study on another "
+                             "dataset; a study resumes only on the same dataset")
         if old != spec.digest:
-            raise InputError(f"{out}: --resume: the folder holds a study of a different "
+            raise InputError(f"{out}: {n['resume']}: the folder holds a study of a different "
                              f"spec (sha256 {str(old)[:12]}, this one {spec.digest[:12]}); "
-                             "--resume continues only the same spec")
+                             "a study resumes only the same spec")
         return
     if manifest.is_file():
-        raise InputError(f"{out}: holds a study already; pass --resume to continue it, "
-                         "or choose another --out")
+        raise InputError(f"{out}: holds a study already; pass {n['resume']} to continue it, "
+                         f"or choose another {n['out']}")
     if any(out.iterdir()):
-        raise InputError(f"{out}: --out exists and is not empty")
+        raise InputError(f"{out}: {n['out']}: exists and is not empty")
 
 
 @contextlib.contextmanager
@@ -237,7 +242,8 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
               executor: Executor | None = None,
               log: Callable[[str], None] | None = None, dataset: dict | None = None,
               estimates: bool = False, figures: bool = True,
-              pose_errors: bool = False) -> StudyResult:
+              pose_errors: bool = False, names: dict[str, str] | None = None
+              ) -> StudyResult:
     """Run (or, with ``resume``, continue) ``spec`` into the folder ``out``.
 
     Parameters
@@ -246,7 +252,7 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         A calibrated dataset to run every cell on instead of rendering (as
         :func:`dataset_document` makes it, e.g. from the reproduction's default dataset);
         the spec may then have no render parameter (InputError). Its sha256 is recorded in
-        ``study.json`` and ``--resume`` continues only the same dataset.
+        ``study.json`` and ``resume`` continues only the same dataset.
     estimates : bool
         Add the estimate (:data:`ESTIMATE_COLUMNS`) to every row of ``samples.csv``.
     pose_errors : bool
@@ -254,6 +260,10 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
         (:data:`POSE_ERROR_COLUMNS`, empty for a dataset without one) to every row.
     figures : bool
         Draw ``figures/<axis>.png`` (callers that plot their own may skip them).
+    names : dict, optional
+        How messages name the options ``out``, ``resume``, ``workers`` and ``dask``
+        (default: as here, :data:`rasc.study.executors.OPTION_NAMES`; ``rasc study``
+        passes its flags).
 
     The folder is locked for the run (:func:`study_lock`: a second study into it is
     refused). With ``resume``, every cell file and dataset file found is verified
@@ -270,29 +280,38 @@ def run_study(spec: Spec, out: str | os.PathLike, *, workers: int = 1,
     spec_path = spec.path.resolve()
     if out.resolve() == spec_path or out.resolve() in spec_path.parents and \
             spec_path.relative_to(out.resolve()).parts[0] in OUTPUT_NAMES:
-        raise InputError(f"{out}: --out would overwrite the spec {spec.path}")
+        raise InputError(f"{out}: {option_names(names)['out']}: would overwrite the spec "
+                         f"{spec.path}")
     cells = spec.cells()
-    given = None
+    given = _given_dataset(spec, dataset)
+    cache_dir()          # a bad RASC_CACHE_MAX_MB is refused before anything is made
+    prepare_folder(out, spec, resume, given, names)
+    created = _make_folder(out)
+    with study_lock(out):
+        if not created:
+            prepare_folder(out, spec, resume, given, names)   # again, now that it is ours
+        return _run_locked(spec, out, cells, given, created, workers=workers, dask=dask,
+                           resume=resume, quiet=quiet, executor=executor, log=log,
+                           dataset=dataset, estimates=estimates, figures=figures,
+                           pose_errors=pose_errors, names=names)
+
+
+def _given_dataset(spec: Spec, dataset: dict | None) -> str | None:
+    """The identity of the dataset every cell runs on, when there is one: a calibrated
+    dataset the caller gives (then the spec may name no dataset nor render parameter) or
+    the spec's ``[fixed] dataset``; None when the study renders its own."""
     if dataset is not None:
         if spec.dataset_path() is not None:
             raise InputError(f"{spec.path}: fixed.dataset: the caller gives the dataset "
                              "already; leave it out of the spec")
+
         def fail(key: str, msg: str):
             raise InputError(f"{spec.path}: {key}: {msg}")
         check_beside_dataset(spec.fixed, spec.axes, fail, "the study runs on a given dataset")
-        given = dataset_digest_of(dataset)
-    elif spec.dataset_path() is not None:
-        given = spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
-    cache_dir()          # a bad RASC_CACHE_MAX_MB is refused before anything is made
-    prepare_folder(out, spec, resume, given)
-    created = _make_folder(out)
-    with study_lock(out):
-        if not created:
-            prepare_folder(out, spec, resume, given)     # again, now that it is ours
-        return _run_locked(spec, out, cells, given, created, workers=workers, dask=dask,
-                           resume=resume, quiet=quiet, executor=executor, log=log,
-                           dataset=dataset, estimates=estimates, figures=figures,
-                           pose_errors=pose_errors)
+        return dataset_digest_of(dataset)
+    if spec.dataset_path() is not None:
+        return spec.cells()[0].params["dataset"].removeprefix("sha256:")[:20]
+    return None
 
 
 @dataclass
@@ -460,12 +479,12 @@ class _Run:
 
 def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, created: bool,
                 *, workers, dask, resume, quiet, executor, log, dataset, estimates, figures,
-                pose_errors) -> StudyResult:
+                pose_errors, names=None) -> StudyResult:
     """:class:`_Run`'s stages in the locked folder ``out``; the clean-up after bad input
     found late and after an interrupt."""
     owned = executor is None
     try:
-        executor = executor or make_executor(workers, dask)
+        executor = executor or make_executor(workers, dask, names)
     except BaseException:
         if created:
             shutil.rmtree(out, ignore_errors=True)
@@ -495,7 +514,7 @@ def _run_locked(spec: Spec, out: Path, cells: list[Cell], given: str | None, cre
         raise Interrupted(
             f"kept {len(run.texts)} of {len(cells)} finished cells and {kept} dataset(s) in "
             f"{out}; no samples.csv, summary.csv or figures written; continue with "
-            "--resume") from None
+            f"{option_names(names)['resume']}") from None
     finally:
         if owned:
             with contextlib.suppress(Exception):

@@ -28,7 +28,7 @@ import shutil
 import tempfile
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
 
 from rasc.errors import InputError, RascError
@@ -45,6 +45,22 @@ class WorkerCrashed(RascError):
 
 #: how long stopping a pool's workers may take before they are killed, s
 STOP_GRACE_S = 2.0
+
+#: how a message names each option of :func:`make_executor` (and of
+#: :func:`rasc.study.run_study`) when the caller gives no ``names`` of its own: the
+#: library's parameter; a command passes its flags (``{"workers": "--workers", ...}``)
+OPTION_NAMES = {"out": "out", "resume": "resume=True", "workers": "workers", "dask": "dask"}
+
+
+def option_names(names: dict[str, str] | None = None) -> dict[str, str]:
+    """:data:`OPTION_NAMES` with the caller's ``names`` over them."""
+    return {**OPTION_NAMES, **(names or {})}
+
+
+def _order(key: Any) -> tuple:
+    """Futures finished together are handed over in the order of their keys (task
+    indices), whatever the keys' type."""
+    return (0, key) if isinstance(key, int) else (1, str(key))
 
 
 def worker_environment() -> None:
@@ -81,7 +97,10 @@ def _pool_worker_init() -> None:
 
 
 class Executor:
-    """Runs ``fn(task)`` for each task; :meth:`map_unordered` yields ``(index, result)``."""
+    """Runs ``fn(task)`` for each task: :meth:`map_unordered` yields ``(index, result)``
+    for a list of tasks; :meth:`submit` and :meth:`completed` are the same one task at a
+    time, for a caller that submits while it computes (reproduce.py starts the
+    experiments that need no default dataset while it calibrates that dataset)."""
 
     description = "in this process"
     workers = 1
@@ -92,6 +111,41 @@ class Executor:
         order, in this process)."""
         for k, task in enumerate(tasks):
             yield k, fn(task)
+
+    def submit(self, fn: Callable[[Any], Any], task: Any) -> Future:
+        """Start ``fn(task)``; its future (here: run now, in this process; an exception
+        it raises is the future's)."""
+        fut: Future = Future()
+        try:
+            fut.set_result(fn(task))
+        except Exception as exc:  # noqa: BLE001 -- handed over by Future.result()
+            fut.set_exception(exc)
+        return fut
+
+    def completed(self, futures: dict[Future, Any]) -> Iterator[tuple[Any, Any]]:
+        """Wait for ``futures`` (a dict future → the caller's key); yield ``(key, result)``
+        as each finishes, taking them out of the dict. A task's exception is raised here;
+        a worker process that ended while it ran one raises :class:`WorkerCrashed`. Not
+        yet started futures left in the dict on an exit from the loop are cancelled."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            while futures:
+                done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for fut in sorted(done, key=lambda f: _order(futures[f])):
+                    key = futures.pop(fut)
+                    try:
+                        result = fut.result()
+                    except BrokenProcessPool:
+                        self.abort()
+                        which = f"task {key}" if isinstance(key, int) else key
+                        raise WorkerCrashed(f"a worker process ended while it ran "
+                                            f"{getattr(fut, 'rasc_what', 'a task')} "
+                                            f"({which})") from None
+                    yield key, result
+        finally:
+            for fut in futures:
+                fut.cancel()
 
     def close(self) -> None:
         """Release the executor's workers (nothing to release in this process)."""
@@ -119,32 +173,21 @@ class ProcessExecutor(Executor):
         self.description = f"a local process pool of {workers} workers"
         self._pool: ProcessPoolExecutor | None = None
 
-    def map_unordered(self, fn, tasks):
+    def submit(self, fn, task):
+        """Start ``fn(task)`` in a worker process (the pool starts on first use)."""
         if self._pool is None:
             # forkserver: workers fork from a fresh server process, never from this one,
             # which may hold an EGL context (a forked copy of one crashes the worker)
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers, initializer=_pool_worker_init,
                 mp_context=multiprocessing.get_context("forkserver"))
-        from concurrent.futures.process import BrokenProcessPool
+        fut = self._pool.submit(fn, task)
+        fut.rasc_what = getattr(fn, "__name__", "a task")
+        return fut
 
-        pending = {self._pool.submit(fn, task): k for k, task in enumerate(tasks)}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in sorted(done, key=pending.__getitem__):
-                    k = pending.pop(fut)
-                    try:
-                        result = fut.result()
-                    except BrokenProcessPool:
-                        self.abort()
-                        raise WorkerCrashed(f"a worker process ended while it ran "
-                                            f"{getattr(fn, '__name__', 'a task')} (task "
-                                            f"{k})") from None
-                    yield k, result
-        finally:
-            for fut in pending:
-                fut.cancel()
+    def map_unordered(self, fn, tasks):
+        pending = {self.submit(fn, task): k for k, task in enumerate(tasks)}
+        yield from self.completed(pending)
 
     def close(self) -> None:
         """Shut the process pool down, cancelling tasks not yet started."""
@@ -159,7 +202,8 @@ class ProcessExecutor(Executor):
         if pool is None:
             return
         import time
-        procs = list(getattr(pool, "_processes", {}).values())
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        _drop_cancelled(pool)               # (the pool forgets its processes here)
         for p in procs:
             with contextlib.suppress(Exception):
                 p.terminate()
@@ -174,16 +218,35 @@ class ProcessExecutor(Executor):
             pool.shutdown(wait=True, cancel_futures=True)
 
 
+def _drop_cancelled(pool: ProcessPoolExecutor, timeout_s: float = 1.0) -> None:
+    """Let the pool's manager thread drop the futures cancelled before they reached a
+    worker, before the workers are ended: Python 3.11's manager then sets an exception on
+    every future it still holds, raises InvalidStateError on a cancelled one and dies
+    with a traceback on stderr, before it has cleaned up (fixed in 3.12). Shutting down
+    with ``cancel_futures`` makes it drop them; it says it has by clearing the flag."""
+    with contextlib.suppress(Exception):
+        pool.shutdown(wait=False, cancel_futures=True)
+        import time
+        manager = getattr(pool, "_executor_manager_thread", None)
+        deadline = time.monotonic() + timeout_s
+        while (manager is not None and manager.is_alive()
+               and getattr(pool, "_cancel_pending_futures", False)
+               and time.monotonic() < deadline):
+            time.sleep(0.005)
+
+
 class DaskExecutor(Executor):
     """dask.distributed: ``address`` "local" starts a LocalCluster on loopback with
     ``workers`` single-threaded worker processes; ``tcp://host:port`` joins a cluster."""
 
-    def __init__(self, address: str, workers: int) -> None:
+    def __init__(self, address: str, workers: int, names: dict[str, str] | None = None
+                 ) -> None:
+        name = option_names(names)["dask"]
         try:
             from dask.distributed import Client, LocalCluster
         except ImportError:
-            raise InputError("--dask: dask.distributed is not installed; install the extra: "
-                             "pip install 'rasc[dask]'") from None
+            raise InputError(f"{name}: dask.distributed is not installed; install the "
+                             "extra: pip install 'rasc[dask]'") from None
         self._cluster = None
         self._scratch = None
         worker_environment()          # inherited by the LocalCluster's worker processes
@@ -229,28 +292,37 @@ class DaskExecutor(Executor):
             self.description = f"a dask LocalCluster of {workers} workers"
         else:
             if not address.startswith(("tcp://", "tls://")):
-                raise InputError(f"--dask: expected 'local' or a scheduler address such as "
+                raise InputError(f"{name}: expected 'local' or a scheduler address such as "
                                  f"tcp://host:8786, got {address!r}")
             try:
                 self.client = Client(address, timeout="10s")
             except (OSError, TimeoutError) as exc:
-                raise InputError(f"--dask {address}: cannot reach the scheduler: "
+                raise InputError(f"{name} {address}: cannot reach the scheduler: "
                                  f"{' '.join(str(exc).split())}") from None
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
         self.client.run(worker_environment)
         self.client.run(no_process_locks)
 
-    def map_unordered(self, fn, tasks):
+    def submit(self, fn, task):
+        """Start ``fn(task)`` on the cluster; its dask future."""
+        return self.client.submit(fn, task, pure=False)
+
+    def completed(self, futures):
+        """:meth:`Executor.completed` for dask futures."""
         from dask.distributed import as_completed
 
-        futures = [self.client.submit(fn, task, pure=False) for task in tasks]
-        index = {f.key: k for k, f in enumerate(futures)}
+        by_key = {f.key: f for f in futures}
         try:
-            for fut in as_completed(futures):
-                yield index[fut.key], fut.result()
+            for fut in as_completed(list(futures)):
+                key = futures.pop(by_key[fut.key])
+                yield key, fut.result()
         finally:
             self.client.cancel([f for f in futures if not f.done()])
+
+    def map_unordered(self, fn, tasks):
+        pending = {self.submit(fn, task): k for k, task in enumerate(tasks)}
+        yield from self.completed(pending)
 
     def close(self) -> None:
         """Close the dask client (and the local cluster, if this executor started one)."""
@@ -269,10 +341,14 @@ class DaskExecutor(Executor):
             self._scratch = None
 
 
-def make_executor(workers: int = 1, dask: str | None = None) -> Executor:
-    """The executor for ``--workers N`` / ``--dask ADDRESS``."""
+def make_executor(workers: int = 1, dask: str | None = None,
+                  names: dict[str, str] | None = None) -> Executor:
+    """The executor for ``workers`` processes (1: this process) or the dask cluster
+    ``dask``. ``names``: how messages name ``workers`` and ``dask`` (default: so,
+    :data:`OPTION_NAMES`; the command line passes its flags)."""
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"--workers: expected an integer >= 1, got {workers!r}")
+        raise InputError(f"{option_names(names)['workers']}: expected an integer >= 1, "
+                         f"got {workers!r}")
     if dask is not None:
-        return DaskExecutor(dask, workers)
+        return DaskExecutor(dask, workers, names)
     return Executor() if workers == 1 else ProcessExecutor(workers)

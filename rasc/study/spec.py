@@ -468,6 +468,14 @@ def check_method(name: str) -> None:
 def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     """Read and check a study spec; with ``quick``, narrowed by its ``[quick]`` table.
 
+    The stages, in order: the file (:func:`_read_toml`), the top-level keys
+    (:func:`_top_level`), the methods (:func:`_methods`), the confidence level
+    (:func:`_confidence`), the parameters of ``[fixed]``
+    and ``[axes]`` (:func:`_parameters`), the work and the render parameters that must fit
+    together (:func:`check_work`, :func:`_check_poses`), the model files and the dataset
+    folder (:func:`_model_digests`, :func:`_dataset_digests`), the paired axes
+    (:func:`_paired`), then ``[quick]``.
+
     Raises
     ------
     rasc.errors.InputError
@@ -476,13 +484,52 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     """
     path = Path(path)
     where = str(path)
+    doc = _read_toml(path)
+
+    def fail(key: str, msg: str):
+        raise InputError(f"{where}: {key}: {msg}")
+
+    top = _top_level(doc, fail)
+    methods = _methods(doc, fail)
+    confidence = _confidence(doc, fail)
+    fixed, axes = _parameters(doc, fail)
+    n_cells = math.prod(len(v) for v in axes.values())
+    if n_cells * top["samples"] > 10**8:
+        fail("samples", f"{n_cells} cells x {top['samples']} samples is more than 10^8")
+    check_work(top, len(methods), n_cells, fixed, axes, fail)
+    _check_poses(fixed, axes, fail)
+    digests = _model_digests(path, fixed, axes, fail)
+    dataset_digests = _dataset_digests(path, fixed, axes, fail)
+    paired = _paired(doc, axes, fail)
+
+    spec = Spec(path=path, name=top.get("name", path.stem),
+                description=top.get("description", ""), seed=top["seed"],
+                samples=top["samples"], methods=tuple(methods),
+                bootstrap=top.get("bootstrap", 1000), confidence=confidence, fixed=fixed,
+                axes=axes, model_digests=digests, paired=tuple(paired),
+                dataset_digests=dataset_digests,
+                gross_rotation_deg=top.get("gross_rotation_deg"),
+                gross_translation_mm=top.get("gross_translation_mm"),
+                time_limit_s=top.get("time_limit_s"))
+    narrowed = _quick(doc.get("quick", {}), spec, fail)
+    return narrowed if quick else spec
+
+
+#: how a stage of :func:`load_spec` refuses: ``fail(key, message)`` raises InputError
+Fail = Callable[[str, str], None]
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    """The spec file's TOML document (a regular UTF-8 file of at most
+    :data:`MAX_SPEC_BYTES`)."""
+    where = str(path)
     if not path.is_file():
         raise InputError(f"{where}: no such file" if not path.exists()
                          else f"{where}: not a regular file")
     if path.stat().st_size > MAX_SPEC_BYTES:
         raise InputError(f"{where}: larger than {MAX_SPEC_BYTES} bytes; not a study spec")
     try:
-        doc = tomllib.loads(path.read_bytes().decode("utf-8"))
+        return tomllib.loads(path.read_bytes().decode("utf-8"))
     except UnicodeDecodeError:
         raise InputError(f"{where}: not UTF-8 text") from None
     except tomllib.TOMLDecodeError as exc:
@@ -490,9 +537,9 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     except RecursionError:
         raise InputError(f"{where}: nested too deeply") from None
 
-    def fail(key: str, msg: str):
-        raise InputError(f"{where}: {key}: {msg}")
 
+def _top_level(doc: dict[str, Any], fail: Fail) -> dict[str, Any]:
+    """The top-level keys: only known ones, the required ones present, each checked."""
     for key in doc:
         if key not in TOP_KEYS:
             fail(key, f"unknown key (expected {', '.join(TOP_KEYS)})")
@@ -507,6 +554,11 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
                 top[key] = TOP_KEYS[key](doc[key])
             except ValueError as exc:
                 fail(key, str(exc))
+    return top
+
+
+def _methods(doc: dict[str, Any], fail: Fail) -> list[str]:
+    """``methods``: a non-empty list of distinct names of hand-eye methods."""
     methods = doc["methods"]
     if not isinstance(methods, list):
         fail("methods", f"expected a list of method names, got {_show(methods)}")
@@ -521,6 +573,11 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
             check_method(m)
         except InputError as exc:
             fail(f"methods[{k}]", str(exc))
+    return methods
+
+
+def _confidence(doc: dict[str, Any], fail: Fail) -> float:
+    """``confidence``: the level of the summary's intervals, in [0.5, 1)."""
     confidence = doc.get("confidence", 0.95)
     try:
         confidence = _number(confidence)
@@ -528,7 +585,14 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         fail("confidence", str(exc))
     if not 0.5 <= confidence < 1:
         fail("confidence", f"expected a level in [0.5, 1), got {confidence:g}")
+    return confidence
 
+
+def _parameters(doc: dict[str, Any], fail: Fail
+                ) -> tuple[dict[str, Any], dict[str, tuple]]:
+    """``[fixed]`` and ``[axes]``: known parameters, each value checked by its
+    :data:`PARAMS` entry, none in both tables, no axis empty or with a value twice,
+    ``noise_level`` not beside the σ it sets."""
     tables = {}
     for table in ("fixed", "axes"):
         t = doc.get(table, {})
@@ -569,12 +633,12 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
                 table = "axes" if other in axes else "fixed"
                 fail(f"{table}.{other}", "noise_level already sets sigma_r and sigma_t_mm; "
                      "give one or the other")
-    n_cells = math.prod(len(v) for v in axes.values())
-    if n_cells * top["samples"] > 10**8:
-        fail("samples", f"{n_cells} cells x {top['samples']} samples is more than 10^8")
-    check_work(top, len(methods), n_cells, fixed, axes, fail)
+    return fixed, axes
 
-    # render parameters that must fit together, checked over every combination given
+
+def _check_poses(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
+    """The render parameters that must fit together (layout, positions, motion_deg),
+    checked over every combination given."""
     pos_layout = [(lay, n, a) for lay in axes.get("layout", (fixed.get("layout", "grid"),))
                   for n in axes.get("positions", (fixed.get("positions", 9),))
                   for a in axes.get("motion_deg", (fixed.get("motion_deg", 8.0),))]
@@ -583,6 +647,11 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
             pose_grid(lay, n, a)
         except ValueError as exc:
             fail("axes.positions" if "positions" in axes else "fixed.positions", str(exc))
+
+
+def _model_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
+                   fail: Fail) -> dict[str, str]:
+    """The sha256 of each model file the spec names (relative to the spec's folder)."""
     digests: dict[str, str] = {}
     models = list(axes.get("model", ())) + ([fixed["model"]] if fixed.get("model") else [])
     for k, rel in enumerate(m for m in models if m):
@@ -591,8 +660,13 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         if not file.is_file():
             fail(key, f"{file}: no such model file")
         digests[rel] = "sha256:" + hashlib.sha256(file.read_bytes()).hexdigest()
+    return digests
 
-    # an existing dataset instead of rendering: [fixed] only, and no render parameter
+
+def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
+                     fail: Fail) -> dict[str, str]:
+    """An existing dataset instead of rendering: [fixed] only, and no render parameter;
+    the digest of its folder."""
     if "dataset" in axes:
         fail("axes.dataset", "a study runs on one dataset; give it in [fixed]")
     dataset_digests: dict[str, str] = {}
@@ -606,8 +680,12 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
         except ValueError as exc:
             fail("fixed.dataset", f"{folder}: {exc}")
         dataset_digests[fixed["dataset"]] = dataset_digest(folder)
+    return dataset_digests
 
-    # common random numbers: axes left out of the sample seed
+
+def _paired(doc: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> list[str]:
+    """``paired``: common random numbers, axes left out of the sample seed (never
+    ``eye``)."""
     paired = doc.get("paired", [])
     if not isinstance(paired, list):
         fail("paired", f"expected a list of axis names, got {_show(paired)}")
@@ -619,18 +697,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
             fail(f"paired[{k}]", f"{name!r} given twice")
         if name == "eye":
             fail(f"paired[{k}]", "'eye' cannot be paired: the eyes have different poses")
-
-    spec = Spec(path=path, name=top.get("name", path.stem),
-                description=top.get("description", ""), seed=top["seed"],
-                samples=top["samples"], methods=tuple(methods),
-                bootstrap=top.get("bootstrap", 1000), confidence=confidence, fixed=fixed,
-                axes=axes, model_digests=digests, paired=tuple(paired),
-                dataset_digests=dataset_digests,
-                gross_rotation_deg=top.get("gross_rotation_deg"),
-                gross_translation_mm=top.get("gross_translation_mm"),
-                time_limit_s=top.get("time_limit_s"))
-    narrowed = _quick(doc.get("quick", {}), spec, fail)
-    return narrowed if quick else spec
+    return paired
 
 
 def check_work(top: dict[str, Any], n_methods: int, n_cells: int, fixed: dict[str, Any],

@@ -29,7 +29,7 @@ def results(quick_experiments):
     ctx, _ = quick_experiments("e7_model_mismatch")
     (offset,) = json.loads((ctx.out / e7.NAME / "summary.json").read_text())
     assert offset["case"] == "offset30" and e7.QUICK == ("offset30",)
-    return [offset, e7.run_case(("encoder0.5", FIELDS["encoder0.5"], 0, True))]
+    return [offset, e7.run_case(e7.CaseTask("encoder0.5", FIELDS["encoder0.5"], 0, True))]
 
 
 def test_offset_breaks_the_paper_model_and_the_refinement_recovers(results):

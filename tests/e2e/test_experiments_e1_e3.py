@@ -97,7 +97,7 @@ def test_e1_files_rows_and_report(runs):
     # level 0: one solve; other quick levels: QUICK_SAMPLES; per eye, variant, method
     assert len(raw) == 2 * 2 * 2 * (1 + (len(QUICK_LEVELS) - 1) * QUICK_SAMPLES)
     assert {r["status"] for r in raw} == {"ok"}
-    assert sorted({int(r["level"]) for r in raw}) == QUICK_LEVELS
+    assert sorted({int(r["noise_level"]) for r in raw}) == QUICK_LEVELS
     # --quick: the main variant's figures and every method's, draft PNGs
     for stem in ("fig3_translation", "fig4_rotation", "fig_all_methods"):
         assert (folder / f"{stem}.png").stat().st_size > 1000
@@ -141,7 +141,7 @@ def test_e1_samples_are_the_documented_noise_and_shared_by_both_methods(runs):
     cell = cells[("literal", level, eye)]
     assert cell.seed_words == cells[("exponential", level, eye)].seed_words     # paired
     raw = {(r["method"], int(r["sample"])): r for r in read_csv(ctx.out / "e1" / common.RAW_CSV)
-           if (r["eye"], r["variant"], int(r["level"])) == (eye, "literal", level)}
+           if (r["eye"], r["noise_model"], int(r["noise_level"])) == (eye, "literal", level)}
     for s in range(QUICK_SAMPLES):
         noisy = perturb_T_cam_from_world(T_cw, 0.005 * level, level / 1000,
                                          sample_rng(ctx.seed, cell, s), "literal")
@@ -150,9 +150,9 @@ def test_e1_samples_are_the_documented_noise_and_shared_by_both_methods(runs):
             T = res.T_cam_from_gaze
             r = raw[(method, s)]
             # the same solver, written with repr: equal to round-off
-            assert float(r["t_err_mm"]) == pytest.approx(
+            assert float(r["translation_mm"]) == pytest.approx(
                 1000 * np.linalg.norm(T[:3, 3] - X[:3, 3]), rel=1e-9)
-            assert float(r["R_err_deg"]) == pytest.approx(
+            assert float(r["rotation_deg"]) == pytest.approx(
                 float(rotation_error_deg(T[:3, :3], X[:3, :3])), rel=1e-7, abs=1e-10)
             assert float(r["quality"]) == pytest.approx(res.quality, rel=1e-9)
 
@@ -162,14 +162,15 @@ def test_e1_summary_is_the_papers_definition(runs):
     estimates), recomputed from the raw rows with variances instead of std."""
     folder = runs["A"]["ctx"].out / "e1"
     raw = read_csv(folder / common.RAW_CSV)
-    summ = {(r["eye"], r["variant"], int(r["level"]), r["method"]): r
+    summ = {(r["eye"], r["noise_model"], int(r["noise_level"]), r["method"]): r
             for r in read_csv(folder / e1.SUMMARY_CSV)}
     for key, row in summ.items():
-        rows = [r for r in raw if (r["eye"], r["variant"], int(r["level"]), r["method"]) == key]
+        rows = [r for r in raw
+                if (r["eye"], r["noise_model"], int(r["noise_level"]), r["method"]) == key]
         t = np.array([[float(r[c]) for c in ("t_x_mm", "t_y_mm", "t_z_mm")] for r in rows])
         R = np.array([[float(r[c]) for c in common.R_COLS] for r in rows])
         assert float(row["t_err_mean_mm"]) == pytest.approx(
-            np.mean([float(r["t_err_mm"]) for r in rows]), rel=1e-12)
+            np.mean([float(r["translation_mm"]) for r in rows]), rel=1e-12)
         if len(rows) == 1:
             assert row["t_std_mm"] == "" and row["R_std_fro"] == ""
             continue
@@ -183,9 +184,9 @@ def test_e1_summary_is_the_papers_definition(runs):
     for r in raw[::7]:
         t = np.array([float(r[c]) for c in ("t_x_mm", "t_y_mm", "t_z_mm")])
         R = np.array([float(r[c]) for c in common.R_COLS]).reshape(3, 3)
-        assert float(r["t_err_mm"]) == pytest.approx(
+        assert float(r["translation_mm"]) == pytest.approx(
             np.linalg.norm(t - 1000 * X[r["eye"]][:3, 3]), rel=1e-9)
-        assert float(r["R_err_fro"]) == pytest.approx(
+        assert float(r["rotation_fro"]) == pytest.approx(
             np.linalg.norm(R - X[r["eye"]][:3, :3]), rel=1e-9)
 
 
@@ -194,10 +195,10 @@ def test_e1_paired_tests_match_scipy(runs):
 
     folder = runs["A"]["ctx"].out / "e1"
     raw = read_csv(folder / common.RAW_CSV)
-    tests = {(r["eye"], r["variant"], r["level"], r["quantity"]): r
+    tests = {(r["eye"], r["noise_model"], r["noise_level"], r["quantity"]): r
              for r in read_csv(folder / e1.TESTS_CSV)}
-    for eye, level, q in (("left", 8, "t_err_mm"), ("right", 1, "R_err_fro")):
-        sel = [r for r in raw if (r["eye"], r["variant"], int(r["level"])) ==
+    for eye, level, q in (("left", 8, "translation_mm"), ("right", 1, "rotation_fro")):
+        sel = [r for r in raw if (r["eye"], r["noise_model"], int(r["noise_level"])) ==
                (eye, "literal", level)]
         a = {r["sample"]: float(r[q]) for r in sel if r["method"] == "rasc"}
         b = {r["sample"]: float(r[q]) for r in sel if r["method"] == "li"}
@@ -206,7 +207,7 @@ def test_e1_paired_tests_match_scipy(runs):
         assert float(row["wilcoxon_p"]) == pytest.approx(wilcoxon(d).pvalue, rel=1e-12)
         assert float(row["frac_rasc_better"]) == pytest.approx((d > 0).mean())
     # pooled rows exist per eye and for both eyes, over all quick levels x samples
-    pooled = tests[("both", "literal", "all", "t_err_mm")]
+    pooled = tests[("both", "literal", "all", "translation_mm")]
     assert int(pooled["n"]) == 2 * (len(QUICK_LEVELS) - 1) * QUICK_SAMPLES
 
 
@@ -220,8 +221,8 @@ def test_e1_seed_changes_the_noise_not_the_floor(runs):
         rows1 = cell_task({"cell": cell, "dataset": ctx.study_dataset(), "seed": 1,
                            "samples": QUICK_SAMPLES, "methods": ("rasc",)})
         level = cell.params["noise_level"]
-        t0 = {int(r["sample"]): float(r["t_err_mm"]) for r in raw0
-              if (r["eye"], r["variant"], int(r["level"]), r["method"]) ==
+        t0 = {int(r["sample"]): float(r["translation_mm"]) for r in raw0
+              if (r["eye"], r["noise_model"], int(r["noise_level"]), r["method"]) ==
               ("left", "literal", level, "rasc")}
         for s, v in t0.items():
             assert (rows1[s][3] == v) == (level == 0), (level, s)  # level 0: no noise
@@ -232,7 +233,7 @@ def test_e1_seed_changes_the_noise_not_the_floor(runs):
 def test_e2_li_error_exceeds_rasc(runs):
     sec = runs["A"]["e2"]
     summary = read_csv(runs["A"]["ctx"].out / "e2" / e2.SUMMARY_CSV)
-    assert {(r["eye"], r["variant"]) for r in summary} == {(e, v) for e in EYES
+    assert {(r["eye"], r["noise_model"]) for r in summary} == {(e, v) for e in EYES
                                                            for v in VARIANTS}
     for r in summary:
         # measured ratios 7.5-9 (30 samples); with 8 samples a factor 2 is a safe floor
@@ -253,9 +254,9 @@ def test_e2_noise_is_on_the_home_view_only(runs):
             ("left", "literal")][0]
     T_cw, T_gp, pt, X = eye_poses(ctx, "left")
     home = home_view(pt, "left")
-    raw = {int(r["sample"]): float(r["t_err_mm"])
+    raw = {int(r["sample"]): float(r["translation_mm"])
            for r in read_csv(ctx.out / "e2" / e2.RAW_CSV)
-           if (r["eye"], r["variant"], r["method"]) == ("left", "literal", "li")}
+           if (r["eye"], r["noise_model"], r["method"]) == ("left", "literal", "li")}
     assert len(raw) == spec.samples == 8
     for s in range(spec.samples):
         noisy = perturb_one_view(T_cw, home, e2.SIGMA_R, e2.SIGMA_T_MM / 1000,
@@ -278,7 +279,7 @@ def test_e3_structure_and_threshold_exercised(runs):
     assert sum(r["source"] == "e1" for r in raw) == n_e1
     assert sum(r["source"] == "e3" for r in raw) == n_ext
     for r in raw:        # the flag is the stated definition
-        bad = float(r["R_err_deg"]) > 5.0 or float(r["t_err_mm"]) > 50.0
+        bad = float(r["rotation_deg"]) > 5.0 or float(r["translation_mm"]) > 50.0
         assert r["unusable"] == str(int(bad))
     a = sec.summary
     for variant in VARIANTS:
@@ -299,14 +300,14 @@ def test_e3_structure_and_threshold_exercised(runs):
 
 def test_e3_samples_at_the_papers_sets_are_e1s(runs):
     ctx = runs["A"]["ctx"]
-    e1_rows = {(r["eye"], r["variant"], r["level"], r["sample"]): r
+    e1_rows = {(r["eye"], r["noise_model"], r["noise_level"], r["sample"]): r
                for r in read_csv(ctx.out / "e1" / common.RAW_CSV) if r["method"] == "rasc"}
     e3_rows = [r for r in read_csv(ctx.out / "e3" / e3.RAW_CSV) if r["source"] == "e1"]
     assert len(e3_rows) == len(e1_rows)
     for r in e3_rows:
-        a = e1_rows[(r["eye"], r["variant"], r["level"], r["sample"])]
-        assert (r["quality"], r["t_err_mm"], r["R_err_deg"]) == (
-            a["quality"], a["t_err_mm"], a["R_err_deg"])
+        a = e1_rows[(r["eye"], r["noise_model"], r["noise_level"], r["sample"])]
+        assert (r["quality"], r["translation_mm"], r["rotation_deg"]) == (
+            a["quality"], a["translation_mm"], a["rotation_deg"])
 
 
 # ----------------------------------------------------------------- determinism

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
@@ -274,16 +275,17 @@ def test_e5_montecarlo_task_is_seeded(quick):
     ctx, _, _ = quick
     cal = ctx.calibration()
     L, R = cal.eyes["left"], cal.eyes["right"]
-    task = {"level": 3, "sigma_r": 0.01, "sigma_t": 0.002, "seed": 0, "n_samples": 4,
-            "T_cw": {"left": L.T_cam_from_world, "right": R.T_cam_from_world},
-            "T_gp": {e: T_gaze_from_ptu(cal.eyes[e].pan_tilt[:, 0], cal.eyes[e].pan_tilt[:, 1])
-                     for e in EYES},
-            "T_cg": {e: cal.eyes[e].handeye.T_cam_from_gaze for e in EYES},
-            "T_true": np.asarray(ctx.truth()["T_ptuL_from_ptuR"])}
-    a, b = e5.montecarlo_task(task), e5.montecarlo_task(dict(task))
+    task = e5.MonteCarloTask(
+        level=3, sigma_r=0.01, sigma_t=0.002, seed=0, n_samples=4,
+        T_cw={"left": L.T_cam_from_world, "right": R.T_cam_from_world},
+        T_gp={e: T_gaze_from_ptu(cal.eyes[e].pan_tilt[:, 0], cal.eyes[e].pan_tilt[:, 1])
+              for e in EYES},
+        T_cg={e: cal.eyes[e].handeye.T_cam_from_gaze for e in EYES},
+        T_true=np.asarray(ctx.truth()["T_ptuL_from_ptuR"]))
+    a, b = e5.montecarlo_task(task), e5.montecarlo_task(replace(task))
     assert a.shape == (2, 4, 3)
     np.testing.assert_array_equal(a, b)
-    c = e5.montecarlo_task(dict(task, seed=1))
+    c = e5.montecarlo_task(replace(task, seed=1))
     assert not np.array_equal(a, c)
 
 

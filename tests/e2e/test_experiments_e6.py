@@ -91,7 +91,7 @@ def test_e6a_files_rows_and_section(e6a_runs):
     assert tuple(raw[0]) == e6a.RAW_HEADER
     assert len(raw) == len(sigmas) * q.samples * len(EYES) * len(e6a.SOLVERS)
     assert {r["status"] for r in raw} == {"ok"}
-    assert sorted({float(r["sigma_px"]) for r in raw}) == sorted(sigmas)
+    assert sorted({float(r["corner_noise_px"]) for r in raw}) == sorted(sigmas)
     model = read_csv(folder / "eq13_matched_raw.csv")
     n_pos = sum(s > 0 for s in sigmas)
     assert len(model) == n_pos * len(EYES) * e6a.QUICK_MODEL_SAMPLES
@@ -100,7 +100,7 @@ def test_e6a_files_rows_and_section(e6a_runs):
     assert len(summary) == len(EYES) * (len(sigmas) * len(e6a.SOLVERS) + n_pos)
     assert all(int(r["n"]) == q.samples for r in summary if r["method"] != e6a.MODEL)
     pose = read_csv(folder / "pose_noise.csv")
-    assert [float(r["sigma_px"]) for r in pose] == sorted(sigmas)
+    assert [float(r["corner_noise_px"]) for r in pose] == sorted(sigmas)
     # the study itself is kept beside the files, with its pose-error columns
     assert (folder / e6a.SPEC / "study.json").is_file()
     assert "pose_t_z_mm" in read_csv(folder / e6a.SPEC / "samples.csv")[0]
@@ -143,7 +143,7 @@ def test_e6a_noise_free_row_is_the_pipeline_result(e6a_runs):
     raw = read_csv(ctx.out / "e6a/raw.csv")
     for eye in EYES:
         rows = [r for r in raw if r["method"] == "rasc" and r["eye"] == eye
-                and float(r["sigma_px"]) == 0.0]
+                and float(r["corner_noise_px"]) == 0.0]
         assert len(rows) == spec(e6a.SPEC).samples
         want = errors[eye]["T_cam_from_gaze"]
         for r in rows:
@@ -167,7 +167,7 @@ def test_e6a_quick_rows_are_the_full_protocol_rows(e6a_runs):
     f = spec(e6a.SPEC, quick=False)
     assert len(full) == (len(f.axes["corner_noise_px"]) * f.samples * len(EYES)
                          * len(e6a.SOLVERS))
-    key = ("sigma_px", "sample", "eye", "method")
+    key = ("corner_noise_px", "sample", "eye", "method")
     by_key = {tuple(r[k] for k in key): r for r in full}
     for r in quick:
         assert by_key[tuple(r[k] for k in key)] == r
@@ -196,11 +196,11 @@ def test_e6b_files_rows_and_section(e6b_runs):
     assert tuple(raw[0]) == e6b.RAW_HEADER
     assert len(raw) == len(sets) * (1 + q.samples) * len(EYES) * n_methods
     # every method ran on every (set, sigma, sample, eye)
-    cells = {(r["pose_set_deg"], r["sigma_px"], r["sample"], r["eye"]) for r in raw}
+    cells = {(r["motion_deg"], r["corner_noise_px"], r["sample"], r["eye"]) for r in raw}
     assert len(cells) == len(sets) * (1 + q.samples) * len(EYES)
     for c in cells:
         assert sorted(r["method"] for r in raw
-                      if (r["pose_set_deg"], r["sigma_px"], r["sample"], r["eye"]) == c
+                      if (r["motion_deg"], r["corner_noise_px"], r["sample"], r["eye"]) == c
                       ) == sorted(METHODS)
     summary = read_csv(folder / "summary.csv")
     assert tuple(summary[0]) == e6b.SUMMARY_HEADER
@@ -228,7 +228,7 @@ def test_e6b_sanity(e6b_runs):
     # the ±8° set is the dataset's: its noise-free RASC error is the pipeline's (mean of
     # the eyes; 1e-9 / 1e-6 as in the E6a test)
     errors = ctx.calibration().errors
-    summary = {(r["pose_set_deg"], r["method"]): r
+    summary = {(r["motion_deg"], r["method"]): r
                for r in read_csv(ctx.out / "e6b/summary.csv")}
     r8 = summary[("8.0", "rasc")]
     assert float(r8["clean_rotation_deg"]) == pytest.approx(
@@ -239,7 +239,7 @@ def test_e6b_sanity(e6b_runs):
     # 5e-4 rad and 0.2 mm per axis (measured on the ±8° renders: 6e-5 rad, 0.025 mm; a
     # wrong target pose or angle would be off by degrees and centimetres)
     pose = read_csv(ctx.out / "e6b/pose_noise_raw.csv")
-    clean2 = [r for r in pose if float(r["pose_set_deg"]) == 2.0 and float(r["sigma_px"]) == 0]
+    clean2 = [r for r in pose if float(r["motion_deg"]) == 2.0 and float(r["corner_noise_px"]) == 0]
     assert len(clean2) == 2
     for r in clean2:
         assert float(r["eq13_sigma_r_rad"]) < 5e-4 and float(r["eq13_sigma_t_mm"]) < 0.2

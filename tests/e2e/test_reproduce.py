@@ -131,9 +131,10 @@ def test_headline_numbers_are_sane(pooled):
     out = pooled
     with open(out / "e1" / "noise_summary.csv") as f:
         rows = [r for r in csv.DictReader(f)
-                if r["method"] == "rasc" and r["variant"] == "literal"]
+                if r["method"] == "rasc" and r["noise_model"] == "literal"]
     for eye in ("left", "right"):
-        by_level = {int(r["level"]): float(r["t_err_mean_mm"]) for r in rows if r["eye"] == eye}
+        by_level = {int(r["noise_level"]): float(r["t_err_mean_mm"]) for r in rows
+                    if r["eye"] == eye}
         levels = sorted(k for k in by_level if k > 0)
         # more noise, more error: the highest level's mean is well above the lowest's
         assert by_level[levels[-1]] > 2 * by_level[levels[0]] > 0

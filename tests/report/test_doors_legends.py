@@ -13,7 +13,7 @@ import experiments.e1_noise as e1  # noqa: E402
 
 
 def _row(eye, level, method, t):
-    return {"eye": eye, "level": str(level), "method": method,
+    return {"eye": eye, "noise_level": str(level), "method": method,
             "t_err_mean_mm": "" if t is None else str(t),
             "R_deg_mean": "" if t is None else str(t / 10)}
 

@@ -126,6 +126,36 @@ def test_out_holding_another_study_or_files_is_refused(tmp_path, capsys):
     assert "no study to resume" in capsys.readouterr().err
 
 
+def test_library_messages_name_the_parameter_and_the_command_its_flag(tmp_path, capsys):
+    """The same refusals from Python name run_study's parameters (out, resume=True,
+    workers), never a flag; ``rasc study`` names its flags (--out, --resume, --workers)."""
+    from rasc.errors import InputError
+    from rasc.study.executors import make_executor
+    spec_path = write(tmp_path, TINY)
+    spec = load_spec(spec_path)
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "x.txt").write_text("keep me")
+    cases = [(busy, {}, "out: exists and is not empty", "--out: exists and is not empty"),
+             (tmp_path / "new", {"resume": True}, "resume=True: no study to resume",
+              "--resume: no study to resume"),
+             (tmp_path / "w", {"workers": 0}, "workers: expected an integer >= 1",
+              "--workers: expected an integer >= 1")]
+    for out, kwargs, python_words, cli_words in cases:
+        with pytest.raises(InputError) as info:
+            run_study(spec, out, quiet=True, **kwargs)
+        assert python_words in str(info.value) and "--" not in str(info.value)
+        argv = ["study", str(spec_path), "--out", str(out), "--quiet"]
+        argv += ["--resume"] if kwargs.get("resume") else []
+        argv += ["--workers", "0"] if "workers" in kwargs else []
+        assert cli(argv) == 2
+        err = capsys.readouterr().err
+        assert cli_words in err and err.count("\n") == 1, err
+    assert (busy / "x.txt").read_text() == "keep me"
+    with pytest.raises(InputError, match="^dask: "):  # (not installed, or this)
+        make_executor(2, dask="nonsense")
+
+
 # ------------------------------------------------------------------ layouts
 
 def test_grid_of_nine_is_the_papers_positions_in_order():
@@ -271,7 +301,9 @@ def test_interrupted_study_keeps_finished_cells_and_resumes_to_the_same_bytes(
     from rasc.interrupt import Interrupted
     with pytest.raises(Interrupted) as info:      # one note, carried by the interrupt
         run_study(spec, out, quiet=True, executor=InterruptAfter(2))
-    assert "kept 2 of 6 finished cells" in info.value.note and "--resume" in info.value.note
+    # from Python the note names the parameter, never a flag of the command line
+    assert "kept 2 of 6 finished cells" in info.value.note
+    assert "resume=True" in info.value.note and "--" not in info.value.note
     assert capsys.readouterr().err == ""          # nothing else said
     kept = files(out)
     assert sorted(n for n in kept if n.startswith("cells/")) == [
