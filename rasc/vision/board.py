@@ -656,8 +656,8 @@ def parse_target(text: str) -> Target:
         return read_target_file(text)
     raise InputError(f"--target {text!r}: expected chessboard:NXxNY,SQUARE, "
                      "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy], "
-                     "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY], a JSON file or a "
-                     "Kalibr target yaml")
+                     "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY], or a JSON file (the "
+                     "manifest's board) or Kalibr target yaml")
 
 
 def seen_mask(corners: np.ndarray) -> np.ndarray:
