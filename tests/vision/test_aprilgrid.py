@@ -172,3 +172,24 @@ def test_target_option_refusal():
     with pytest.raises(InputError, match="expected aprilgrid:COLSxROWS") as e:
         parse_target("aprilgrid:6x4")
     assert "\n" not in str(e.value)
+
+
+def test_manifest_names_the_aprilgrid_or_holds_kalibrs_fields(tmp_path):
+    import json
+
+    from rasc.vision.dataset import load_dataset
+
+    cv2.imwrite(str(tmp_path / "a.png"), np.full((8, 8), 255, np.uint8))
+    doc = {"format": "rasc-dataset/1", "board": BOARD.to_dict(), "angle_unit": "deg",
+           "images": [{"file": "a.png", "eye": "left", "role": "intrinsics"}]}
+    (tmp_path / "manifest.json").write_text(json.dumps(doc))
+    assert load_dataset(tmp_path).board == BOARD
+    doc["board"] = BOARD.to_kalibr()
+    (tmp_path / "manifest.json").write_text(json.dumps(doc))
+    assert load_dataset(tmp_path).board == BOARD
+    doc["board"] = {**BOARD.to_kalibr(), "tagSize": "big"}
+    (tmp_path / "manifest.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="manifest.json: board: field 'tagSize' must be a "
+                                         "number") as e:
+        load_dataset(tmp_path)
+    assert "\n" not in str(e.value)
