@@ -177,52 +177,63 @@ def _reseeded(board: AprilGrid, tags: dict) -> dict:
 #: (≥ 1 saddle size) off; true corners sit within a few hundredths of it.
 CONSISTENCY_FRACTION = 0.35
 
-#: the neighbourhood of a corner for that check, in corner-grid steps each way (about 1.5
-#: tags: lens distortion bends it by a small fraction of a pixel)
-CONSISTENCY_REACH = 3
+#: the neighbourhood of a tag for that check, in tags each way (lens distortion bends
+#: three tags by a small fraction of a pixel)
+CONSISTENCY_REACH = 1
 
 
 def _consistent(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """(M,) True for the corners that agree with their neighbours: the least-squares
-    homography of the seen corners within :data:`CONSISTENCY_REACH` grid steps puts the
-    corner within :data:`CONSISTENCY_FRACTION` of the local saddle size (at least 1 px) of
-    where it was found. Two passes: the second fits only the corners the first kept, so
-    a good corner next to a bad one is kept (a corner whose neighbours the first pass all
-    dropped keeps the first verdict). Two ids found within 1 px of each other are both
-    dropped. Least squares, not RANSAC: when OpenCV's tag
-    outlines take in the corner squares on many tags at once, each tag alone is a perfect
-    (scaled) square and RANSAC would accept one of them; all together fit no homography.
-    A corner with fewer than 6 neighbours seen is kept unchecked."""
+    homography of the seen corners of a tag and its neighbours (tags within
+    :data:`CONSISTENCY_REACH` columns and rows) puts each of the tag's corners within
+    :data:`CONSISTENCY_FRACTION` of the local saddle size (at least 1 px) of where it was
+    found. Two passes: the second fits only the corners the first kept, so a good corner
+    next to a bad one is kept (a tag whose neighbourhood the first pass emptied keeps the
+    first verdict). Least squares, not RANSAC: when OpenCV's tag outlines take in the
+    corner squares on many tags at once, each tag alone is a perfect (scaled) square and
+    RANSAC would accept one of them; together they fit no homography. A neighbourhood
+    with fewer than 6 corners seen is not checked. Of two ids found within 1 px of each
+    other, the one the check dropped goes, or both when it dropped neither."""
+    keep = np.ones(len(pid), bool)
     if len(pid) < 6:
-        return np.ones(len(pid), bool)
+        return keep
     nx = board.inner_corners[0]
-    rc = np.column_stack([pid // nx, pid % nx])
+    cols = board.tags[0]
+    tc, tr = (pid % nx) // 2, (pid // nx) // 2          # each corner's tag column, row
+    tag = tr * cols + tc
     P = board.object_points()[pid, :2]
     bits = APRILGRID_FAMILIES[board.family][1] + 2 * APRILGRID_BORDER_BITS
     d = min(board.gap, board.tag_size * APRILGRID_BORDER_BITS / bits)
-    near_all = [np.flatnonzero(np.max(np.abs(rc - rc[i]), axis=1) <= CONSISTENCY_REACH)
-                for i in range(len(pid))]
+    groups = {t: (np.flatnonzero(tag == t),
+                  np.flatnonzero((np.abs(tc - tc[tag == t][0]) <= CONSISTENCY_REACH)
+                                 & (np.abs(tr - tr[tag == t][0]) <= CONSISTENCY_REACH)))
+              for t in np.unique(tag)}
 
     def check(usable: np.ndarray) -> np.ndarray:
-        keep = usable.copy()        # unchecked corners keep the earlier verdict
-        for i, near in enumerate(near_all):
+        out = usable.copy()         # unchecked corners keep the earlier verdict
+        for own, near in groups.values():
             near = near[usable[near]]
             if len(near) < 6:
                 continue
-            A, _ = cv2.estimateAffine2D(P[near], uv[near], method=cv2.LMEDS)
             H, _ = cv2.findHomography(P[near], uv[near], 0)
-            if A is None or H is None:
+            if H is None:
                 continue
-            tol = max(CONSISTENCY_FRACTION * d * min(np.linalg.norm(A[:, 0]),
-                                                     np.linalg.norm(A[:, 1])), 1.0)
-            q = H @ np.array([*P[i], 1.0])
-            keep[i] = bool(np.linalg.norm(q[:2] / q[2] - uv[i]) <= tol)
-        return keep
+            for i in own:
+                q = H @ np.array([*P[i], 1.0])
+                # the homography's local scale (its Jacobian at the corner), px per length
+                J = (H[:2, :2] * q[2] - np.outer(q[:2], H[2, :2])) / q[2] ** 2
+                tol = max(CONSISTENCY_FRACTION * d * min(np.linalg.norm(J[:, 0]),
+                                                         np.linalg.norm(J[:, 1])), 1.0)
+                out[i] = bool(np.linalg.norm(q[:2] / q[2] - uv[i]) <= tol)
+        return out
 
-    keep = check(check(np.ones(len(pid), bool)))
-    # two ids found at one place: a corner settled on another's saddle; drop both
+    keep = check(check(keep))
+    # two ids at one place (a corner on another's saddle): the one the check dropped
+    # goes; if it dropped neither, both go
     gap = np.linalg.norm(uv[:, None] - uv[None], axis=2) + np.eye(len(pid)) * 1e9
-    return keep & (gap.min(axis=1) > 1.0)
+    partner = gap.argmin(axis=1)
+    twin = gap[np.arange(len(pid)), partner] <= 1.0
+    return keep & ~(twin & keep[partner])
 
 
 def _window(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> int:

@@ -210,3 +210,19 @@ def test_blurred_noisy_oblique_view_has_no_corner_on_a_wrong_saddle(angles):
     assert seen.sum() >= 24
     # measured: at most 0.25 px; a wrong saddle is a corner square (> 10 px) away
     assert np.linalg.norm(c[seen] - truth[seen], axis=1).max() < 1.0
+
+
+def test_a_corner_off_its_neighbours_is_dropped():
+    from rasc.vision.aprilgrid import _consistent
+
+    _, truth = _view(BOARD, (30.0, -20.0))
+    pid = np.arange(BOARD.n_corners)
+    rng = np.random.default_rng(3)
+    uv = truth + rng.normal(0.0, 0.1, truth.shape)      # corner noise of a render
+    assert _consistent(BOARD, pid, uv).all()
+    # one corner on the diagonal neighbour's saddle (a corner square off, ~14 px here)
+    bad = BOARD.tag_corner_ids(9)[2]
+    uv[bad] = truth[bad] + (truth[BOARD.tag_corner_ids(9)[2] + BOARD.inner_corners[0] + 1]
+                            - truth[bad])
+    keep = _consistent(BOARD, pid, uv)
+    assert not keep[bad] and keep.sum() == BOARD.n_corners - 1
