@@ -7,6 +7,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from rasc.errors import InputError
 from rasc.vision.aprilgrid import detect_aprilgrid
@@ -226,3 +228,27 @@ def test_a_corner_off_its_neighbours_is_dropped():
                             - truth[bad])
     keep = _consistent(BOARD, pid, uv)
     assert not keep[bad] and keep.sum() == BOARD.n_corners - 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(cols=st.integers(1, 12), rows=st.integers(1, 12),
+       size=st.floats(0.005, 0.5), spacing=st.floats(0.05, 1.0),
+       family=st.sampled_from(["t36h11", "t36h10", "t25h9", "t16h5"]))
+def test_any_valid_grid_round_trips_and_its_texture_covers_the_corners(cols, rows, size,
+                                                                        spacing, family):
+    assume(cols * rows >= 2 and (family not in ("t25h9", "t16h5") or cols * rows <= 30))
+    g = AprilGrid((cols, rows), size, spacing, family)
+    assert board_from_dict(g.to_dict()) == g
+    if family == "t36h11":
+        assert board_from_kalibr(g.to_kalibr()) == g
+    P = g.object_points()
+    x0, y0, x1, y1 = g.face()
+    # every corner and corner square inside the printed face, with white beyond them
+    assert P[:, 0].min() - g.gap > x0 and P[:, 0].max() + g.gap < x1
+    assert P[:, 1].min() - g.gap > y0 and P[:, 1].max() + g.gap < y1
+    assert np.allclose(g.centre()[:2], (P[:, :2].min(axis=0) + P[:, :2].max(axis=0)) / 2)
+    # tag corner ids: the four corners of each tag, a square of side tag_size
+    for t in (0, cols * rows - 1):
+        q = P[g.tag_corner_ids(t), :2]
+        assert np.allclose(np.linalg.norm(np.diff(np.vstack([q, q[:1]]), axis=0), axis=1),
+                           size)
