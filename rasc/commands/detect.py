@@ -35,8 +35,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("dataset", metavar="DATASET", nargs="?",
                    help="dataset folder (manifest.json): its pose images, paired by view")
     p.add_argument("--board", metavar="NXxNY|FILE",
-                   help="with --pair: the board's inner corners (e.g. 9x6) or a JSON file "
-                        "with a board object or a manifest")
+                   help="with --pair: the board's inner corners (e.g. 9x6), a JSON file "
+                        "with a board object (any target, e.g. an AprilGrid) or a manifest, "
+                        "or a Kalibr target yaml")
     p.add_argument("--pair", nargs=3, action="append", default=[],
                    metavar=("LEFT", "RIGHT", "PL,TL,PR,TR"),
                    help="two image files taken at the same time and their pan and tilt "

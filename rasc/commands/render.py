@@ -61,9 +61,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="the calibration target, drawn from its description: "
                         "chessboard:NXxNY,SQUARE (inner corners), "
                         "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] (squares; "
-                        "seen in part at wide motions), or a JSON file of the manifest's "
-                        "board object; lengths in metres (default: the model's 9x6 "
-                        "chessboard of 50 mm squares)")
+                        "seen in part at wide motions), "
+                        "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY] (Kalibr's "
+                        "AprilGrid, tags; seen in part), a JSON file of the manifest's "
+                        "board object, or a Kalibr target yaml; lengths in metres "
+                        "(default: the model's 9x6 chessboard of 50 mm squares)")
     p.add_argument("--intrinsics-views", type=int, default=20, metavar="N",
                    help="intrinsics views per eye (default 20)")
     p.add_argument("--distance", type=float, default=1.0, metavar="M",

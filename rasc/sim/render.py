@@ -178,10 +178,8 @@ def _outline(board: Board, per_side: int = 16) -> np.ndarray:
     """The border of the board's printed area plus one square of quiet zone, (4·per_side, 3)
     points in the board frame (points along the edges, not only the corners: lens
     distortion bends the edges)."""
-    nx, ny = board.inner_corners
-    s = board.square_size
-    corners = np.array([[-2 * s, -2 * s, 0], [(nx + 1) * s, -2 * s, 0],
-                        [(nx + 1) * s, (ny + 1) * s, 0], [-2 * s, (ny + 1) * s, 0]])
+    x0, y0, x1, y1 = board.quiet_box()
+    corners = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]])
     f = np.linspace(0.0, 1.0, per_side, endpoint=False)[:, None]
     return np.concatenate([a + f * (b - a) for a, b in zip(corners, np.roll(corners, -1, 0),
                                                            strict=True)])
@@ -298,12 +296,12 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     (inside the distorted image when ``dist`` (k,) is given).
     """
     nx, ny = board.inner_corners
-    centre_w = np.array([(nx - 1) / 2, (ny - 1) / 2, 0.0]) * board.square_size
+    centre_w = board.centre()
     K_inv = np.linalg.inv(K)
     w, h = size
     # a board larger than the default's printed 0.5 m is waved proportionally farther
     # (the same draws, scaled: the default board's views are unchanged)
-    extent = (max(nx, ny) + 1) * board.square_size
+    extent = board.extent()
     far = max(1.0, extent / INTRINSICS_REFERENCE_EXTENT_M)
     poses = []
     for _ in range(200 * n):

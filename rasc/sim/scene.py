@@ -49,7 +49,7 @@ from rasc.geometry.transforms import (
 )
 from rasc.sim import models_dir
 from rasc.sim.units import IDEAL_BUILD, UnitBuild
-from rasc.vision.board import DEFAULT_BOARD, Board, CharucoBoard, board_from_dict
+from rasc.vision.board import DEFAULT_BOARD, AprilGrid, Board, CharucoBoard, board_from_dict
 
 #: The repository's model folder (the package is installed editable from the repository).
 MODELS_DIR = models_dir()
@@ -211,27 +211,31 @@ def scene_xml(board: Board = DEFAULT_BOARD, head_path: str | os.PathLike | None 
         The scene; the target is a mocap body ``board_link`` whose frame is the board frame
         w, placed 1 m in front of the head (``StereoHeadSim.set_target`` moves it).
     """
-    if not isinstance(board, (Board, CharucoBoard)):
-        raise InputError(f"board: expected a rasc.vision.board.Board or CharucoBoard, got "
-                         f"{type(board).__name__}")
+    if not isinstance(board, (Board, CharucoBoard, AprilGrid)):
+        raise InputError(f"board: expected a rasc.vision.board.Board, CharucoBoard or "
+                         f"AprilGrid, got {type(board).__name__}")
     head = str(HEAD_XML if head_path is None else head_path)
     nx, ny = board.inner_corners
     s = board.square_size
     thick = 0.001  # half-thickness of the printed board; quiet zone 10 mm thick behind it
     # Cosmetic initial pose (rasc.sim.scene moves it): centre 1 m in front of the default head's
     # base (scene (0, 0, 1.2), facing scene +x), face towards the head, corner (0,0) top left.
+    # the printed face and its quiet zone (centred on it) from the target (Board.face,
+    # Board.quiet_box)
+    centre, (fx0, fy0, fx1, fy1), (qx0, qy0, qx1, qy1) = \
+        board.centre(), board.face(), board.quiet_box()
     values = dict(
-        px=1.0, py=(nx - 1) * s / 2, pz=1.2 + (ny - 1) * s / 2,
-        cx=(nx - 1) * s / 2, cy=(ny - 1) * s / 2, pt=thick,
-        hx=(nx + 1) * s / 2, hy=(ny + 1) * s / 2,
-        qz=2 * thick + 0.005, qx=(nx + 3) * s / 2, qy=(ny + 3) * s / 2, qt=0.005,
+        px=1.0, py=centre[0], pz=1.2 + centre[1],
+        cx=(fx0 + fx1) / 2, cy=(fy0 + fy1) / 2, pt=thick,
+        hx=(fx1 - fx0) / 2, hy=(fy1 - fy0) / 2,
+        qz=2 * thick + 0.005, qx=(qx1 - qx0) / 2, qy=(qy1 - qy0) / 2, qt=0.005,
         rx=(nx + 1) / 2, ry=(ny + 1) / 2, s=s)
     # The builtin checker's first colour lands on the square between corners (0,0) and
     # (1,1) when the number of squares along x (nx + 1) is even; otherwise swap the colours
     # (the colour rule, checked by sampling renders in tests/sim/test_sim_render.py).
     black, white = "0 0 0", "1 1 1"
     rgb1, rgb2 = (black, white) if (nx + 1) % 2 == 0 else (white, black)
-    if isinstance(board, CharucoBoard):
+    if isinstance(board, (CharucoBoard, AprilGrid)):
         # the pattern drawn by OpenCV (CharucoBoard.generateImage), once over the face;
         # its orientation on the box face is checked by detecting renders
         # (tests/sim/test_charuco_render.py)
@@ -265,7 +269,7 @@ def scene_assets(board) -> dict[str, bytes]:
     """The files :func:`scene_xml`'s scene needs besides the head: for a ChArUco target its
     pattern as a PNG (grey, OpenCV's drawing); nothing for a chessboard (a builtin
     texture). Pass them to MuJoCo's loaders (``assets=``), or write them beside the scene."""
-    if not isinstance(board, CharucoBoard):
+    if not isinstance(board, (CharucoBoard, AprilGrid)):
         return {}
     from rasc.vision.camera import encode_png
 
@@ -282,10 +286,9 @@ def T_base_from_world_facing(board: Board = DEFAULT_BOARD, distance: float = 1.0
     ``centre_base`` = (up, left) offsets of the board centre, metres (base x, z). Seen by
     a camera at home, board +x points right (base −z) and +y down (base −x).
     """
-    nx, ny = board.inner_corners
     R = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])  # cols: x_w y_w z_w
     centre = np.array([centre_base[0], distance, centre_base[1]], dtype=float)
-    t = centre - R @ np.array([(nx - 1) / 2, (ny - 1) / 2, 0.0]) * board.square_size
+    t = centre - R @ board.centre()
     return make_transform(R, t)
 
 

@@ -367,7 +367,7 @@ def _parse_board(obj, where: str) -> Board | CharucoBoard:
     b = obj["board"]
     if not isinstance(b, dict):
         raise InputError(f"{where}: field 'board' must be an object, got {type(b).__name__}")
-    if b.get("type", "chessboard") != "chessboard":
+    if b.get("type", "chessboard") != "chessboard" or "target_type" in b:   # or Kalibr's
         return board_from_dict(b, f"{where}: board")
     for key in ("inner_corners", "square_size"):
         if key not in b:

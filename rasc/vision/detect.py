@@ -79,7 +79,8 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     """Find the board's inner corners in ``image``; ``None`` when the board is not found.
 
     A ChArUco board (:class:`rasc.vision.board.CharucoBoard`) goes to
-    :func:`detect_charuco` (``method``, ``order_by`` and the rest do not apply: its
+    :func:`detect_charuco`, an AprilGrid to :func:`rasc.vision.aprilgrid.detect_aprilgrid`
+    (``method``, ``order_by`` and the rest do not apply: its
     corners are identified by the markers); the rest of this description is the
     chessboard's.
 
@@ -109,6 +110,10 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     if method not in DETECTORS:
         raise InputError(f"detect_corners: unknown method {method!r} (use one of "
                          f"{', '.join(DETECTORS)})")
+    if getattr(board, "type", None) == "aprilgrid":
+        from rasc.vision.aprilgrid import detect_aprilgrid
+
+        return detect_aprilgrid(image, board, min_corners=min_corners)
     if getattr(board, "partial_views", False):
         return detect_charuco(image, board, min_corners=min_corners)
     if order_by not in ORDER_RULES:

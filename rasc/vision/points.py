@@ -112,7 +112,9 @@ def pixel_points(dataset: Dataset, detector: str = "saddle",
                 continue
             c = detect_corners(dataset.read(e), dataset.board, method=detector,
                                order_by="colour")
-            status = ImageStatus(eye, e.file, view, None if c is None else len(c))
+            # a target seen in part (ChArUco, AprilGrid) marks corners not seen with NaN
+            status = ImageStatus(eye, e.file, view,
+                                 None if c is None else int(np.isfinite(c[:, 0]).sum()))
             out.status.append(status)
             log(status.line())
             if c is not None:
@@ -123,7 +125,8 @@ def pixel_points(dataset: Dataset, detector: str = "saddle",
         out.views_used.append(view)
         L, R = pair["left"], pair["right"]
         angles = [_angle(a, dataset.angle_unit) for a in (L.pan, L.tilt, R.pan, R.tilt)]
-        for k in range(len(found["left"])):
+        both = np.flatnonzero(np.isfinite(found["left"][:, 0]) & np.isfinite(found["right"][:, 0]))
+        for k in both:
             out.rows.append((*found["left"][k], *found["right"][k], *angles, f"{view}:{k}"))
     if not out.rows:
         seen = "; ".join(s.line() for s in out.status[:4])
@@ -136,12 +139,17 @@ _BOARD = re.compile(r"^\s*(\d+)\s*[xX]\s*(\d+)\s*$")
 
 
 def parse_board(text: str) -> Board:
-    """``--board``: ``NXxNY`` inner corners (``9x6``), or a JSON file holding a board
-    object (``{"inner_corners": [9, 6], "square_size": 0.05}``) or a dataset manifest
-    with one."""
+    """``--board``: ``NXxNY`` inner corners (``9x6``), a JSON file holding a board
+    object (``{"inner_corners": [9, 6], "square_size": 0.05}``, or any target's, e.g.
+    ``{"type": "aprilgrid", ...}``) or a dataset manifest with one, or a Kalibr target
+    yaml."""
     m = _BOARD.match(text)
     if m:
         return Board((int(m.group(1)), int(m.group(2))), 1.0)
+    if text.lower().endswith((".yaml", ".yml")):     # Kalibr's target description
+        from rasc.vision.board import read_target_file
+
+        return read_target_file(text)
     from rasc.io import read_json_document
     from rasc.vision.dataset import _parse_board
 

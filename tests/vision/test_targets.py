@@ -41,7 +41,7 @@ def test_description_round_trip_and_old_chessboards():
      "below square_size"),
     ({"type": "charuco", "squares": [30, 30], "square_size": 0.04, "marker_size": 0.03,
       "dictionary": "DICT_4X4_50"}, "markers"),
-    ({"type": "aprilgrid", "squares": [8, 6]}, "type"),
+    ({"type": "circlegrid", "squares": [8, 6]}, "type"),
 ])
 def test_bad_descriptions_name_the_field(d, msg):
     with pytest.raises(InputError, match=msg):
