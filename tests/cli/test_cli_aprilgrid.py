@@ -8,7 +8,7 @@ import re
 
 import pytest
 
-from conftest import run_rasc
+from running import run_rasc
 
 pytestmark = pytest.mark.slow
 
