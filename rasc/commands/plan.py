@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         from rasc.vision.board import parse_target
 
     out = check_output(args.out, inputs=[p for p in (args.calibration,) if p])
-    board = parse_target(args.target)
+    board = parse_target(args.target, "--target")
     head = head_from_calibration(args.calibration) if args.calibration else default_head()
     setup = PlanSetup(head=head, board=board, distance=args.distance,
                       pan_range=_pair(args.pan_range, "--pan-range"),

@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
                             dist=finite_numbers(args.distortion, "--distortion", text=True))
     units = _units(args)
-    board = None if args.target is None else parse_target(args.target)
+    board = None if args.target is None else parse_target(args.target, "--target")
     if board is not None and args.model is not None:
         raise InputError("--target draws the target around the stock head: give --target or "
                          "--model, not both")

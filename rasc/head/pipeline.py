@@ -268,8 +268,8 @@ def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
     b_measured = float(np.linalg.norm(T_measured[:3, 3]))
     b_loop = float(np.linalg.norm(T_loop[:3, 3]))
     if b_loop > 0 and not (1 / MOUNTS_UNIT_RATIO <= b_measured / b_loop <= MOUNTS_UNIT_RATIO):
-        raise InputError(f"--mounts: T_ptuL_from_ptuR puts the units {b_measured:.4g} apart "
-                         f"but {against} measures {b_loop:.4g} (in the unit of "
+        raise InputError(f"the measured mounts (T_ptuL_from_ptuR) put the units "
+                         f"{b_measured:.4g} apart but {against} measures {b_loop:.4g} (in the unit of "
                          "board.square_size): give its translation in that unit")
     rot = float(rotation_error_deg(T_measured[:3, :3], T_loop[:3, :3]))
     trans = float(np.linalg.norm(T_measured[:3, 3] - T_loop[:3, 3]))
@@ -328,7 +328,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
     else:
         raise InputError(f"{dataset.manifest_path}: no view id is shared by a left and a "
                          "right pose image, so loop closure has nothing to close; give "
-                         "simultaneous views or the measured mounts (--mounts)")
+                         "simultaneous views or the measured mounts (T_ptuL_from_ptuR_measured)")
     base["T_ptuL_from_ptuR"] = np.asarray(T_pLpR).tolist()
     T_pb = dict(zip(EYES, cyclopean_base(T_pLpR), strict=True))
     warnings += unit_side_warnings(T_pb["left"], T_pb["right"])

@@ -613,12 +613,13 @@ _TARGET_FORMS = {
                  "aprilgrid:6x6,0.088,0.3,t36h11)"}
 
 
-def parse_target(text: str) -> Target:
-    """A target from the command line: ``chessboard:NXxNY,SQUARE`` (inner corners),
+def parse_target(text: str, where: str = "target") -> Target:
+    """A target from its inline form: ``chessboard:NXxNY,SQUARE`` (inner corners),
     ``charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy]`` (squares),
     ``aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY]`` (tags; spacing 0.3 and t36h11 by
     default), the path of a JSON file holding the manifest's ``board`` object, or of a
-    Kalibr target yaml. Lengths in metres."""
+    Kalibr target yaml. Lengths in metres. ``where`` names the value in messages (a
+    command passes its option, ``--target``)."""
     import os
 
     text = text.strip()
@@ -649,12 +650,12 @@ def parse_target(text: str) -> Target:
             return CharucoBoard(tuple(pair), float(parts[1]), float(parts[2]),
                                 names[0] if names else "DICT_5X5_100", legacy)
         except InputError as exc:
-            raise InputError(f"--target {text!r}: {exc}") from None
+            raise InputError(f"{where} {text!r}: {exc}") from None
         except (ValueError, IndexError):
-            raise InputError(f"--target {text!r}: expected {_TARGET_FORMS[kind]}") from None
+            raise InputError(f"{where} {text!r}: expected {_TARGET_FORMS[kind]}") from None
     if os.path.isfile(text):
         return read_target_file(text)
-    raise InputError(f"--target {text!r}: expected chessboard:NXxNY,SQUARE, "
+    raise InputError(f"{where} {text!r}: expected chessboard:NXxNY,SQUARE, "
                      "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy], "
                      "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY], or a JSON file (the "
                      "manifest's board) or Kalibr target yaml")
