@@ -62,3 +62,20 @@ def test_kept_datasets_are_dataset_folders_and_change_nothing_else(tmp_path, mon
 def test_keep_datasets_is_a_study_setting(tmp_path, text, message):
     with pytest.raises(InputError, match=message):
         load_spec(_spec(tmp_path, text))
+
+
+@pytest.mark.slow
+def test_without_keep_datasets_no_image_is_written_or_read(tmp_path, monkeypatch):
+    """Rendered, detected and calibrated in memory: the study runs with the image
+    writer and reader out of order (workers=1 runs the tasks in this process)."""
+    import rasc.vision.camera as camera
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("an image file was written or read")
+
+    monkeypatch.setenv("RASC_CACHE_DIR", "none")
+    monkeypatch.setattr(camera, "write_image", refuse)
+    monkeypatch.setattr(camera, "read_image", refuse)
+    result = run_study(load_spec(_spec(tmp_path)), tmp_path / "study", quiet=True)
+    assert result.datasets_rendered == 1 and result.samples_text
+    assert not list((tmp_path / "study").rglob("*.png"))
