@@ -129,10 +129,11 @@ class Dataset:
     images: tuple[ImageEntry, ...]
     ground_truth: Path | None = None
     length_unit: str | None = None           # the unit of board.square_size, if stated
-    pixels: dict[str, np.ndarray] | None = field(default=None, repr=False)
-    corners: dict[str, np.ndarray | None] | None = field(default=None, repr=False)
+    pixels: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    corners: dict[str, np.ndarray | None] | None = field(default=None, repr=False,
+                                                         compare=False)
     sizes: dict[str, tuple[int, int]] | None = None
-    truth: Any = field(default=None, repr=False)
+    truth: Any = field(default=None, repr=False, compare=False)
     options: Any = None
     key: str | None = None
     #: the manifest dict it was read from or made of (written back as it was)
