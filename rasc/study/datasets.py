@@ -83,9 +83,10 @@ class RenderTask:
     #: the study's scratch folder for a worker's temporary files (removed by the study,
     #: also when a worker is killed); rendering itself makes none (in memory)
     scratch: str | None = None
-    #: the dataset folder to write the rendered dataset to (``keep_datasets``), built
-    #: atomically; None: the images stay in memory
-    keep: str | None = None
+    #: ``keep_datasets``: return the rendered dataset (images in memory) with its
+    #: calibration, for the study to write under its folder (on the study's machine,
+    #: whichever machine the task ran on); False: the images end with the task
+    keep: bool = False
 
 
 @dataclass(frozen=True)
@@ -110,19 +111,17 @@ class PoseTask:
     base: dict | None = None
 
 
-def render_task(task: RenderTask) -> dict:
+def render_task(task: RenderTask) -> dict | tuple:
     """Render one dataset into memory (:func:`rasc.sim.render.render_in_memory`), detect
     its corners from the arrays and calibrate it with the real pipeline
     (:func:`rasc.datasets.calibration.calibrate`); return what the cells need
-    (JSON-ready). With ``task.keep``, the dataset is also written there as a dataset
-    folder (:func:`rasc.vision.dataset.write_dataset`, atomically).
+    (JSON-ready) — with ``task.keep``, ``(that, the dataset)`` for the study to write.
 
     Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
     """
     worker_environment()
     from rasc.datasets.calibration import calibrate
     from rasc.sim.render import RenderOptions, render_in_memory
-    from rasc.vision.dataset import write_dataset
 
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
@@ -134,9 +133,8 @@ def render_task(task: RenderTask) -> dict:
             dist=tuple(full["distortion"]))
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
                               units=unit_builds(r))
-        if task.keep is not None:
-            write_dataset(ds, task.keep, flag="keep_datasets:")
-        return calibrate(ds, key=task.key, render=r, seed=task.seed)
+        doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
+        return (doc, ds) if task.keep else doc
     except RascError as exc:     # name the cell's render parameters, not a CLI flag
         what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
         raise type(exc)(f"{task.where}: the dataset for {what}: "
@@ -402,21 +400,20 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
     (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there
     (verified: :class:`rasc.datasets.CacheStore`) is copied instead (``count["cached"]``)
     and a rendered one stored there. With ``keep`` (render tasks, ``keep_datasets``),
-    each dataset not yet kept in the study folder (:func:`kept_folder`) is rendered and
-    written there. Returns the documents by key (kept in memory)."""
+    each dataset not yet kept in the study folder (:func:`kept_folder`) is rendered, and
+    written there by this process (atomically, :func:`rasc.vision.dataset.write_dataset`)
+    when its task returns it. Returns the documents by key (kept in memory)."""
     from rasc.progress import progress
 
     store = CacheStore(folder=cache, label="rasc study", log=log) if cache is not None \
         else None
     names = [cache_key(kind, t) for t in tasks] if store is not None else []
     if keep:
-        (out / "datasets").mkdir(parents=True, exist_ok=True)
-        tasks = [t if _kept(out, t.key) else replace(t, keep=str(kept_folder(out, t.key)))
-                 for t in tasks]
+        tasks = [t if _kept(out, t.key) else replace(t, keep=True) for t in tasks]
     todo, docs = [], {}
     for k, task in enumerate(tasks):
         doc = store.get_json(names[k], check_calibration_document) \
-            if store is not None and getattr(task, "keep", None) is None else None
+            if store is not None and not getattr(task, "keep", False) else None
         if doc is not None and doc.get("key") == task.key:
             write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
             docs[task.key] = doc
@@ -428,6 +425,13 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
     with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
         for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
             task = tasks[todo[i]]
+            if isinstance(doc, tuple):           # keep_datasets: the dataset, to write
+                from rasc.vision.dataset import write_dataset
+
+                doc, dataset = doc
+                (out / "datasets").mkdir(parents=True, exist_ok=True)
+                write_dataset(dataset, kept_folder(out, task.key), flag="keep_datasets:")
+                del dataset
             write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
             docs[task.key] = doc
             if store is not None:

@@ -35,7 +35,8 @@ def test_kept_datasets_are_dataset_folders_and_change_nothing_else(tmp_path, mon
     monkeypatch.setenv("RASC_CACHE_DIR", "none")
     plain = run_study(load_spec(_spec(tmp_path)), tmp_path / "plain", quiet=True)
     kept_spec = load_spec(_spec(tmp_path, "keep_datasets = true\n", "kept.toml"))
-    kept = run_study(kept_spec, tmp_path / "kept", quiet=True)
+    # on two worker processes: the dataset comes back to the study, which writes it
+    kept = run_study(kept_spec, tmp_path / "kept", quiet=True, workers=2)
     assert kept_spec.keep_datasets and kept_spec.digest == load_spec(
         _spec(tmp_path)).digest
     assert not [p for p in (tmp_path / "plain" / "datasets").iterdir() if p.is_dir()]
