@@ -155,9 +155,16 @@ class Dataset:
         obj = json.loads(json.dumps(obj, default=to_jsonable))
         root = Path(where)
         ds = parse_manifest(obj, root, where=str(root / MANIFEST), check_files=False)
-        missing = [e.file for e in ds.images if e.file not in pixels]
-        if missing:
-            raise InputError(f"{root}: no image in memory for {missing[0]}")
+        for e in ds.images:
+            image = pixels.get(e.file)
+            if image is None:
+                raise InputError(f"{root}: no image in memory for {e.file}")
+            if not (isinstance(image, np.ndarray) and image.ndim == 2
+                    and image.dtype == np.uint8 and image.size):
+                raise InputError(f"{root}: images[{e.index}] ({e.file}): expected an 8-bit "
+                                 "grey image (a 2-D uint8 array), got "
+                                 f"{getattr(image, 'dtype', type(image).__name__)} of shape "
+                                 f"{getattr(image, 'shape', '?')}")
         ds.pixels = dict(pixels)
         ds.truth = truth
         return ds

@@ -93,6 +93,14 @@ def test_an_image_missing_from_memory_is_named(memory):
         Dataset.in_memory(BOARD, images, pixels)
 
 
+def test_an_image_in_memory_must_be_grey_8_bit(memory):
+    images, pixels = _views()
+    pixels["intrinsics/left_001.png"] = np.dstack([pixels["intrinsics/left_001.png"]] * 3)
+    with pytest.raises(InputError, match=r"images\[1\] \(intrinsics/left_001\.png\): "
+                       r"expected an 8-bit grey image .* shape \(480, 640, 3\)"):
+        Dataset.in_memory(BOARD, images, pixels)
+
+
 def test_given_corners_are_the_detections():
     """Corners given instead of detected come back from detect() as given (a view given
     as None is not found); the sizes are the given ones; there are no images to read
