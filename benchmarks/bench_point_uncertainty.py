@@ -3,7 +3,7 @@
 
     .venv/bin/python benchmarks/bench_point_uncertainty.py [--renders 16] [--noise 4]
 
-A. Pixel noise on synthetic projections: a plausible head (tests/conftest.py), four
+A. Pixel noise on synthetic projections: a plausible head (tests/nominal_rig.py), four
    points 0.6–3 m ahead, exact pixels + N(0, 0.3²) (seed 7), 4000 draws.
 B. Calibration covariance: the whole-head refinement of a small rendered dataset
    (8 intrinsics views per eye, the paper's 9 positions); 1000 calibrations drawn from
@@ -46,7 +46,7 @@ def _print(title: str, ratio: np.ndarray) -> None:
 def part_a() -> None:
     from rasc.head.uncertainty import point_uncertainty
 
-    from conftest import plausible_head
+    from nominal_rig import plausible_head
 
     head, _ = plausible_head(0)
     pts = np.array([[0.0, 1.0, 0.0], [0.2, 2.0, -0.3], [-0.1, 3.0, 0.4], [0.05, 0.6, 0.1]])

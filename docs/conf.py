@@ -87,6 +87,9 @@ html_title = f"rasc {release}"
 html_static_path = ["_static"]
 html_css_files = ["rasc.css"]
 html_show_sourcelink = False
+# The guide pages and the project pages stand directly under the front page, so the theme's
+# section navigation would be empty on them: leave the left sidebar out there.
+html_sidebars = {"guide/*": [], "changelog": [], "METHOD": [], "CONTRACTS": [], "NOTES": []}
 html_theme_options = {
     "navigation_with_keys": False,
     "header_links_before_dropdown": 4,

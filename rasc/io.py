@@ -729,24 +729,55 @@ def finite_number(value: Any, where: str, *, text: bool = False,
       empty cell);
     * ``<where>: must be finite, got <value>`` (NaN or infinity);
     * ``<where>: <value> is out of range (|value| > <max_abs>)``.
+
+    An empty ``where`` gives the problem alone (``expected a number, got "x"``), for a
+    caller that puts the place in front itself (the study spec's value checkers:
+    ``<file>: <key>: <problem>``).
     """
+    at = f"{where}: " if where else ""
     if text and isinstance(value, str):
         s = value.strip()
         if not s:
-            raise InputError(f"{where}: empty; expected a number")
+            raise InputError(f"{at}empty; expected a number")
         try:
             x = float(s)
         except ValueError:
-            raise InputError(f"{where}: expected a number, got {shown(s)}") from None
+            raise InputError(f"{at}expected a number, got {shown(s)}") from None
     else:
         if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.number):
-            raise InputError(f"{where}: expected a number, got {shown(value)}")
+            raise InputError(f"{at}expected a number, got {shown(value)}")
         try:
             x = float(value)
         except OverflowError:                     # an integer beyond the float range
-            raise InputError(f"{where}: {shown(value)} is out of range") from None
+            raise InputError(f"{at}{shown(value)} is out of range") from None
     if not math.isfinite(x):
-        raise InputError(f"{where}: must be finite, got {shown(value)}")
+        raise InputError(f"{at}must be finite, got {shown(value)}")
     if max_abs is not None and abs(x) > max_abs:
-        raise InputError(f"{where}: {shown(value)} is out of range (|value| > {max_abs:g})")
+        raise InputError(f"{at}{shown(value)} is out of range (|value| > {max_abs:g})")
     return x
+
+
+def finite_numbers(values: Any, where: str, *, count: int | None = None, what: str = "",
+                   text: bool = False, max_abs: float | None = None) -> tuple[float, ...]:
+    """:func:`finite_number` over a list: a list, tuple or 1-D array of numbers, or with
+    ``text`` a comma-separated string (``"-0.2,0.05"``; an empty string is no numbers).
+    With ``count``, exactly that many. Returns them as a tuple of floats; otherwise one
+    :class:`~rasc.errors.InputError` line:
+
+    * ``<where>: expected <count> numbers (<what>), got <n>: <values>`` (or ``expected a
+      list of numbers (<what>), got <value>``);
+    * item k (from 0) as :func:`finite_number` with ``<where>[k]``.
+    """
+    about = f" ({what})" if what else ""
+    if text and isinstance(values, str):
+        items: list = [] if not values.strip() else values.split(",")
+    elif isinstance(values, list | tuple) or (isinstance(values, np.ndarray)
+                                              and values.ndim == 1):
+        items = list(values)
+    else:
+        raise InputError(f"{where}: expected a list of numbers{about}, got {shown(values)}")
+    if count is not None and len(items) != count:
+        raise InputError(f"{where}: expected {count} numbers{about}, got {len(items)}: "
+                         f"{shown(values)}")
+    return tuple(finite_number(v, f"{where}[{k}]", text=text, max_abs=max_abs)
+                 for k, v in enumerate(items))

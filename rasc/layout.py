@@ -39,7 +39,8 @@ ROOMS = (
          "`advice`, `li`, `opencv`, `methods` (every method by name, plugins, the "
          "jackknife), `inverse`, `noise` (eq. 13–14), `document` (the `rasc-handeye/1` "
          "reader)"),
-    Room("rasc/vision/", 2, "`board`, `camera` (detection, intrinsics, extrinsics; cv2), "
+    Room("rasc/vision/", 2, "`board`, `images` (image files, grey, PNG), `detect` (corner "
+         "detection), `camera` (intrinsics, extrinsics; re-exports the other two; cv2), "
          "`dataset` (the `rasc-dataset/1` folder)"),
     Room("rasc/sim/", 3, "`scene` (the MuJoCo head: the only mujoco importer, lazily), "
          "`render` (dataset rendering), `units` (imperfect pan-tilt units), `synthetic`"),

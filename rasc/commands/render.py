@@ -10,31 +10,13 @@ when complete, so an interrupted run leaves no partial dataset.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 
 from rasc.commands import loading
 from rasc.errors import InputError
-
-
-def _floats(text: str, flag: str) -> tuple[float, ...]:
-    """``"-0.2,0.05"`` → (-0.2, 0.05); "" → (). Parsed in :func:`run`, not by argparse, so
-    that a bad value is one error line like every other input error."""
-    if not text.strip():
-        return ()
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
-
-
-def _finite_floats(text: str, flag: str, count: int, what: str) -> tuple[float, ...]:
-    values = _floats(text, flag)
-    if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{flag}: expected {what}, {count} finite numbers, got {text!r}")
-    return values
+from rasc.io import finite_numbers
 
 
 def _units(args: argparse.Namespace) -> dict | None:
@@ -44,16 +26,17 @@ def _units(args: argparse.Namespace) -> dict | None:
     units = read_unit_file(args.unit) if args.unit else None
     changes: dict = {}
     if args.tilt_axis_offset.strip():
-        changes["tilt_axis_offset_mm"] = _finite_floats(
-            args.tilt_axis_offset, "--tilt-axis-offset", 3, "X,Y,Z in millimetres")
+        changes["tilt_axis_offset_mm"] = finite_numbers(
+            args.tilt_axis_offset, "--tilt-axis-offset", count=3, what="X,Y,Z in millimetres",
+            text=True)
     if args.axis_skew is not None:
         if not abs(args.axis_skew) < MAX_SKEW_DEG:
             raise InputError(f"--axis-skew: expected a finite angle within "
                              f"±{MAX_SKEW_DEG:g} degrees, got {args.axis_skew}")
         changes["axis_skew_deg"] = args.axis_skew
     if args.encoder_zero.strip():
-        changes["pan_zero_deg"], changes["tilt_zero_deg"] = _finite_floats(
-            args.encoder_zero, "--encoder-zero", 2, "PAN,TILT in degrees")
+        changes["pan_zero_deg"], changes["tilt_zero_deg"] = finite_numbers(
+            args.encoder_zero, "--encoder-zero", count=2, what="PAN,TILT in degrees", text=True)
     if changes:
         units = {eye: merge((units or {}).get(eye, IDEAL_BUILD), **changes)
                  for eye in ("left", "right")}
@@ -138,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
     options = RenderOptions(poses_deg=parse_poses(args.poses),
                             n_intrinsics=args.intrinsics_views, target_distance=args.distance,
                             seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
-                            dist=_floats(args.distortion, "--distortion"))
+                            dist=finite_numbers(args.distortion, "--distortion", text=True))
     units = _units(args)
     board = None if args.target is None else parse_target(args.target)
     if board is not None and args.model is not None:

@@ -110,21 +110,25 @@ def _radial(r2: np.ndarray, d: np.ndarray):
     return num / den, (dnum * den - num * dden) / (den * den)
 
 
-def _distort(x: np.ndarray, y: np.ndarray, d: np.ndarray):
-    p1, p2 = d[2], d[3]
-    r2 = x * x + y * y
-    radial, _ = _radial(r2, d)
+def _tangential(x: np.ndarray, y: np.ndarray, r2: np.ndarray, radial: np.ndarray,
+                p1: float, p2: float):
+    """The distorted coordinates from the radial factor, with the tangential terms."""
     xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
     yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
     return xd, yd
+
+
+def _distort(x: np.ndarray, y: np.ndarray, d: np.ndarray):
+    r2 = x * x + y * y
+    radial, _ = _radial(r2, d)
+    return _tangential(x, y, r2, radial, d[2], d[3])
 
 
 def _distort_with_jacobian(x: np.ndarray, y: np.ndarray, d: np.ndarray):
     p1, p2 = d[2], d[3]
     r2 = x * x + y * y
     radial, dradial = _radial(r2, d)
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    xd, yd = _tangential(x, y, r2, radial, p1, p2)
     jxx = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x
     jyy = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x
     jxy = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y  # = ∂x_d/∂y = ∂y_d/∂x

@@ -20,6 +20,7 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.geometry.transforms import matrix_from_rotvec, skew
+from rasc.io import finite_number
 
 VARIANTS = ("literal", "exponential")
 
@@ -36,7 +37,7 @@ def _check(T: np.ndarray, sigma_r: float, sigma_t: float, rng, variant: str) -> 
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
         raise InputError(f"T: expected shape (..., 4, 4), got {T.shape}")
     for name, value in (("sigma_r", sigma_r), ("sigma_t", sigma_t)):
-        if not (np.isscalar(value) and np.isfinite(value) and value >= 0):
+        if finite_number(value, name) < 0:
             raise InputError(f"{name}: expected a finite standard deviation >= 0, got {value!r}")
     if not isinstance(rng, np.random.Generator):
         raise InputError("rng: expected a numpy Generator, e.g. np.random.default_rng(seed)")

@@ -38,8 +38,6 @@ given (``R_A = R_i R_jᵀ``, ``t_A = t_i − R_A t_j`` exactly as eq. 7 prints t
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError  # noqa: F401  (re-exported)
@@ -68,6 +66,7 @@ from rasc.handeye.result import (  # noqa: F401  (re-exported)
     HandEyeResult,
     HandEyeUncertainty,
 )
+from rasc.io import finite_number
 
 __all__ = ["MAX_COND_CTC", "MIN_AXIS_SPREAD", "MIN_PAIR_ROTATION_RAD", "PAIRS",
            "WEAK_AXIS_SPREAD", "HandEyeBatchResult", "HandEyeDiagnostics", "HandEyeResult",
@@ -168,7 +167,7 @@ def solve_rasc_each(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray, *
 
 
 def _check_min_rotation(min_rotation_rad: float) -> None:
-    if not (math.isfinite(min_rotation_rad) and min_rotation_rad >= 0):
+    if finite_number(min_rotation_rad, "min_rotation_rad") < 0:
         raise InputError(f"min_rotation_rad: expected a finite value >= 0, "
                          f"got {min_rotation_rad!r}")
 

@@ -40,6 +40,7 @@ from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.head.model import EyeCalibration, HeadCalibration
+from rasc.io import finite_number
 
 #: central-difference step on the pixels, px: the triangulation is smooth on the scale of
 #: pixels, and 1e-3 px leaves round-off (1e-16 · 1e3 px / 1e-3) far below 1e-6 relative
@@ -253,8 +254,7 @@ def point_uncertainty(head: HeadCalibration, uv_left, uv_right, pan_left, tilt_l
     ``pixel_sigma``: the noise of each measured pixel coordinate, px (e.g. the
     refinement's ``sigma_px``: the same detector on the same cameras).
     """
-    if not (isinstance(pixel_sigma, (int, float)) and np.isfinite(pixel_sigma)
-            and pixel_sigma >= 0):
+    if finite_number(pixel_sigma, "pixel_sigma") < 0:
         raise InputError(f"pixel_sigma: expected a finite number >= 0 px, got {pixel_sigma!r}")
     uv = [np.array(uv_left, dtype=float), np.array(uv_right, dtype=float)]
     angles = (pan_left, tilt_left, pan_right, tilt_right)

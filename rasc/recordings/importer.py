@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import math
 import os
 import shutil
 import time
@@ -24,6 +23,7 @@ import numpy as np
 
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
+from rasc.io import finite_number
 from rasc.recordings.bag import BagScan, decode_image, read_images, scan
 from rasc.recordings.config import ImportConfig
 from rasc.recordings.still import common_still, longest_run_ns, nearest
@@ -307,13 +307,7 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
         if role == "pose":
             values = []
             for name, v in zip(("pan", "tilt"), angles, strict=True):
-                try:
-                    x = float(v)
-                except ValueError:
-                    raise InputError(f"{where}: {name} {v!r} is not a number") from None
-                if not math.isfinite(x):
-                    raise InputError(f"{where}: {name} {v!r} is not finite")
-                values.append(x)
+                values.append(finite_number(v, f"{where}: {name}", text=True))
             entry["pan"], entry["tilt"] = values
             entry["view"] = get.get("view") or f"{count[eye]:02d}"
             count[eye] += 1

@@ -34,6 +34,7 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+from rasc.io import finite_number, finite_numbers
 from rasc.progress import progress
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
 
@@ -84,34 +85,25 @@ class RenderOptions:
             raise InputError(f"--poses: need at least 3 pan-tilt positions, got "
                              f"{len(self.poses_deg)}")
         for k, pose in enumerate(self.poses_deg):
-            if len(pose) != 2 or not all(_finite(v) for v in pose):
-                raise InputError(f"--poses: item {k} {pose!r} is not two finite angles "
-                                 "(pan, tilt) in degrees")
-        if not (_finite(self.target_distance) and self.target_distance > 0):
+            finite_numbers(pose, f"--poses[{k}]", count=2, what="pan, tilt in degrees")
+        if finite_number(self.target_distance, "--distance") <= 0:
             raise InputError(f"--distance must be a positive number of metres, got "
                              f"{self.target_distance}")
         if not _integer(self.seed) or not 0 <= self.seed <= MAX_SEED:
             raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {self.seed!r}")
         for flag, value, unit, top in (("--noise", self.noise_sigma, "grey levels", MAX_NOISE),
                                        ("--blur", self.blur_sigma, "pixels", MAX_BLUR_PX)):
-            if not (_finite(value) and 0 <= value <= top):
+            if not 0 <= finite_number(value, flag) <= top:
                 raise InputError(f"{flag} must be a number from 0 to {top:g} ({unit}), "
                                  f"got {value:g}")
         if len(self.dist) > MAX_DIST_COEFFS:
             raise InputError(f"--distortion: at most {MAX_DIST_COEFFS} coefficients "
                              f"(k1,k2,p1,p2,k3), got {len(self.dist)}")
-        if not all(_finite(v) for v in self.dist):
-            raise InputError(f"--distortion: coefficients must be finite numbers, got "
-                             f"{','.join(str(v) for v in self.dist)}")
+        finite_numbers(self.dist, "--distortion", what="k1,k2,p1,p2,k3")
 
 
 def _integer(value) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
-def _finite(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) \
-        and not isinstance(value, bool) and math.isfinite(value)
 
 
 def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
@@ -122,15 +114,8 @@ def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
         return PAPER_POSES_DEG
     if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).is_file():
         return read_positions(text.strip())
-    poses = []
-    for k, item in enumerate(text.split(";")):
-        parts = item.split(",")
-        try:
-            pan, tilt = (float(p) for p in parts)
-        except ValueError:
-            raise InputError(f"--poses: item {k} {item!r} is not 'pan,tilt' in degrees") from None
-        poses.append((pan, tilt))
-    return tuple(poses)
+    return tuple(finite_numbers(item, f"--poses[{k}]", count=2, what="pan,tilt in degrees",
+                                text=True) for k, item in enumerate(text.split(";")))
 
 
 POSITIONS_HEADER = "# rasc positions: pan,tilt in degrees (encoder readings), one a line"
@@ -165,24 +150,16 @@ def read_positions(path: str | Path) -> tuple[tuple[float, float], ...]:
             raise InputError(f"{path}: missing field 'positions' (a list of [pan, tilt])")
         k = 180.0 / math.pi if unit == "rad" else 1.0
         for i, item in enumerate(items):
-            if not (isinstance(item, list) and len(item) == 2 and all(_finite(v) for v in item)):
-                raise InputError(f"{path}: positions[{i}] = {item!r} is not [pan, tilt], two "
-                                 "finite numbers")
-            poses.append((float(item[0]) * k, float(item[1]) * k))
+            pan, tilt = finite_numbers(item, f"{path}: positions[{i}]", count=2,
+                                       what="pan, tilt")
+            poses.append((pan * k, tilt * k))
     else:
         for n, line in enumerate(text.splitlines(), 1):
             line = line.split("#", 1)[0].strip()
             if not line or line.replace(" ", "").lower() == "pan,tilt":
                 continue
-            parts = line.split(",")
-            try:
-                pan, tilt = (float(p) for p in parts)
-            except ValueError:
-                raise InputError(f"{path}: line {n} {line!r} is not 'pan,tilt' in "
-                                 "degrees") from None
-            if not (math.isfinite(pan) and math.isfinite(tilt)):
-                raise InputError(f"{path}: line {n}: pan and tilt must be finite")
-            poses.append((pan, tilt))
+            poses.append(finite_numbers(line, f"{path}: line {n}", count=2,
+                                        what="pan,tilt in degrees", text=True))
     if not poses:
         raise InputError(f"{path}: no positions")
     return tuple(poses)

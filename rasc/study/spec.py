@@ -78,6 +78,7 @@ from typing import Any
 from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
+from rasc.io import finite_number
 
 #: version of the study folder layout (``study.json`` ``format``)
 #: the summary's statistics of each error, and its columns after the cell and axes
@@ -115,15 +116,13 @@ MAX_BOOTSTRAP_WORK = 10**10
 # ----------------------------------------------------------------- value checkers
 # Each returns the normalised value or raises ValueError with what was expected.
 
+#: the largest |number| a spec value may be (no parameter comes near it)
+MAX_ABS_NUMBER = 1e15
+
+
 def _number(x) -> float:
-    if isinstance(x, bool) or not isinstance(x, int | float):
-        raise ValueError(f"expected a number, got {_show(x)}")
-    if isinstance(x, int) and abs(x) > 10**15:
-        raise ValueError(f"number too large: {_show(x)}")
-    x = float(x)
-    if not math.isfinite(x):
-        raise ValueError(f"expected a finite number, got {x}")
-    return x
+    # the one number check; its InputError is a ValueError, named by the caller's key
+    return finite_number(x, "", max_abs=MAX_ABS_NUMBER)
 
 
 def _nonneg(x) -> float:

@@ -3,7 +3,7 @@
 Each pair of simultaneous pose images (a left and a right image with the same ``view``
 in a dataset, or two image files given with their angles) is detected with the dataset's
 detection path (:meth:`rasc.vision.dataset.Dataset.read` and
-:func:`rasc.vision.camera.detect_corners`, the detector and canonical corner order the
+:func:`rasc.vision.detect.detect_corners`, the detector and canonical corner order the
 calibration uses), and every board corner found in both images becomes one matched point:
 ``u_left, v_left, u_right, v_right`` (measured, distorted pixels), the four angles of the
 pair in the dataset's angle unit, and a ``label`` ``<view>:<corner index>``.

@@ -33,7 +33,7 @@ from rasc.geometry.transforms import (
 )
 from rasc.handeye.document import check_angle_unit
 
-from conftest import run_rasc
+from running import run_rasc
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"

@@ -2,7 +2,7 @@
 
 The default dataset is rendered and calibrated once per test run by the real command line
 in subprocesses (``python -m rasc``; the session fixture ``default_cli_run`` of
-tests/conftest.py, shared with the other modules that need that dataset); the other
+tests/shared_fixtures.py, shared with the other modules that need that dataset); the other
 datasets (same seed again, a modified head model, image noise, lens distortion) and the
 many bad inputs go through :func:`rasc.cli.main` in-process to keep the module fast (a
 refusal in a real process, exit status 2 and one line: tests/cli/test_hostile.py, for
@@ -37,7 +37,7 @@ from rasc.head.base_to_ptu import cyclopean_base, perturb_mounts
 from rasc.sim.scene import HEAD_XML, scene_xml
 from rasc.vision.board import DEFAULT_BOARD
 
-from conftest import run_rasc
+from running import run_rasc
 
 #: Same bounds as tests/head/test_pipeline.py (issue 3): T_cam_from_gaze per eye, and the
 #: loop-closure T_ptuL_from_ptuR (about the sum of both eyes' errors, so twice as loose).
@@ -603,29 +603,30 @@ def test_calibrate_bad_mounts_file(content, fragment, copy, capsys):
 
 RENDER_CASES = {
     # name: (extra arguments, message fragment); "{out}" is the --out folder
-    "poses syntax": (["--poses", "1,2;3"], "--poses: item 1 '3' is not 'pan,tilt'"),
+    "poses syntax": (["--poses", "1,2;3"],
+                     '--poses[1]: expected 2 numbers (pan,tilt in degrees), got 1: "3"'),
     "too few poses": (["--poses", "0,0;8,8"], "--poses: need at least 3 pan-tilt positions"),
     "pose not finite": (["--poses", "0,0;nan,8;8,0"],
-                        "--poses: item 1 (nan, 8.0) is not two finite angles"),
+                        '--poses[1][0]: must be finite, got "nan"'),
     "pose outside the joint range": (
         ["--poses", "0,0;8,8;100,0"],
         "--poses: item 2 (100,0): left pan = 100 deg is outside the joint range [-60, 60]"),
     "distortion not numbers": (["--distortion", "a,b"],
-                               "--distortion: expected comma-separated numbers, got 'a,b'"),
+                               '--distortion[0]: expected a number, got "a"'),
     "distortion too long": (["--distortion", "0.1,0.2,0,0,0,0"],
                             "--distortion: at most 5 coefficients"),
     "distortion not finite": (["--distortion", "nan"],
-                              "--distortion: coefficients must be finite numbers"),
+                              '--distortion[0]: must be finite, got "nan"'),
     "distortion pushes the board out": (
         ["--distortion", "0.3"],
         "--distortion 0.3,0,0,0,0: at pan, tilt = (8, 8) deg the distortion moves corners "
         "of the board outside the left image"),
     "board too close": (["--distance", "0.6"],
                         "--distance 0.6: at pan, tilt = (0, 0) deg the corners"),
-    "distance not finite": (["--distance", "inf"], "--distance must be a positive number"),
+    "distance not finite": (["--distance", "inf"], "--distance: must be finite, got Infinity"),
     "negative seed": (["--seed", "-1"], "--seed must be an integer from 0 to 2**63-1, got -1"),
     "negative noise": (["--noise", "-1"], "--noise must be a number from 0 to 255"),
-    "blur not finite": (["--blur", "nan"], "--blur must be a number from 0 to 50"),
+    "blur not finite": (["--blur", "nan"], "--blur: must be finite, got NaN"),
     "too few intrinsics views": (["--intrinsics-views", "2"],
                                  "--intrinsics-views: need an integer of at least 3"),
     "missing model": (["--model", "{tmp}/nowhere.xml"], "--model {tmp}/nowhere.xml: file not"),

@@ -29,7 +29,7 @@ EXAMPLE = REPO / "examples" / "use"
 sys.path.insert(0, str(REPO / "examples"))
 import make_use_example as gen  # noqa: E402
 
-from conftest import run_rasc  # noqa: E402
+from running import run_rasc  # noqa: E402
 
 CAL = EXAMPLE / "calibration.json"
 PIXELS = EXAMPLE / "pixels.csv"

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from rasc.errors import DegenerateDataError, InputError
 from rasc.io import check_outputs, dumps_json
 
-from conftest import python_rasc
+from running import python_rasc
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"

@@ -13,7 +13,7 @@ import pytest
 
 from rasc.head.use import calibration_from_document, project_eye, reading_warnings
 
-from conftest import plausible_head
+from nominal_rig import plausible_head
 
 #: the calibrated range of the documents below: the paper's ±8° poses
 RANGE_DEG = 8.0

@@ -49,7 +49,7 @@ import pytest
 
 from rasc.cli import main
 
-from conftest import _locked, _shared_root
+from shared_fixtures import locked, shared_root
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
@@ -479,9 +479,9 @@ for _opt, _value, _fragment in (
         ("--blur", "1e308", "--blur must be a number from 0 to 50"),
         ("--blur", "500", "--blur must be a number from 0 to 50"),
         ("--noise", "1e308", "--noise must be a number from 0 to 255"),
-        ("--noise", "nan", "--noise must be"),
+        ("--noise", "nan", "--noise: must be finite"),
         ("--distance", "1e308", "--distance 1e+308"),
-        ("--distance", "inf", "--distance must be"),
+        ("--distance", "inf", "--distance: must be finite"),
         ("--distance", "-1", "--distance must be"),
         ("--distance", "1e-300", "--distance"),
         ("--seed", "1" + "0" * 30, "--seed must be"),
@@ -599,9 +599,9 @@ def snapshot(root: Path) -> dict[str, str]:
 def dataset(tmp_path_factory) -> Path:
     """The module's small dataset, rendered once per run (the xdist workers share it under
     a file lock, as conftest's default dataset). Read-only: each case works on a copy."""
-    shared = _shared_root(tmp_path_factory)
+    shared = shared_root(tmp_path_factory)
     ds = shared / "hostile" / "ds"
-    with _locked(shared / "hostile.lock"):
+    with locked(shared / "hostile.lock"):
         if not (ds / "manifest.json").is_file():     # rasc render renames it into place
             ds.parent.mkdir(exist_ok=True)
             assert main(["render", "--out", str(ds), "--intrinsics-views", "6",

@@ -6,8 +6,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import doc_collector as collector
 import pytest
+
+import doc_collector as collector
 
 
 def pytest_generate_tests(metafunc):

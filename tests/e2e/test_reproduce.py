@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import _locked, _shared_root
+from shared_fixtures import locked, shared_root
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 sys.path.insert(0, str(EXPERIMENTS.parent))  # the experiments package
@@ -46,9 +46,9 @@ KEYS = [importlib.import_module(f"experiments.{name}").NAME for name, _ in repro
 def pooled(tmp_path_factory) -> Path:
     """``reproduce --quick --seed 0 --workers 2`` (the pool) in this process; once per test
     run (xdist workers share it under a file lock, as conftest's dataset). Read-only."""
-    shared = _shared_root(tmp_path_factory)
+    shared = shared_root(tmp_path_factory)
     folder = shared / "reproduce_w2"
-    with _locked(shared / "reproduce_w2.lock"):
+    with locked(shared / "reproduce_w2.lock"):
         if not (folder / "REPORT.md").is_file():      # written last: the run is complete
             shutil.rmtree(folder, ignore_errors=True)
             assert reproduce.main(["--quick", "--seed", "0", "--out", str(folder),
@@ -63,9 +63,9 @@ def serial(pooled, tmp_path_factory) -> dict:
     signal and the folder's names after the signal. After :func:`pooled` (whose default
     dataset and calibration the cache then holds, as on a second run); once per test run,
     as :func:`pooled`. Read-only."""
-    shared = _shared_root(tmp_path_factory)
+    shared = shared_root(tmp_path_factory)
     out, record = shared / "reproduce_w1", shared / "reproduce_w1.json"
-    with _locked(shared / "reproduce_w1.lock"):
+    with locked(shared / "reproduce_w1.lock"):
         if not record.is_file():                      # written last: the run is complete
             shutil.rmtree(out, ignore_errors=True)
             out.mkdir()

@@ -106,12 +106,19 @@ def test_erratum_a34_not_a14():
         assert _rel_err(triangulate(P_l, P_r, uv_l, uv_r, method), p) < 1e-9
 
 
-def test_ls_equals_per_point_lstsq_with_noise():
-    rng = np.random.default_rng(13)
+def _noisy_points(seed: int, n: int, sigma_px: float):
+    """A random rig and n points within 0.5 m of its target, seen by both cameras with
+    Gaussian pixel noise of ``sigma_px``: ``(P_l, P_r, p, uv_l, uv_r)``."""
+    rng = np.random.default_rng(seed)
     P_l, P_r, target = _random_rig(rng)
-    p = target + rng.uniform(-0.5, 0.5, (200, 3))
-    uv_l = _project(P_l, p) + rng.normal(0, 0.5, (200, 2))
-    uv_r = _project(P_r, p) + rng.normal(0, 0.5, (200, 2))
+    p = target + rng.uniform(-0.5, 0.5, (n, 3))
+    uv_l = _project(P_l, p) + rng.normal(0, sigma_px, (n, 2))
+    uv_r = _project(P_r, p) + rng.normal(0, sigma_px, (n, 2))
+    return P_l, P_r, p, uv_l, uv_r
+
+
+def test_ls_equals_per_point_lstsq_with_noise():
+    P_l, P_r, p, uv_l, uv_r = _noisy_points(13, 200, 0.5)
     got = triangulate(P_l, P_r, uv_l, uv_r, "ls")
     want = []
     for k in range(len(p)):  # eq. 19 written out, one point at a time, solved by lstsq
@@ -129,11 +136,7 @@ def test_tls_equals_opencv_triangulate_points_with_noise():
     # OpenCV's triangulatePoints takes the smallest right singular vector of the same
     # 4×4 homogeneous system, so on noisy data it must agree with method="tls"
     # (and not with "ls", which weights the noise differently).
-    rng = np.random.default_rng(14)
-    P_l, P_r, target = _random_rig(rng)
-    p = target + rng.uniform(-0.5, 0.5, (1000, 3))
-    uv_l = _project(P_l, p) + rng.normal(0, 1.0, (1000, 2))
-    uv_r = _project(P_r, p) + rng.normal(0, 1.0, (1000, 2))
+    P_l, P_r, p, uv_l, uv_r = _noisy_points(14, 1000, 1.0)
     h = cv2.triangulatePoints(P_l, P_r, uv_l.T.copy(), uv_r.T.copy())
     p_cv = (h[:3] / h[3]).T
     tls = triangulate(P_l, P_r, uv_l, uv_r, "tls")

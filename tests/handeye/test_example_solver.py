@@ -1,7 +1,7 @@
 """examples/my_solver: a user's own solver package with its own regression tests built on
 rasc.testing. CI runs those tests as a user would (``pytest -p rasc.testing``), first by
 ``module:function`` without installing the package, then installed (its entry point in
-``rasc.methods`` makes ``--method my-solver`` work). The install (conftest's
+``rasc.methods`` makes ``--method my-solver`` work). The install (handeye/conftest.py's
 ``my_solver_site``) and the dataset cache the example's rendered-images test fills
 (conftest's ``rasc_testing_cache``) are made once per run and shared with
 the examples of docs/guide/solver.md (tests/docs)."""
@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from conftest import MY_SOLVER as EXAMPLE_PKG
-
 REPO = Path(__file__).resolve().parents[2]
+#: the user's solver package (handeye/conftest.py installs it: ``my_solver_site``)
+EXAMPLE_PKG = REPO / "examples" / "my_solver"
 POSES = REPO / "examples" / "handeye_nine_poses.json"
 
 

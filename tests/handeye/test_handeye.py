@@ -38,7 +38,7 @@ from rasc.handeye.solver import (
     solve_rasc_batch,
 )
 
-from conftest import PAPER, pan_tilt, random_rigid, rig
+from nominal_rig import PAPER, pan_tilt, random_rigid, rig
 
 # Noise-free tolerance, 1e-9 (the brief's): every result is a few hundred double
 # operations from exact data; measured errors are 1e-15..1e-14, and the worst

@@ -16,8 +16,8 @@ from rasc.handeye.methods import solve
 from rasc.handeye.noise import PAPER_LEVELS_RAD_MM, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-from conftest import PAPER
-from conftest import rig as conftest_rig
+from nominal_rig import PAPER
+from nominal_rig import rig as draw_rig
 
 #: the board's position in the ptu frame (m): these tests' truth since they were written
 BOARD = (-0.15, 1.0, 0.05)
@@ -25,7 +25,7 @@ BOARD = (-0.15, 1.0, 0.05)
 
 def rig(seed=3):
     """A camera looking forward a few cm off the unit's centre, the board 1 m ahead."""
-    X, Y = conftest_rig(np.random.default_rng(seed), BOARD)
+    X, Y = draw_rig(np.random.default_rng(seed), BOARD)
     return X, Y, PAPER
 
 

@@ -27,7 +27,7 @@ from rasc.handeye import paper
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 
-from conftest import PAPER, pan_tilt, random_rigid, rig
+from nominal_rig import PAPER, pan_tilt, random_rigid, rig
 
 EPS = np.finfo(float).eps
 

@@ -13,7 +13,7 @@ from rasc.handeye.li import _left_jacobian, _Problem, home_index, solve_li
 from rasc.handeye.noise import perturb_one_view, perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-from conftest import PAPER, random_rigid, rig
+from nominal_rig import PAPER, random_rigid, rig
 
 
 # 1e-9 (the brief's noise-free bound): LM converges quadratically to the zero-residual

@@ -12,14 +12,14 @@ from rasc.handeye.methods import jackknife_uncertainty, solve
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc
 
-from conftest import rig as conftest_rig
+from nominal_rig import rig as draw_rig
 
 #: the board's position in the ptu frame (m): these tests' truth since they were written
 BOARD = (-0.15, 1.0, 0.05)
 
 
 def rig(seed=3):
-    return conftest_rig(np.random.default_rng(seed), BOARD)
+    return draw_rig(np.random.default_rng(seed), BOARD)
 
 
 def grid(half_deg):

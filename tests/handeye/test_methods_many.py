@@ -14,7 +14,7 @@ from rasc.handeye import methods
 from rasc.handeye.methods import solve, solve_many
 from rasc.handeye.noise import perturb_T_cam_from_world
 
-from conftest import PAPER, pan_tilt, rig
+from nominal_rig import PAPER, pan_tilt, rig
 
 
 def noisy_sets(seed: int, S: int, variant: str) -> np.ndarray:

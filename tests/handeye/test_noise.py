@@ -116,6 +116,8 @@ def test_skew():
 @pytest.mark.parametrize("call, fragment", [
     (lambda T, g: perturb_T_cam_from_world(T, -0.1, 0.0, g), "sigma_r"),
     (lambda T, g: perturb_T_cam_from_world(T, 0.1, np.nan, g), "sigma_t"),
+    (lambda T, g: perturb_T_cam_from_world(T, "0.1", 0.0, g),
+     '^sigma_r: expected a number, got "0.1"$'),
     (lambda T, g: perturb_T_cam_from_world(T, 0.1, 0.1, 0), "rng"),
     (lambda T, g: perturb_T_cam_from_world(T, 0.1, 0.1, g, "projected"), "variant"),
     (lambda T, g: perturb_T_cam_from_world(T[..., :3], 0.1, 0.1, g), "shape"),

@@ -24,7 +24,7 @@ from rasc.handeye.noise import perturb_T_cam_from_world  # noqa: E402
 from rasc.handeye.opencv import CV_METHODS, calibrate_hand_eye_cv, read_tabb_rwhe, solve_opencv
 from rasc.handeye.solver import solve_rasc  # noqa: E402
 
-from conftest import PAPER, R_CAM_FROM_GAZE_NOMINAL  # noqa: E402
+from nominal_rig import PAPER, R_CAM_FROM_GAZE_NOMINAL  # noqa: E402
 
 TABB = Path(__file__).resolve().parents[1] / "data" / "tabb-rwhe-dataset1"
 

@@ -32,8 +32,8 @@ from rasc.handeye.methods import (
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import diagnose, solve_rasc
 
-from conftest import PAPER
-from conftest import rig as conftest_rig
+from nominal_rig import PAPER
+from nominal_rig import rig as draw_rig
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "handeye_nine_poses.json"
@@ -96,7 +96,7 @@ BOARD = (-0.15, 1.0, 0.05)
 def rig(seed=3, sigma_r=0.002, sigma_t=0.001):
     """Nine ±8° positions, a seeded truth, the paper's noise (exponential)."""
     rng = np.random.default_rng(seed)
-    X, Y = conftest_rig(rng, BOARD)
+    X, Y = draw_rig(rng, BOARD)
     T_cw = perturb_T_cam_from_world(X @ PAPER @ Y, sigma_r, sigma_t, rng, variant="exponential")
     return T_cw, PAPER, X
 

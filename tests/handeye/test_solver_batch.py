@@ -19,7 +19,7 @@ from rasc.handeye import _kernels
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch, solve_rasc_each
 
-from conftest import PAPER, pan_tilt, random_rigid, rig
+from nominal_rig import PAPER, pan_tilt, random_rigid, rig
 
 
 def pose_sets(seed: int, S: int, kind: str, variant: str, sigma: float):

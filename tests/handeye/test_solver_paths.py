@@ -18,7 +18,7 @@ from rasc.handeye import _kernels, paper, solver
 from rasc.handeye.noise import perturb_T_cam_from_world
 from rasc.handeye.solver import solve_rasc, solve_rasc_batch
 
-from conftest import PAPER, pan_tilt, random_rigid, rig
+from nominal_rig import PAPER, pan_tilt, random_rigid, rig
 
 
 def scene(kind: str, seed: int):
@@ -230,6 +230,9 @@ def test_one_solve_path_only_for_its_arguments():
         solve_rasc(T_cw, PAPER, pairs="some")
     with pytest.raises(solver.InputError, match="min_rotation_rad"):
         solve_rasc(T_cw, PAPER, min_rotation_rad=-1.0)
+    with pytest.raises(solver.InputError,
+                       match='^min_rotation_rad: expected a number, got "1e-3"$'):
+        solve_rasc(T_cw, PAPER, min_rotation_rad="1e-3")
 
 
 def test_deferred_quality_and_diagnostics_are_those_of_the_solve():

@@ -24,7 +24,7 @@ from rasc.head.base_to_ptu import (
     perturb_mounts,
 )
 
-from conftest import R_CAM_FROM_GAZE_NOMINAL
+from nominal_rig import R_CAM_FROM_GAZE_NOMINAL
 
 
 def _truth(rng):

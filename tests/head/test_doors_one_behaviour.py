@@ -17,7 +17,7 @@ from rasc.errors import InputError
 from rasc.head import options as calopts
 from rasc.head.options import CalibrationOptions
 
-from conftest import python_rasc
+from running import python_rasc
 
 #: the tilt axis 20 mm in front of the pan axis, both units (issue 25's case)
 OFFSET_MM = (0.0, 20.0, 0.0)

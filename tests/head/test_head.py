@@ -12,8 +12,8 @@ from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.geometry.transforms import rotvec_from_matrix
 from rasc.head.model import EyeCalibration, HeadCalibration
 
-from conftest import HEAD_IMAGE_SIZE as SIZE
-from conftest import plausible_head
+from nominal_rig import HEAD_IMAGE_SIZE as SIZE
+from nominal_rig import plausible_head
 
 _head = plausible_head
 

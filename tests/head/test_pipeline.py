@@ -3,7 +3,7 @@
 One dataset of the default model (20 intrinsics views and the paper's nine pan-tilt
 positions per eye, seed 0) is rendered once per test run and calibrated once with the
 default options (the session fixtures ``default_dataset`` and ``default_calibration`` of
-tests/conftest.py). Every expected value is read from ``ground_truth.json`` (written from
+tests/shared_fixtures.py). Every expected value is read from ``ground_truth.json`` (written from
 the MuJoCo model, never from the pipeline), and every error is recomputed here from the
 transforms rather than taken from :func:`rasc.head.pipeline.errors_against_truth`.
 """
@@ -23,7 +23,7 @@ from rasc.head.base_to_ptu import cyclopean_base
 from rasc.head.pipeline import CalibrationOptions, errors_against_truth
 from rasc.vision.dataset import load_dataset
 
-from conftest import PAPER
+from nominal_rig import PAPER
 
 #: Issue 3 bounds for T_cam_from_gaze recovered from the nine renders. Measured here:
 #: left 0.015 deg / 0.19 mm, right 0.006 deg / 0.46 mm; a half-pixel principal-point

@@ -1,6 +1,6 @@
 """Uncertainty of triangulated points (rasc.head.uncertainty) against Monte-Carlo.
 
-Pixel noise: a plausible head (tests/conftest.py), four points 0.6–3 m in front, their
+Pixel noise: a plausible head (tests/nominal_rig.py), four points 0.6–3 m in front, their
 exact projections plus Gaussian noise (seeded), triangulated 4000 times: the observed
 standard deviation per base axis over the predicted one. Sampling alone scatters a
 standard deviation from 4000 draws by 1/sqrt(2·4000) = 1.1 %; the band ±7 % is six of
@@ -26,7 +26,7 @@ from rasc.head.uncertainty import (
     read_covariance,
 )
 
-from conftest import plausible_head
+from nominal_rig import plausible_head
 
 POINTS = np.array([[0.0, 1.0, 0.0], [0.2, 2.0, -0.3], [-0.1, 3.0, 0.4], [0.05, 0.6, 0.1]])
 ANGLES = np.radians([3.0, -2.0, -4.0, -2.0])     # pan_left, tilt_left, pan_right, tilt_right
@@ -69,6 +69,10 @@ def test_bad_pixel_sigma_is_refused():
     uvl, uvr = head.project(POINTS, *ANGLES)
     with pytest.raises(InputError, match="pixel_sigma"):
         point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma=-1.0)
+    with pytest.raises(InputError, match=r"^pixel_sigma: must be finite, got NaN$"):
+        point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma=float("nan"))
+    with pytest.raises(InputError, match=r'^pixel_sigma: expected a number, got "0.5"$'):
+        point_uncertainty(head, uvl, uvr, *ANGLES, pixel_sigma="0.5")
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ import pytest
 
 from rasc import formats
 from rasc.errors import InputError
-from rasc.io import finite_number
+from rasc.io import finite_number, finite_numbers
 
 ROOT = Path(__file__).resolve().parents[2]
 TAG = re.compile(r"rasc-[a-z]+(?:-[a-z]+)*/\d+")
@@ -93,3 +93,33 @@ def test_finite_number_accepts_numbers_and_text_cells():
         finite_number("2e9", "c", text=True, max_abs=1e9)
     with pytest.raises(InputError, match=r"^c: expected a number, got np"):
         finite_number(np.bool_(True), "c")
+
+
+def test_finite_number_without_where_gives_the_problem_alone():
+    """For a caller that puts the place in front itself (the study spec's checkers)."""
+    with pytest.raises(InputError, match=r'^expected a number, got "8"$'):
+        finite_number("8", "")
+    with pytest.raises(InputError, match=r"^2e\+16 is out of range \(\|value\| > 1e\+15\)$"):
+        finite_number(2e16, "", max_abs=1e15)
+
+
+def test_finite_numbers_checks_every_item_and_the_count():
+    assert finite_numbers([1, 2.5, np.float64(3)], "v") == (1.0, 2.5, 3.0)
+    assert finite_numbers(np.array([0.5, -1.0]), "v", count=2) == (0.5, -1.0)
+    assert finite_numbers(" -0.2, 0.05", "--d", text=True) == (-0.2, 0.05)
+    assert finite_numbers("", "--d", text=True) == ()
+    for values, kwargs, message in [
+        ([1, "2"], {}, r'^v\[1\]: expected a number, got "2"$'),
+        ((0.0, float("nan")), {}, r"^v\[1\]: must be finite, got NaN$"),
+        ("1,x", {"text": True}, r'^v\[1\]: expected a number, got "x"$'),
+        ("1,,2", {"text": True}, r"^v\[1\]: empty; expected a number$"),
+        ([1, 2], {"count": 3, "what": "X,Y,Z"},
+         r"^v: expected 3 numbers \(X,Y,Z\), got 2: \[1, 2\]$"),
+        ("0,30", {"count": 3, "text": True}, r'^v: expected 3 numbers, got 2: "0,30"$'),
+        ("12", {}, r'^v: expected a list of numbers, got "12"$'),     # a string is no list
+        (np.zeros((2, 2)), {"what": "k1,k2"}, r"^v: expected a list of numbers \(k1,k2\)"),
+        ([1e10], {"max_abs": 1e9},
+         r"^v\[0\]: 10000000000.0 is out of range \(\|value\| > 1e\+09\)$"),
+    ]:
+        with pytest.raises(InputError, match=message):
+            finite_numbers(values, "v", **kwargs)

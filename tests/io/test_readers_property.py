@@ -27,6 +27,8 @@ from rasc.handeye.document import load_handeye_input
 from rasc.io import MAX_DEPTH, MAX_INT_DIGITS, MAX_MAGNITUDE, read_json_document
 from rasc.vision.dataset import load_dataset
 
+from json_strategies import json_documents
+
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "handeye_nine_poses.json"
 
@@ -41,11 +43,7 @@ HOSTILE_TOKENS = ["NaN", "Infinity", "-Infinity", "1e400", "-1e999", "1e308", "1
 
 json_leaves = (st.none() | st.booleans() | st.integers(-10**30, 10**30)
                | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=6))
-json_values = st.recursive(
-    json_leaves,
-    lambda children: st.lists(children, max_size=4)
-    | st.dictionaries(st.text(max_size=4), children, max_size=4),
-    max_leaves=12)
+json_values = json_documents(json_leaves, key_size=4, max_leaves=12)
 
 
 def assert_validated(value, depth: int = 0) -> None:
@@ -71,6 +69,20 @@ def assert_validated(value, depth: int = 0) -> None:
 def assert_one_line_error(exc: InputError, path: Path) -> None:
     msg = str(exc)
     assert "\n" not in msg and msg.startswith(f"{path}"), msg
+
+
+#: what :func:`read_or_refused` returns for a refused file
+REFUSED = object()
+
+
+def read_or_refused(read, path: Path):
+    """What ``read()`` returns, or :data:`REFUSED` where it refused the file with one
+    :class:`InputError` line starting with ``path``."""
+    try:
+        return read()
+    except InputError as exc:
+        assert_one_line_error(exc, path)
+        return REFUSED
 
 
 # ------------------------------------------------------------------ mutations
@@ -149,10 +161,8 @@ def write(path: Path, content: str | bytes) -> None:
 def test_reader_on_random_documents(value, tmp_path):
     path = tmp_path / "doc.json"
     path.write_text(json.dumps(value))
-    try:
-        got = read_json_document(path, top=None)
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    got = read_or_refused(lambda: read_json_document(path, top=None), path)
+    if got is REFUSED:
         return
     assert_validated(got)
     assert got == json.loads(json.dumps(value))   # what was accepted is what was written
@@ -163,10 +173,8 @@ def test_reader_on_random_documents(value, tmp_path):
 def test_reader_on_random_bytes(data, tmp_path):
     path = tmp_path / "doc.json"
     path.write_bytes(data)
-    try:
-        got = read_json_document(path, top=None)
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    got = read_or_refused(lambda: read_json_document(path, top=None), path)
+    if got is REFUSED:
         return
     assert_validated(got)
 
@@ -201,10 +209,8 @@ def test_reader_limits_are_exact(tmp_path):
 def test_handeye_reader_on_mutated_documents(data, tmp_path):
     path = tmp_path / "poses.json"
     write(path, data.draw(mutated_text(EXAMPLE.read_text())))
-    try:
-        got = load_handeye_input(path)
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    got = read_or_refused(lambda: load_handeye_input(path), path)
+    if got is REFUSED:
         return
     for T in (got.T_cam_from_world, got.T_gaze_from_ptu):
         assert T.ndim == 3 and T.shape[1:] == (4, 4) and np.all(np.isfinite(T))
@@ -241,10 +247,8 @@ def dataset_folder(tmp_path):
 def test_manifest_reader_on_mutated_manifests(data, dataset_folder):
     path = dataset_folder / "manifest.json"
     write(path, data.draw(mutated_text(json.dumps(MANIFEST))))
-    try:
-        ds = load_dataset(dataset_folder)
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    ds = read_or_refused(lambda: load_dataset(dataset_folder), path)
+    if ds is REFUSED:
         return
     nx, ny = ds.board.inner_corners
     assert isinstance(nx, int) and isinstance(ny, int) and nx > 0 and ny > 0
@@ -268,10 +272,8 @@ MOUNTS = {"format": "rasc-mounts/1", "description": "measured",
 def test_mounts_reader_on_mutated_files(data, tmp_path):
     path = tmp_path / "mounts.json"
     write(path, data.draw(mutated_text(json.dumps(MOUNTS))))
-    try:
-        T = _read_mounts(str(path))
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    T = read_or_refused(lambda: _read_mounts(str(path)), path)
+    if T is REFUSED:
         return
     assert T.shape == (4, 4) and np.all(np.isfinite(T))
     assert np.all(np.abs(T[:3, :3] @ T[:3, :3].T - np.eye(3)) <= RIGID_ATOL)
@@ -289,10 +291,8 @@ def test_ground_truth_reader_on_mutated_files(data, dataset_folder):
     (dataset_folder / "manifest.json").write_text(json.dumps(MANIFEST))
     path = dataset_folder / "gt.json"
     write(path, data.draw(mutated_text(json.dumps(GROUND_TRUTH))))
-    try:
-        truth = load_dataset(dataset_folder).load_ground_truth()
-    except InputError as exc:
-        assert_one_line_error(exc, path)
+    truth = read_or_refused(lambda: load_dataset(dataset_folder).load_ground_truth(), path)
+    if truth is REFUSED:
         return
     assert isinstance(truth, dict)
     assert_validated(truth)

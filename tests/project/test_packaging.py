@@ -8,7 +8,7 @@ so the checkout gets no build/ or egg-info; it is installed with ``--no-deps`` i
 target folder put first on PYTHONPATH, reusing this environment's dependencies (no
 network). The build backend comes from this environment (setuptools >= 77, pyproject's
 build requirement, is in the ``test`` extra: ``--no-build-isolation``, see
-``conftest.pip_build_flags``), or from pip's build isolation where it is older."""
+``running.pip_build_flags``), or from pip's build isolation where it is older."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import pip_build_flags
+from running import pip_build_flags
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -342,3 +342,12 @@ def test_image_folder_with_csv(small, tmp_path):
     with pytest.raises(InputError, match=r"bad.csv: line 4: eye must be 'left' or 'right'"):
         import_image_folder(small.root, tmp_path / "bad.csv", tmp_path / "ds2", cfg)
     assert not (tmp_path / "ds2").exists()
+    rows[3] = rows[3].replace(",centre,", ",left,")
+    k = next(k for k, row in enumerate(rows) if k and row.split(",")[2])   # a pose's row
+    file, eye, _, tilt, view = rows[k].split(",")
+    rows[k] = ",".join((file, eye, "nan", tilt, view))
+    (tmp_path / "bad.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=rf'bad.csv: line {k + 1}: pan: must be finite, '
+                                         r'got "nan"$'):
+        import_image_folder(small.root, tmp_path / "bad.csv", tmp_path / "ds2", cfg)
+    assert not (tmp_path / "ds2").exists()

@@ -29,7 +29,7 @@ from rasc.sim.scene import GROUND_TRUTH_TOL, HEAD_XML, StereoHeadSim, import_muj
 from rasc.sim.units import UnitBuild, read_unit_file
 from rasc.vision.board import DEFAULT_BOARD
 
-from conftest import run_rasc
+from running import run_rasc
 
 SMALL = RenderOptions(poses_deg=((0.0, 0.0), (8.0, 8.0), (-8.0, -6.0)), n_intrinsics=3)
 SKEW_DEG = 1.0
@@ -288,24 +288,32 @@ def test_imperfect_render_ground_truth_matches_every_view(tmp_path):
 
 # -- the parameter file and options ------------------------------------------------------------
 
-UNIT_FILE = """\
+#: the parameter file of docs/guide/calibrate.md ("Imperfect units")
+GUIDE_UNIT_FILE = """\
 [both]
 tilt_axis_offset_mm = [0, 30, 0]
 axis_skew_deg = 1.0
+
 [left]
 pan_zero_deg = 0.5
 tilt_zero_deg = -0.5
-[right]
-axis_skew_deg = -1
+pan_scale = 1.002
+tilt_scale = 0.998
+camera_position_mm = [48, 36, 21]
+camera_euler_deg = [1.3, -2.1, 0.8]
 """
 
 
 def test_unit_file_both_then_each_eye(tmp_path):
+    """[both] for both eyes, then each eye's table over it (the guide's file, and a
+    [right] table that overrides [both]'s skew)."""
     path = tmp_path / "unit.toml"
-    path.write_text(UNIT_FILE)
+    path.write_text(GUIDE_UNIT_FILE + "[right]\naxis_skew_deg = -1\n")
     units = read_unit_file(path)
     assert units["left"] == UnitBuild(tilt_axis_offset_mm=(0, 30, 0), axis_skew_deg=1.0,
-                                      pan_zero_deg=0.5, tilt_zero_deg=-0.5)
+                                      pan_zero_deg=0.5, tilt_zero_deg=-0.5, pan_scale=1.002,
+                                      tilt_scale=0.998, camera_position_mm=(48, 36, 21),
+                                      camera_euler_deg=(1.3, -2.1, 0.8))
     assert units["right"] == UnitBuild(tilt_axis_offset_mm=(0, 30, 0), axis_skew_deg=-1.0)
 
 
@@ -350,8 +358,9 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
     for eye in EYES:
         assert (f"render: {eye} unit: tilt axis 30 mm from the pan axis, 89.0000 deg between "
                 f"the axes, encoder zeros +0/+0 deg and scales 1/1 (pan/tilt)") in err
-    for argv, message in ((["--tilt-axis-offset", "0,30"], "--tilt-axis-offset: expected X,Y,Z"),
-                          (["--encoder-zero", "nan,0"], "--encoder-zero: expected PAN,TILT in deg"),
+    for argv, message in ((["--tilt-axis-offset", "0,30"],
+                           "--tilt-axis-offset: expected 3 numbers (X,Y,Z in millimetres)"),
+                          (["--encoder-zero", "nan,0"], '--encoder-zero[0]: must be finite'),
                           (["--axis-skew", 90], "--axis-skew: expected a finite angle"),
                           (["--unit", tmp_path / "missing.toml"], "missing.toml: unit parameter "
                                                                    "file not found")):
@@ -359,22 +368,6 @@ def test_cli_options_equal_the_file(tmp_path, capsys):
         assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, err
         assert message in err
         assert not (tmp_path / "c").exists()
-
-
-#: the parameter file of docs/guide/calibrate.md ("Imperfect units")
-GUIDE_UNIT_FILE = """\
-[both]
-tilt_axis_offset_mm = [0, 30, 0]
-axis_skew_deg = 1.0
-
-[left]
-pan_zero_deg = 0.5
-tilt_zero_deg = -0.5
-pan_scale = 1.002
-tilt_scale = 0.998
-camera_position_mm = [48, 36, 21]
-camera_euler_deg = [1.3, -2.1, 0.8]
-"""
 
 
 def test_unit_file_example(tmp_path, capsys, monkeypatch):

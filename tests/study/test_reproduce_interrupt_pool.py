@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import marked_processes
+from running import marked_processes
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -51,7 +51,7 @@ BAD = [
      "axes.intrinsics_from[1]: expected one of calibrate, dataset"),
     ("gross_rotation_deg = 0\n", "gross_rotation_deg: expected a number > 0"),
     ("gross_translation_mm = 'big'\n", "gross_translation_mm: expected a number"),
-    ("gross_translation_mm = nan\n", "gross_translation_mm: expected a finite number"),
+    ("gross_translation_mm = nan\n", "gross_translation_mm: must be finite, got NaN"),
 ]
 
 
