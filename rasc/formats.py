@@ -38,7 +38,7 @@ CALIBRATION = Format("rasc-calibration", 1, "what rasc calibrate writes: the hea
                      "rasc.head.use:read_calibration", "rasc.head.pipeline:Calibration.to_dict")
 DATASET = Format("rasc-dataset", 1, "a dataset folder's manifest.json: the board, each "
                  "image's file, eye and pan/tilt",
-                 "rasc.vision.dataset:load_dataset", "rasc.vision.dataset:write_manifest")
+                 "rasc.vision.dataset:load_dataset", "rasc.vision.dataset:write_dataset")
 HANDEYE = Format("rasc-handeye", 1, "the input of rasc handeye: per position the target's "
                  "pose and the unit's pan/tilt or pose",
                  "rasc.handeye.document:load_handeye_input",
@@ -56,10 +56,15 @@ LOOK_AT = Format("rasc-look-at", 1, "what rasc look-at writes",
                  "rasc.commands.look_at:run", "rasc.commands.look_at:run")
 STUDY = Format("rasc-study", 1, "a study's TOML specification (and the spec echoed in "
                "its summary.json)", "rasc.study.spec:load_spec", "rasc.study.spec:Spec.to_dict")
-STUDY_DATASET = Format("rasc-study-dataset", 1, "a study's calibrated dataset "
-                       "(datasets/<key>.json, and its cache entry)",
-                       "rasc.study.datasets:_check_dataset_doc",
-                       "rasc.study.datasets:dataset_document")
+DATASET_CALIBRATION = Format("rasc-study-dataset", 1, "the dataset service's calibration "
+                             "of a dataset: per eye the poses, angles, pose corners, "
+                             "intrinsics and reference hand-eye the cells need (a study's "
+                             "datasets/<key>.json, and its cache entry; the tag keeps the "
+                             "name it was first written under)",
+                             "rasc.datasets.calibration:check_calibration_document",
+                             "rasc.datasets.calibration:calibration_document")
+#: the old name of :data:`DATASET_CALIBRATION`
+STUDY_DATASET = DATASET_CALIBRATION
 CACHE_KEY = Format("rasc-cache", 2, "the record a cache key hashes (the one code digest, "
                    "the kind and the parameters; never written out as a file)",
                    "rasc.datasets.keys:cache_key", "rasc.datasets.keys:cache_key")
@@ -87,5 +92,5 @@ PIXEL_POINTS = Format("rasc-pixel-points", 1, "what rasc detect writes: the pixe
 #: Every format by tag.
 FORMATS: dict[str, Format] = {f.tag: f for f in (
     HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
-    LOOK_AT, STUDY, STUDY_DATASET, CACHE_KEY, CACHE_ENTRY, REPRODUCE_DATASET, REPRODUCE_CALIBRATION,
-    HEAD_COVARIANCE, PIXEL_POINTS)}
+    LOOK_AT, STUDY, DATASET_CALIBRATION, CACHE_KEY, CACHE_ENTRY, REPRODUCE_DATASET,
+    REPRODUCE_CALIBRATION, HEAD_COVARIANCE, PIXEL_POINTS)}

@@ -22,12 +22,19 @@ Fixtures
 ``rasc_pose_set_factory``
     :func:`make_pose_set` itself, to draw as many sets as a test needs.
 ``rasc_dataset``
-    A :class:`RenderedDataset`: a rendered calibration dataset (images, manifest and
-    ground truth) from rasc's simulated head, cached on disk by its parameters. Default:
-    :class:`rasc.sim.render.RenderOptions` defaults (58 images, ~4 s the first time).
-    Parametrise indirectly with a dict of RenderOptions fields (and ``model_path``).
+    A rendered calibration dataset (images, manifest and ground truth) from rasc's
+    simulated head, cached on disk by its parameters: rasc's one dataset class,
+    :class:`rasc.vision.dataset.Dataset`, read from the cached folder, with the truth
+    (``.truth``, ``.T_cam_from_gaze(eye)``, ``.pose_views(eye)``), ``.path``,
+    ``.options`` and ``.key``. Default: :class:`rasc.sim.render.RenderOptions` defaults
+    (58 images, ~4 s the first time). Parametrise indirectly with a dict of RenderOptions
+    fields (and ``model_path``; ``units``, an imperfect head as ``rasc render --unit``
+    takes it; ``target``, a chessboard or ChArUco board as ``rasc render --target``
+    takes it).
 ``rasc_render``
-    The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> RenderedDataset``.
+    The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> Dataset``,
+    ``rasc_render(target="charuco:12x9,0.06,0.045", units={"tilt_axis_offset_mm":
+    (0, 5, 0)})``.
 
 Cache: the dataset service's (:mod:`rasc.datasets`): a dataset is stored under the
 one key over every render option, the model file and rasc's code digest
@@ -49,7 +56,6 @@ Assertion
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -213,53 +219,37 @@ def assert_handeye_close(result: Any, truth: Any, *, rotation_deg: float,
 
 # ---------------------------------------------------------------- rendered data
 
-@dataclass(frozen=True)
-class RenderedDataset:
-    """A rendered dataset in the cache. Treat the folder as read-only (it is shared).
-
-    path : the dataset folder (``manifest.json``, ``ground_truth.json``, images).
-    options : the :class:`rasc.sim.render.RenderOptions` it was rendered with.
-    ground_truth : the parsed ``ground_truth.json`` (per eye K, dist, T_cam_from_gaze,
-        T_ptu_from_base; per image the true T_cam_from_world).
-    key : the cache key (hex).
-    """
-
-    path: Path
-    options: Any
-    ground_truth: dict
-    key: str
-
-    def T_cam_from_gaze(self, eye: str) -> np.ndarray:
-        """The true hand-eye transform of ``eye`` ("left" or "right"), (4, 4), metres."""
-        return np.array(self.ground_truth[eye]["T_cam_from_gaze"], dtype=float)
-
-    def pose_views(self, eye: str) -> tuple[np.ndarray, np.ndarray]:
-        """The pose views' TRUE poses of ``eye``, in view order: ``T_cam_from_world``
-        (n, 4, 4) from the renderer and ``T_gaze_from_ptu`` (n, 4, 4) from the recorded
-        pan/tilt by eq. 3 — hand-eye input without detection error (add your own noise,
-        e.g. :func:`rasc.handeye.noise.perturb_T_cam_from_world`)."""
-        from rasc.geometry.kinematics import T_gaze_from_ptu
-
-        views = sorted((name, v) for name, v in self.ground_truth["views"].items()
-                       if name.startswith(f"poses/{eye}_"))
-        T_cw = np.array([v["T_cam_from_world"] for _, v in views], dtype=float)
-        pan_tilt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
-        return T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
-
-    def load(self):
-        """The dataset as :func:`rasc.vision.dataset.load_dataset` reads it."""
-        from rasc.vision.dataset import load_dataset
-
-        return load_dataset(self.path)
-
-
-def dataset_key(options: Any, model_path: str | os.PathLike | None = None) -> str:
+def dataset_key(options: Any, model_path: str | os.PathLike | None = None, *,
+                units: Any = None, target: Any = None) -> str:
     """The cache key of a rendered dataset: the dataset service's one key
     (:func:`rasc.datasets.render.render_key`: rasc's code digest, the rasc version and
-    the libraries) of every render option and the model file's content (32 hex digits)."""
+    the libraries) of every render option, the model file's content and, when given,
+    the units (:func:`unit_builds`) and the target (:func:`target_board`) (32 hex
+    digits)."""
     from rasc.datasets.render import render_key
 
-    return render_key(options, model_path)
+    return render_key(options, model_path, unit_builds(units), target_board(target))
+
+
+def target_board(target: Any):
+    """The target of a rendered dataset as :func:`rasc.sim.render.render_dataset` takes
+    it, from what a test may write: None (the model's 9x6 chessboard of 50 mm squares),
+    a target as ``rasc render --target`` reads it (``"chessboard:9x6,0.05"``,
+    ``"charuco:12x9,0.06,0.045[,DICT_5X5_100][,legacy]"``, or the path of a JSON file of
+    the manifest's ``board`` object; lengths in metres), that object as a dict, or a
+    :class:`rasc.vision.board.Board` / :class:`~rasc.vision.board.CharucoBoard`."""
+    if target is None:
+        return None
+    from rasc.vision.board import board_from_dict, parse_target
+
+    if isinstance(target, str | os.PathLike):
+        return parse_target(os.fspath(target))
+    if isinstance(target, dict):
+        return board_from_dict(target, "target")
+    if hasattr(target, "to_dict") and hasattr(target, "object_points"):
+        return target
+    raise TypeError(f"target: expected a target description, a dict or a board, got "
+                    f"{type(target).__name__}")
 
 
 def unit_builds(units: Any) -> dict | None:
@@ -299,7 +289,7 @@ def unit_builds(units: Any) -> dict | None:
 
 def render_cached(cache_dir: str | os.PathLike | None,
                   model_path: str | os.PathLike | None = None, *, units: Any = None,
-                  **options) -> RenderedDataset:
+                  target: Any = None, **options):
     """Render (or find in the cache folder ``cache_dir``) the dataset of
     ``RenderOptions(**options)``, through the dataset service
     (:func:`rasc.datasets.render.rendered`): entries verified by the sha256 of their
@@ -307,18 +297,45 @@ def render_cached(cache_dir: str | os.PathLike | None,
     cache (rendered into a temporary folder of the process). ``units``: an imperfect
     head (:func:`unit_builds`: a unit file as ``rasc render --unit`` reads it, a
     :class:`rasc.sim.units.UnitBuild` or its fields for both units, or per eye); its
-    ground truth is the true head, and the key covers the units."""
+    ground truth is the true head, and the key covers the units. ``target``: the
+    calibration target drawn around the stock head (:func:`target_board`: the
+    descriptions ``rasc render --target`` reads, a chessboard or a ChArUco board; not
+    with ``model_path``).
+
+    Returns the :class:`rasc.vision.dataset.Dataset` read from the cached folder (treat
+    it as read-only: it is shared), with ``truth`` (the ground truth document),
+    ``options`` (the RenderOptions) and ``key`` (the cache key) set; ``.path`` is the
+    folder, ``.T_cam_from_gaze(eye)`` and ``.pose_views(eye)`` read the truth."""
     from rasc.datasets import CacheStore
     from rasc.datasets.render import rendered
     from rasc.sim.render import RenderOptions
+    from rasc.vision.dataset import load_dataset
 
     opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
                             tuple(v) if k == "dist" else v for k, v in options.items()})
     store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
         else None
-    path, key = rendered(opts, model_path, store, units=unit_builds(units))
-    gt = json.loads((path / "ground_truth.json").read_text(encoding="utf-8"))
-    return RenderedDataset(path=path, options=opts, ground_truth=gt, key=key)
+    path, key = rendered(opts, model_path, store, units=unit_builds(units),
+                         board=target_board(target))
+    ds = load_dataset(path)
+    ds.truth = ds.load_ground_truth()
+    ds.options, ds.key = opts, key
+    return ds
+
+
+def __getattr__(name: str):
+    if name == "RenderedDataset":
+        import warnings
+
+        warnings.warn("rasc.testing.RenderedDataset is deprecated: rasc_render and "
+                      "render_cached return rasc.vision.Dataset "
+                      "(rasc.vision.dataset.Dataset; .path, .truth, .options, .key, "
+                      ".T_cam_from_gaze(eye), .pose_views(eye))", DeprecationWarning,
+                      stacklevel=2)
+        from rasc.vision.dataset import Dataset
+
+        return Dataset
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # ---------------------------------------------------------------- pytest plugin
@@ -354,22 +371,26 @@ def _cache_dir(config: pytest.Config, tmp_path_factory) -> Path | None:
 
 @pytest.fixture(scope="session")
 def rasc_render(request: pytest.FixtureRequest, tmp_path_factory):
-    """``rasc_render(**RenderOptions fields, model_path=None, units=None) ->
-    RenderedDataset``, cached on disk (see the module docstring); ``units`` renders an
-    imperfect head (:func:`unit_builds`: the unit options of ``rasc render --unit``)."""
+    """``rasc_render(**RenderOptions fields, model_path=None, units=None, target=None)
+    -> rasc.vision.dataset.Dataset``, cached on disk (see the module docstring);
+    ``units`` renders an imperfect head (:func:`unit_builds`: the unit options of
+    ``rasc render --unit``), ``target`` another target (:func:`target_board`: those of
+    ``rasc render --target``, chessboard or ChArUco)."""
     cache = _cache_dir(request.config, tmp_path_factory)
 
     def render(model_path: str | os.PathLike | None = None, *, units: Any = None,
-               **options) -> RenderedDataset:
-        return render_cached(cache, model_path=model_path, units=units, **options)
+               target: Any = None, **options):
+        return render_cached(cache, model_path=model_path, units=units, target=target,
+                             **options)
 
     return render
 
 
 @pytest.fixture
-def rasc_dataset(request: pytest.FixtureRequest, rasc_render) -> RenderedDataset:
-    """A rendered dataset with ground truth; parametrise indirectly with a dict of
-    RenderOptions fields."""
+def rasc_dataset(request: pytest.FixtureRequest, rasc_render):
+    """A rendered dataset with ground truth (a :class:`rasc.vision.dataset.Dataset`);
+    parametrise indirectly with a dict of RenderOptions fields (and ``model_path``,
+    ``units``, ``target``)."""
     return rasc_render(**dict(getattr(request, "param", None) or {}))
 
 

@@ -17,26 +17,30 @@ from rasc.datasets.keys import cache_key
 
 
 def render_what(options: Any, model_path: str | os.PathLike | None = None,
-                units: dict | None = None) -> dict:
+                units: dict | None = None, board: Any = None) -> dict:
     """What a rendered dataset depends on beside the code: its
     :class:`rasc.sim.render.RenderOptions` (as a dict), the sha256 of the model file
-    it was rendered from (None: the package's model, part of the code digest) and, for
-    an imperfect head, its units (``{eye: rasc.sim.units.UnitBuild}``; None, the ideal
-    units, adds nothing, so the ideal head's keys are those of before)."""
+    it was rendered from (None: the package's model, part of the code digest), for
+    an imperfect head its units (``{eye: rasc.sim.units.UnitBuild}``) and for a target
+    drawn from its description (``rasc render --target``) the target's manifest object
+    (None, the ideal units or the model's board, adds nothing, so the keys of the stock
+    head and board are those of before)."""
     opts = options if isinstance(options, dict) else asdict(options)
     model = None if model_path is None else hashlib.sha256(
         Path(model_path).read_bytes()).hexdigest()
     what = {"options": opts, "model": model}
     if units is not None:
         what["units"] = {eye: asdict(b) for eye, b in sorted(units.items())}
+    if board is not None:
+        what["board"] = board.to_dict()
     return json.loads(json.dumps(what, default=list))
 
 
 def render_key(options: Any, model_path: str | os.PathLike | None = None,
-               units: dict | None = None) -> str:
+               units: dict | None = None, board: Any = None) -> str:
     """The one cache key (:func:`rasc.datasets.cache_key`, kind ``render-folder``) of
-    the dataset ``options`` render (with ``model_path``)."""
-    return cache_key("render-folder", render_what(options, model_path, units))
+    the dataset ``options`` render (with ``model_path``, ``units``, ``board``)."""
+    return cache_key("render-folder", render_what(options, model_path, units, board))
 
 
 _SCRATCH: list[Path] = []
@@ -53,19 +57,23 @@ def _scratch() -> Path:
 
 
 def rendered(options: Any, model_path: str | os.PathLike | None = None,
-             store: CacheStore | None = None, units: dict | None = None) -> tuple[Path, str]:
-    """``(folder, key)`` of the dataset ``options`` render: the store's verified entry,
-    else rendered now (into a temporary folder, then moved into the store whole; without
-    a store, or when it cannot be written, into this process's scratch folder)."""
+             store: CacheStore | None = None, units: dict | None = None,
+             board: Any = None) -> tuple[Path, str]:
+    """``(folder, key)`` of the dataset ``options`` render (of the model at
+    ``model_path``, or of the stock head with the target ``board``; ``units`` the
+    imperfect pan-tilt units): the store's verified entry, else rendered now (into a
+    temporary folder, then moved into the store whole; without a store, or when it
+    cannot be written, into this process's scratch folder)."""
     from rasc.sim.render import render_dataset
 
-    key = render_key(options, model_path, units)
+    key = render_key(options, model_path, units, board)
     path = store.get_tree(key) if store is not None and store.enabled else None
     if path is not None:
         return path, key
     tmp = Path(tempfile.mkdtemp(prefix="rasc-render-"))
     try:
-        render_dataset(tmp / "data", options, model_path=model_path, quiet=True, units=units)
+        render_dataset(tmp / "data", options, model_path=model_path, quiet=True, units=units,
+                       board=board)
         if store is not None and store.enabled:
             path = store.put_tree(key, tmp / "data", move=True)
         if path is None:

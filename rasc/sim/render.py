@@ -22,6 +22,7 @@ gauge) is checked against MuJoCo's camera frame at every rendered pose.
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import sys
 from dataclasses import dataclass
@@ -33,7 +34,7 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
-from rasc.io import finite_number, finite_numbers, write_json_atomic
+from rasc.io import finite_number, finite_numbers
 from rasc.progress import progress
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
 
@@ -372,7 +373,10 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     imperfect; the pose views' ``pan``/``tilt`` are then encoder readings. At every
     rendered pose the ground truth is checked against MuJoCo's camera frame; a
     disagreement raises :class:`InputError` before ``ground_truth.json`` is written.
-    Returns the manifest path. Images are written as 8-bit grey PNG.
+    Returns the manifest path. Images are written as 8-bit grey PNG, each as it is
+    rendered (:func:`rasc.vision.dataset.write_dataset_image`; the same files as
+    :func:`rasc.vision.dataset.write_dataset` writes of :func:`render_in_memory`'s
+    dataset).
 
     ``board`` (a :class:`rasc.vision.board.Board` or
     :class:`~rasc.vision.board.CharucoBoard`): the target, drawn from its description
@@ -380,19 +384,51 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     with ``model_path``. For a ChArUco target every view's ground truth also lists the
     corners inside the image, by id (``views.<file>.corners``: ``ids``, ``uv`` in pixels).
     """
-    from rasc.sim.scene import (
-        StereoHeadSim,
-        T_base_from_world_facing,
-        distortion_warp,
-    )
-    from rasc.vision.camera import write_image
-    from rasc.vision.dataset import write_manifest
+    from rasc.vision.dataset import write_dataset_image, write_dataset_index
 
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: output folder exists as a file")
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
+    board, images, gt = _render(options, model_path, quiet, units, board,
+                                lambda name, image: write_dataset_image(out, name, image))
+    return write_dataset_index(out, board, images, gt, angle_unit="deg", length_unit="m")
+
+
+def render_in_memory(options: RenderOptions = RenderOptions(), *,
+                     model_path: str | Path | None = None, quiet: bool = False,
+                     units: dict | None = None, board=None):
+    """Render the dataset of ``options`` into memory: a
+    :class:`rasc.vision.dataset.Dataset` holding its images as arrays and the ground
+    truth as its ``truth`` (what :func:`render_dataset` writes, without a file;
+    :func:`rasc.vision.dataset.write_dataset` writes it as the same folder). The
+    arguments are :func:`render_dataset`'s. The images take width × height bytes each
+    (1.2 MB at 1280×960)."""
+    from rasc.io import dumps_json
+    from rasc.vision.dataset import Dataset
+
+    pixels: dict[str, np.ndarray] = {}
+    board, images, gt = _render(options, model_path, quiet, units, board,
+                                pixels.__setitem__)
+    # the truth as ground_truth.json holds it (JSON types): what the folder's reader gives
+    truth = json.loads(dumps_json(gt))
+    ds = Dataset.in_memory(board, images, pixels, angle_unit="deg", length_unit="m",
+                           truth=truth)
+    ds.options = options
+    return ds
+
+
+def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
+            ) -> tuple:
+    """Render every view, giving each image to ``put(file, image)``; returns (the
+    board, the manifest's image entries, the ground truth document)."""
+    from rasc.sim.scene import (
+        StereoHeadSim,
+        T_base_from_world_facing,
+        distortion_warp,
+    )
+
     rng = np.random.default_rng(options.seed)
     with contextlib.ExitStack() as stack:
         if board is not None and model_path is not None:
@@ -433,12 +469,10 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         total = 2 * (options.n_intrinsics + len(options.poses_deg))
         bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
                                            unit="image"))
-        (out / "intrinsics").mkdir(parents=True, exist_ok=True)
-        (out / "poses").mkdir(exist_ok=True)
 
         def shoot(eye: str, name: str, entry: dict) -> None:
             sim.check_ground_truth(eye, name)
-            write_image(out / name, view_image(sim, eye, warp, rng, options))
+            put(name, view_image(sim, eye, warp, rng, options))
             images.append({"file": name, "eye": eye, **entry})
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
@@ -474,6 +508,4 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                                 "noise_sigma": options.noise_sigma,
                                 "blur_sigma": options.blur_sigma, "dist": dist.tolist()}
         gt["model_file"] = Path(gt["model_file"]).name
-    write_json_atomic(out / "ground_truth.json", gt)
-    return write_manifest(out, board, images, angle_unit="deg",
-                          ground_truth="ground_truth.json", length_unit="m")
+    return board, images, gt

@@ -9,13 +9,17 @@ squares, 1280×960 cameras with fx ≈ 1150 px, units 0.3 m apart, 20 intrinsics
 eye placed as :func:`rasc.sim.render.intrinsics_board_poses` places them, the paper's nine
 pan-tilt positions with the board facing the head 1 m ahead.
 
-:class:`CornerDataset` has the interface :func:`rasc.head.pipeline.calibrate_dataset`
-uses (``validate``, ``detect``, ``board``...), so the whole pipeline runs on it unchanged.
+:func:`corner_dataset` returns rasc's one dataset class,
+:class:`rasc.vision.dataset.Dataset`, holding the corners instead of images
+(:meth:`~rasc.vision.dataset.Dataset.with_corners`) and the head as its ``truth``, so the
+whole pipeline runs on it unchanged. ``CornerDataset``, the class it used to return, is
+that class under its old name (deprecated).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +31,7 @@ from rasc.geometry.transforms import invert_transform, make_transform, matrix_fr
 from rasc.sim.render import intrinsics_board_poses
 from rasc.sim.scene import T_base_from_world_facing
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
-from rasc.vision.dataset import Detections, ImageEntry
+from rasc.vision.dataset import Dataset, ImageEntry
 
 IMAGE_SIZE = (1280, 960)
 BOARD = Board((9, 6), 0.05)
@@ -74,46 +78,14 @@ def default_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
                          T_cam_from_gaze=T_cg, T_ptu_from_base=T_pb, unit=units)
 
 
-@dataclass
-class CornerDataset:
-    """Projected corners with the interface of :class:`rasc.vision.dataset.Dataset` that
-    the pipeline uses; ``truth`` is the head, ``views_T_base_from_world`` the pose views'
-    board placements."""
-
-    board: Board
-    detections: dict[tuple[str, str], Detections]
-    truth: SyntheticHead
-    sizes: dict[str, tuple[int, int]]
-    manifest_path: Path = Path("<synthetic corners>")
-    angle_unit: str = "deg"
-    length_unit: str | None = "m"
-    ground_truth: Path | None = None
-    views_T_base_from_world: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def validate(self, decode: bool = False) -> dict[str, tuple[int, int]]:
-        """Each eye's image size, as :meth:`rasc.vision.dataset.Dataset.validate` returns it
-        (there are no image files to check)."""
-        return dict(self.sizes)
-
-    def image_size(self, eye: str) -> tuple[int, int]:
-        """The eye's image size (width, height) in pixels."""
-        return self.sizes[eye]
-
-    def detect(self, eye: str, role: str, method: str = "classic", order_by=None,
-               min_found=None, board_seen: bool = False, min_corners: int | None = None,
-               log=None) -> Detections:
-        """The projected (noisy) corners of the eye's ``role`` views, as
-        :meth:`rasc.vision.dataset.Dataset.detect` returns detections; the options are accepted
-        and ignored (nothing is detected)."""
-        return self.detections[(eye, role)]
-
-
 def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                    noise_px: float = 0.03, n_intrinsics: int = 20,
                    poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
-                   board: Board = BOARD, min_corners: int = MIN_VIEW_CORNERS) -> CornerDataset:
+                   board: Board = BOARD, min_corners: int = MIN_VIEW_CORNERS) -> Dataset:
     """Project the board through ``head`` (default :func:`default_head`) with seeded
-    noise N(0, noise_px²) on both coordinates of every corner.
+    noise N(0, noise_px²) on both coordinates of every corner: a
+    :class:`rasc.vision.dataset.Dataset` of given corners (no images; ``sizes`` the
+    cameras'), its ``truth`` the head (:class:`SyntheticHead`).
 
     A target seen in part (ChArUco, :class:`rasc.vision.board.CharucoBoard`) keeps the
     corners inside the image (NaN rows for the others, as detection gives them); a pose
@@ -125,7 +97,6 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
     head = head or default_head()
     rng = np.random.default_rng(seed)
     P = board.object_points()
-    det: dict[tuple[str, str], Detections] = {}
     T_bw = T_base_from_world_facing(board, distance=target_distance)
 
     partial = getattr(board, "partial_views", False)
@@ -149,35 +120,33 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
             return None
         return uv
 
-    index = 0
+    entries: list[ImageEntry] = []
+    corners: dict[str, np.ndarray | None] = {}
+
+    def add(file: str, uv, eye: str, role: str, **reading) -> None:
+        corners[file] = uv
+        entries.append(ImageEntry(index=len(entries), file=file, path=Path(file), eye=eye,
+                                  role=role, **reading))
+
     for eye in EYES:
-        corners, entries = {}, {}
         for k, T_cw in enumerate(intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE,
                                                          n_intrinsics, head.dist[eye])):
-            f = f"intrinsics/{eye}_{k:03d}.png"
-            corners[f] = project(eye, T_cw)
-            entries[f] = ImageEntry(index=index, file=f, path=Path(f), eye=eye,
-                                    role="intrinsics")
-            index += 1
-        det[(eye, "intrinsics")] = Detections(corners=corners, not_found=[], entries=entries)
-    views = {}
+            add(f"intrinsics/{eye}_{k:03d}.png", project(eye, T_cw), eye, "intrinsics")
     for eye in EYES:
-        corners, entries, not_found = {}, {}, []
         for k, (pan_deg, tilt_deg) in enumerate(poses_deg):
             pan, tilt = np.radians(pan_deg), np.radians(tilt_deg)
-            view = f"{k:02d}"
-            views[view] = T_bw
             T_cw = head.T_cam_from_base(eye, pan, tilt) @ T_bw
-            f = f"poses/{eye}_{k:02d}.png"
-            uv = project(eye, T_cw)
-            if uv is None:
-                not_found.append(f)
-                continue
-            corners[f] = uv
-            entries[f] = ImageEntry(index=index, file=f, path=Path(f), eye=eye, role="pose",
-                                    pan=float(pan), tilt=float(tilt), view=view)
-            index += 1
-        det[(eye, "pose")] = Detections(corners=corners, not_found=not_found, entries=entries)
-    return CornerDataset(board=board, detections=det, truth=head,
-                         sizes={eye: IMAGE_SIZE for eye in EYES},
-                         views_T_base_from_world=views)
+            # a view with fewer than min_corners is not seen (None), as detection has it
+            add(f"poses/{eye}_{k:02d}.png", project(eye, T_cw), eye, "pose",
+                pan=float(pan), tilt=float(tilt), view=f"{k:02d}")
+    return Dataset.with_corners(board, entries, corners, {eye: IMAGE_SIZE for eye in EYES},
+                                truth=head, where="<synthetic corners>")
+
+
+def __getattr__(name: str):
+    if name == "CornerDataset":
+        warnings.warn("rasc.sim.synthetic.CornerDataset is deprecated: corner_dataset() "
+                      "returns rasc.vision.Dataset (rasc.vision.dataset.Dataset), "
+                      "holding the corners", DeprecationWarning, stacklevel=2)
+        return Dataset
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

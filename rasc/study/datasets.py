@@ -1,18 +1,18 @@
-"""A study's datasets stage: one calibrated dataset document (``rasc-study-dataset/1``)
-per distinct set of render parameters — rendered and calibrated by the real pipeline
-(:func:`render_task`), an existing dataset folder calibrated (:func:`folder_task`), or
-pose views rendered in a base dataset's scene (:func:`pose_task`) — found in the study
-folder (verified), in the dataset service's cache (:class:`rasc.datasets.CacheStore`),
-or computed on the study's executor. Documents stay in memory for the cells stage."""
+"""A study's datasets stage: one calibration of a dataset (the dataset service's
+document, :mod:`rasc.datasets.calibration`) per distinct set of render parameters —
+rendered into memory, detected and calibrated by the real pipeline (:func:`render_task`;
+no image file unless the spec keeps the datasets, ``[fixed] keep_datasets = true``), an
+existing dataset folder calibrated (:func:`folder_task`), or pose views rendered in a
+base dataset's scene (:func:`pose_task`) — found in the study folder (verified), in the
+dataset service's cache (:class:`rasc.datasets.CacheStore`), or computed on the study's
+executor. Documents stay in memory for the cells stage."""
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,12 @@ import numpy as np
 
 from rasc import formats
 from rasc.datasets.cache import CacheStore
+from rasc.datasets.calibration import (  # noqa: F401 (the old names, re-exported)
+    _scene_record,  # noqa: F401 (re-exported)
+    calibration_document,
+    check_calibration_document,
+    in_metres,
+)
 from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
 from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.frames import EYES
@@ -64,68 +70,6 @@ def unit_builds(render: dict[str, Any]) -> dict | None:
     return {eye: build for eye in EYES if which in ("both", eye)}
 
 
-def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
-    """What the cells need from a calibrated dataset (JSON-ready): per eye the pipeline's
-    poses, angles, kept pose corners (``EyeResult.corners``), intrinsics, and the
-    reference ``T_cam_from_gaze``.
-
-    Parameters
-    ----------
-    cal : rasc.head.pipeline.Calibration
-    board : rasc.vision.board.Board
-    truth : dict or None
-        The renderer's ``ground_truth.json``; its ``T_cam_from_gaze`` per eye is the
-        reference. None (a real head's dataset): the reference is the pipeline's own RASC
-        solution on the measured poses (``"reference": "measured"``), so errors are
-        deviations from what the data give without added noise.
-    """
-    eyes = {}
-    views = (truth or {}).get("views", {})
-    for eye, res in cal.eyes.items():
-        ref = (truth[eye]["T_cam_from_gaze"] if truth is not None
-               else np.asarray(res.handeye.T_cam_from_gaze, float).tolist())
-        if all(f in views for f in res.pose_files):
-            extra_eye = {"T_cam_from_world_true": [views[f]["T_cam_from_world"]
-                                                   for f in res.pose_files]}
-        else:
-            extra_eye = {}
-        eyes[eye] = {
-            "files": list(res.pose_files),
-            "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
-            "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
-                        for f in res.pose_files],
-            "K": np.asarray(res.intrinsics.K, float).tolist(),
-            "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
-            "T_cam_from_gaze_true": ref, **extra_eye}
-    scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
-        if truth is not None else None
-    return {"format": formats.STUDY_DATASET.tag, **extra,
-            **({} if truth is not None else {"reference": "measured"}),
-            **({"scene": scene} if scene is not None else {}),
-            "board": {"inner_corners": list(board.inner_corners),
-                      "square_size": board.square_size},
-            "eyes": eyes}
-
-
-def _scene_record(truth: dict, pose_files) -> dict | None:
-    """What re-rendering a dataset's scene needs and checks, from its ground truth: the
-    render options, the board's pose (at the first pose view) and each head as built;
-    None for a dataset whose ground truth does not record them (not rendered by rasc)."""
-    opts = truth.get("render_options")
-    views = truth.get("views", {})
-    first = views.get(pose_files[0]) if pose_files else None
-    if opts is None or first is None or "T_base_from_world" not in first or not all(
-            "unit_as_built" in truth.get(eye, {}) for eye in EYES):
-        return None
-    return {"render_options": {k: opts.get(k) for k in (
-                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist")},
-            "model_file": truth.get("model_file"),
-            "generated_scene": truth.get("generated_scene", False),
-            "T_base_from_world": first["T_base_from_world"],
-            "heads": {eye: truth[eye]["unit_as_built"] for eye in EYES}}
-
-
 @dataclass(frozen=True)
 class RenderTask:
     """Render and calibrate the dataset of ``render`` (a cell's render parameters)."""
@@ -136,9 +80,13 @@ class RenderTask:
     model_path: str | None = None
     #: the spec file, for messages
     where: str = "the spec"
-    #: the study's scratch folder (removed by the study, also when a worker is killed);
-    #: None or absent on this machine (a remote worker): the system's temporary folder
+    #: the study's scratch folder for a worker's temporary files (removed by the study,
+    #: also when a worker is killed); rendering itself makes none (in memory)
     scratch: str | None = None
+    #: ``keep_datasets``: return the rendered dataset (images in memory) with its
+    #: calibration, for the study to write under its folder (on the study's machine,
+    #: whichever machine the task ran on); False: the images end with the task
+    keep: bool = False
 
 
 @dataclass(frozen=True)
@@ -163,42 +111,34 @@ class PoseTask:
     base: dict | None = None
 
 
-def render_task(task: RenderTask) -> dict:
-    """Render one dataset in a temporary folder, calibrate it with the real pipeline
-    (rasc.head.pipeline.calibrate_dataset), return what the cells need (JSON-ready).
+def render_task(task: RenderTask) -> dict | tuple:
+    """Render one dataset into memory (:func:`rasc.sim.render.render_in_memory`), detect
+    its corners from the arrays and calibrate it with the real pipeline
+    (:func:`rasc.datasets.calibration.calibrate`); return what the cells need
+    (JSON-ready) — with ``task.keep``, ``(that, the dataset)`` for the study to write.
 
     Runs in a worker: sets MUJOCO_GL before anything imports mujoco.
     """
     worker_environment()
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.sim.render import RenderOptions, render_dataset
-    from rasc.vision.dataset import load_dataset
+    from rasc.datasets.calibration import calibrate
+    from rasc.sim.render import RenderOptions, render_in_memory
 
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
-    options = RenderOptions(
-        poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
-        n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
-        seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
-        dist=tuple(full["distortion"]))
-    scratch = task.scratch if task.scratch and os.path.isdir(task.scratch) else None
-    tmp = Path(tempfile.mkdtemp(prefix="rasc-study-render-", dir=scratch))
     try:
-        folder = tmp / "dataset"
-        try:
-            render_dataset(folder, options, model_path=task.model_path, quiet=True,
-                           units=unit_builds(r))
-            ds = load_dataset(folder)
-            cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
-        except RascError as exc:     # name the cell's render parameters, not a CLI flag
-            what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
-            raise type(exc)(f"{task.where}: the dataset for {what}: "
-                            f"{spec_words(' '.join(str(exc).split()))}") from None
-        truth = json.loads((folder / "ground_truth.json").read_text())
-        return dataset_document(cal, ds.board, truth, key=task.key, render=r,
-                                seed=task.seed)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        options = RenderOptions(
+            poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
+            n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
+            seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
+            dist=tuple(full["distortion"]))
+        ds = render_in_memory(options, model_path=task.model_path, quiet=True,
+                              units=unit_builds(r))
+        doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
+        return (doc, ds) if task.keep else doc
+    except RascError as exc:     # name the cell's render parameters, not a CLI flag
+        what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
+        raise type(exc)(f"{task.where}: the dataset for {what}: "
+                        f"{spec_words(' '.join(str(exc).split()))}") from None
 
 
 #: the renderer's option names (its command's flags) and the spec's keys for them
@@ -218,7 +158,7 @@ def spec_words(message: str) -> str:
 def folder_task(task: FolderTask) -> dict:
     """Calibrate an existing dataset folder (``[fixed] dataset``) with the real pipeline;
     its ``ground_truth.json``, when present, is the reference (else the measured RASC
-    solution, see :func:`dataset_document`)."""
+    solution, see :func:`rasc.datasets.calibration.calibration_document`)."""
     worker_environment()
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
@@ -228,8 +168,8 @@ def folder_task(task: FolderTask) -> dict:
     cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     gt = folder / "ground_truth.json"
     truth = json.loads(gt.read_text()) if gt.is_file() else None
-    doc = dataset_document(cal, ds.board, truth, key=task.key)
-    return _in_metres(doc, dataset_metres(folder))
+    doc = calibration_document(cal, ds.board, truth, key=task.key)
+    return in_metres(doc, dataset_metres(folder))
 
 
 #: the scene re-rendered for ``intrinsics_from = "dataset"`` must be the base's: the
@@ -385,32 +325,12 @@ def pose_task(task: PoseTask) -> dict:
                      "corners": corners, "K": data["K"], "dist": data["dist"],
                      "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
                      "T_cam_from_world_true": T_true[eye]}
-    out = {"format": formats.STUDY_DATASET.tag, "key": task.key, "render": r,
+    out = {"format": formats.DATASET_CALIBRATION.tag, "key": task.key, "render": r,
            "seed": task.seed, "intrinsics_of": task.base_key,
            "board": base["board"], "eyes": eyes}
     if record is not None:
         out["scene"] = record
     return out
-
-
-def _in_metres(doc: dict, metres: float) -> dict:
-    """A dataset document's lengths (the board's square size, every translation) scaled
-    by ``metres`` per unit: the cells measure errors and eq. 14 noise in metres."""
-    if metres == 1.0:
-        return doc
-    doc["board"]["square_size"] *= metres
-    if "scene" in doc:
-        T = np.asarray(doc["scene"]["T_base_from_world"], float)
-        T[:3, 3] *= metres
-        doc["scene"]["T_base_from_world"] = T.tolist()
-    for eye in doc["eyes"].values():
-        for key in ("T_cam_from_world", "T_cam_from_gaze_true", "T_cam_from_world_true"):
-            if key not in eye:
-                continue
-            T = np.asarray(eye[key], float)
-            T[..., :3, 3] *= metres
-            eye[key] = T.tolist()
-    return doc
 
 
 def cache_dir() -> Path | None:
@@ -433,48 +353,36 @@ def cache_key(kind: str, task: RenderTask | PoseTask) -> str:
     return keys.cache_key(f"study-{kind}", what)
 
 
-def _check_dataset_doc(doc: dict) -> None:
-    """ValueError unless ``doc`` looks like a whole study dataset document."""
-    if doc.get("format") != formats.STUDY_DATASET.tag:
-        raise ValueError(f"format {doc.get('format')!r}, not {formats.STUDY_DATASET.tag}")
-    eyes, board = doc.get("eyes"), doc.get("board")
-    if not isinstance(board, dict) or not isinstance(eyes, dict) or not eyes:
-        raise ValueError("no board or no eyes")
-    for name, eye in eyes.items():
-        if not isinstance(eye, dict):
-            raise ValueError(f"eyes.{name} is not an object")
-        n = None
-        for k in ("files", "pan_tilt_rad", "T_cam_from_world", "corners"):
-            v = eye.get(k)
-            if not isinstance(v, list) or n is not None and len(v) != n:
-                raise ValueError(f"eyes.{name}.{k} is missing or of another length")
-            n = len(v)
-        T = np.asarray(eye["T_cam_from_world"], float)
-        if T.shape != (n, 4, 4) or not np.all(np.isfinite(T)):
-            raise ValueError(f"eyes.{name}.T_cam_from_world is not {n} finite 4x4 matrices")
-        for k in ("K", "T_cam_from_gaze_true"):
-            if not isinstance(eye.get(k), list):
-                raise ValueError(f"eyes.{name}.{k} is missing")
-
-
 def dataset_digest_of(doc: dict) -> str:
     """The key of a given dataset document: sha256 of its JSON (20 hex digits)."""
     import hashlib
     return hashlib.sha256(dumps_json(doc).encode()).hexdigest()[:20]
 
 
-def _found_datasets(out: Path, wanted, log: Callable[[str], None]) -> dict[str, dict]:
+def kept_folder(out: Path, key: str) -> Path:
+    """Where a study keeps the dataset ``key`` on disk (``keep_datasets``): a dataset
+    folder beside its calibration, ``datasets/<key>/``."""
+    return out / "datasets" / key
+
+
+def _kept(out: Path, key: str) -> bool:
+    return (kept_folder(out, key) / "manifest.json").is_file()
+
+
+def _found_datasets(out: Path, wanted, log: Callable[[str], None],
+                    keep: bool = False) -> dict[str, dict]:
     """The dataset files of ``wanted`` keys already in ``out/datasets`` that are whole
-    (:func:`_check_dataset_doc`, their key); a damaged one is left to be computed again,
-    with a note."""
+    (:func:`check_calibration_document`, their key); a damaged one is left to be computed
+    again, with a note. With ``keep`` (``keep_datasets``), one whose dataset folder is
+    not there is rendered again (to be kept)."""
     found = {}
     for k in wanted:
         path = out / "datasets" / f"{k}.json"
-        if not os.path.lexists(path):
+        if not os.path.lexists(path) or keep and not _kept(out, k):
             continue
         try:
             doc = read_json_document(path, "study dataset")
-            _check_dataset_doc(doc)
+            check_calibration_document(doc)
             if doc.get("key") != k:
                 raise ValueError(f"its key is {doc.get('key')!r}, not {k!r}")
         except (InputError, ValueError) as exc:
@@ -487,19 +395,25 @@ def _found_datasets(out: Path, wanted, log: Callable[[str], None]) -> dict[str, 
 
 def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
             desc: str, count: dict[str, int], cache: Path | None = None, kind: str = "",
-            log: Callable[[str], None] = print) -> dict[str, dict]:
+            log: Callable[[str], None] = print, keep: bool = False) -> dict[str, dict]:
     """Run dataset tasks, writing each result to ``out/datasets/<key>.json`` as it comes
     (``count["rendered"]`` counts them); with a ``cache`` folder, a task found there
     (verified: :class:`rasc.datasets.CacheStore`) is copied instead (``count["cached"]``)
-    and a rendered one stored there. Returns the documents by key (kept in memory)."""
+    and a rendered one stored there. With ``keep`` (render tasks, ``keep_datasets``),
+    each dataset not yet kept in the study folder (:func:`kept_folder`) is rendered, and
+    written there by this process (atomically, :func:`rasc.vision.dataset.write_dataset`)
+    when its task returns it. Returns the documents by key (kept in memory)."""
     from rasc.progress import progress
 
     store = CacheStore(folder=cache, label="rasc study", log=log) if cache is not None \
         else None
     names = [cache_key(kind, t) for t in tasks] if store is not None else []
+    if keep:
+        tasks = [t if _kept(out, t.key) else replace(t, keep=True) for t in tasks]
     todo, docs = [], {}
     for k, task in enumerate(tasks):
-        doc = store.get_json(names[k], _check_dataset_doc) if store is not None else None
+        doc = store.get_json(names[k], check_calibration_document) \
+            if store is not None and not getattr(task, "keep", False) else None
         if doc is not None and doc.get("key") == task.key:
             write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
             docs[task.key] = doc
@@ -511,6 +425,13 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
     with progress(total=len(todo), desc=desc, quiet=quiet, unit="dataset") as bar:
         for i, doc in executor.map_unordered(fn, [tasks[k] for k in todo]):
             task = tasks[todo[i]]
+            if isinstance(doc, tuple):           # keep_datasets: the dataset, to write
+                from rasc.vision.dataset import write_dataset
+
+                doc, dataset = doc
+                (out / "datasets").mkdir(parents=True, exist_ok=True)
+                write_dataset(dataset, kept_folder(out, task.key), flag="keep_datasets:")
+                del dataset
             write_json_atomic(out / "datasets" / f"{task.key}.json", doc)
             docs[task.key] = doc
             if store is not None:
@@ -518,3 +439,9 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
             count["rendered"] += 1
             bar.update(1)
     return docs
+
+
+#: the old names of the calibration document's functions (now the dataset service's)
+dataset_document = calibration_document
+_check_dataset_doc = check_calibration_document
+_in_metres = in_metres

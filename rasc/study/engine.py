@@ -376,7 +376,8 @@ class _Run:
                     write_json_atomic(path, dataset)
                 self.docs[k] = dataset
         else:
-            self.docs.update(_found_datasets(out, wanted, self.log))
+            self.docs.update(_found_datasets(out, wanted, self.log,
+                                             keep=spec.keep_datasets))
         missing = [k for k in wanted if k not in self.docs]
         if spec.dataset_path() is not None:
             fn, tasks = folder_task, [FolderTask(k, str(spec.dataset_path()))
@@ -391,7 +392,8 @@ class _Run:
                 for k in missing]
         self.docs.update(_render(self.executor, fn, tasks, out, self.quiet, "render datasets",
                                  self.count, self.cache if fn is render_task else None,
-                                 "render", self.log))
+                                 "render", self.log,
+                                 keep=spec.keep_datasets and fn is render_task))
 
     def pose_sets(self) -> None:
         """Pose sets rendered in a base's scene with its intrinsics."""

@@ -44,6 +44,10 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
 - ``gross_rotation_deg``, ``gross_translation_mm`` (top level, > 0): a solve farther
   from the truth than either is a failure with status ``gross`` (its errors are kept in
   ``samples.csv``, left out of the summary's statistics); absent, nothing is gross;
+- ``[fixed] keep_datasets = true`` (a *study* setting, outside every cell's identity and
+  the spec's hash): each rendered dataset is also written under the study folder as a
+  dataset folder, ``datasets/<key>/`` (``rasc calibrate`` reads it); by default the
+  images and corners stay in memory (rendered, detected and calibrated without a file);
 - ``time_limit_s`` (top level, > 0, at most a week): the time limit of one call of a
   plugin method (:func:`rasc.guard.guarded`; absent: 300 s); a call past it is a failed
   sample, status ``failed: PluginTimedOut``.
@@ -187,6 +191,12 @@ def _skew(x) -> float:
     return x
 
 
+def _yes_no(x) -> bool:
+    if not isinstance(x, bool):
+        raise ValueError(f"expected true or false, got {_show(x)}")
+    return x
+
+
 def _text(x) -> str:
     if not isinstance(x, str):
         raise ValueError(f"expected a string, got {_show(x)}")
@@ -200,7 +210,9 @@ def _show(x) -> str:
 
 @dataclass(frozen=True)
 class Param:
-    """One study parameter: its checker, default, kind ("sample" or "render") and unit."""
+    """One study parameter: its checker, default, kind ("sample", "render", "dataset" or
+    "study": a setting of the whole study, in [fixed] only, outside every cell's
+    identity) and unit."""
 
     check: Callable[[Any], Any]
     default: Any
@@ -257,6 +269,11 @@ PARAMS: dict[str, Param] = {
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
+    "keep_datasets": Param(_yes_no, False, "study",
+                           "true: write each rendered dataset (images, manifest.json, "
+                           "ground_truth.json) under the study folder, "
+                           "datasets/<key>/; false: images and corners stay in memory. "
+                           "[fixed] only; no cell's key, seed or result depends on it"),
 }
 
 #: the head-model parameters: a rasc.sim.units.UnitBuild for the unit(s) of ``units_eye``
@@ -318,7 +335,8 @@ def identity(params: dict[str, Any]) -> dict[str, Any]:
     a cell's key and a dataset's key hash: specs written before those parameters existed
     keep their keys, seeds and bytes)."""
     return {k: v for k, v in params.items()
-            if not (k in IDENTITY_OPTIONAL and v == PARAMS[k].default)}
+            if not (k in IDENTITY_OPTIONAL and v == PARAMS[k].default)
+            and PARAMS[k].kind != "study"}
 
 
 @dataclass(frozen=True)
@@ -387,7 +405,8 @@ class Spec:
         out = {"name": self.name, "description": self.description, "seed": self.seed,
                "samples": self.samples, "methods": list(self.methods),
                "bootstrap": self.bootstrap, "confidence": self.confidence,
-               "fixed": {k: _plain(v) for k, v in self.fixed.items()},
+               "fixed": {k: _plain(v) for k, v in self.fixed.items()
+                         if PARAMS[k].kind != "study"},
                "axes": {k: [_plain(v) for v in vs] for k, vs in self.axes.items()},
                "model_digests": dict(self.model_digests)}
         if self.paired:
@@ -421,6 +440,12 @@ class Spec:
                 params["dataset"] = self.dataset_digests[params["dataset"]]
             out.append(Cell(k, params, swept, self.paired))
         return out
+
+    @property
+    def keep_datasets(self) -> bool:
+        """Whether the rendered datasets are written under the study folder
+        (``[fixed] keep_datasets``)."""
+        return bool(self.fixed.get("keep_datasets", False))
 
     def dataset_path(self) -> Path | None:
         """The ``[fixed] dataset`` folder, resolved against the spec's folder (or None)."""
@@ -669,6 +694,10 @@ def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
     the digest of its folder."""
     if "dataset" in axes:
         fail("axes.dataset", "a study runs on one dataset; give it in [fixed]")
+    for key in axes:
+        if PARAMS[key].kind == "study":
+            fail(f"axes.{key}", "a setting of the whole study, not of a cell; give it "
+                 "in [fixed]")
     dataset_digests: dict[str, str] = {}
     if fixed.get("dataset"):
         check_beside_dataset(fixed, axes, fail, "[fixed] dataset is given")

@@ -22,6 +22,14 @@ time of the same board placement (loop closure). Every problem is reported as on
 :class:`~rasc.errors.InputError` line naming the manifest, the image index and file, and
 the field. Images are read lazily; :meth:`Dataset.validate` reads their headers.
 
+:class:`Dataset` is rasc's one notion of a calibration dataset: the target, the image
+entries with their pan-tilt readings and, besides a folder's files, images held in
+memory (:meth:`Dataset.in_memory`, what the renderer makes) or corners given instead of
+detected (:meth:`Dataset.with_corners`, the projected corners of
+:func:`rasc.sim.synthetic.corner_dataset`), and the scene's truth when rasc made it.
+:func:`load_dataset` is the one reader of the folder, :func:`write_dataset` the one
+writer (images, ``manifest.json``, ``ground_truth.json``).
+
 Only reading and detecting need OpenCV (:mod:`rasc.vision.camera`, imported when an image
 is first read): the manifest itself is parsed and written with the standard library.
 """
@@ -35,8 +43,9 @@ import os
 import stat
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 import numpy as np
 
@@ -54,6 +63,8 @@ from rasc.vision.board import (
 
 FORMAT = formats.DATASET.tag
 MANIFEST = "manifest.json"
+#: the ground truth's file name in a dataset folder rasc writes
+GROUND_TRUTH = "ground_truth.json"
 ROLES = ("intrinsics", "pose")
 ANGLE_UNITS = ("deg", "rad")
 #: hand-eye needs at least three positions (two independent relative rotations, docs/METHOD.md §3)
@@ -87,10 +98,30 @@ class Detections:
     entries: dict[str, ImageEntry]
 
 
+#: where a dataset held in memory says it is in messages (it has no folder)
+IN_MEMORY = Path("<in memory>")
+
+
 @dataclass
 class Dataset:
-    """A dataset folder read by :func:`load_dataset`: the board, the angle unit and the
-    images with their pan/tilt readings (the format in the module docstring)."""
+    """A calibration dataset: the target, the angle unit and the images with their
+    pan/tilt readings (the format in the module docstring), read from a folder by
+    :func:`load_dataset` or made in memory.
+
+    Besides the folder's files, a dataset may hold:
+
+    pixels : file → 8-bit grey image (H, W), the images in memory (the renderer's,
+        :meth:`in_memory`); read from there instead of the files, detected alike.
+    corners : file → (N, 2) corners given instead of detected (projected corners,
+        :meth:`with_corners`; None: the target is not seen in that image); ``sizes`` then
+        gives each eye's image size.
+    truth : the scene's truth when rasc made the dataset: the renderer's ground-truth
+        document (a dict, what ``ground_truth.json`` holds) or, for projected corners,
+        the :class:`rasc.sim.synthetic.SyntheticHead`.
+    options, key : the :class:`rasc.sim.render.RenderOptions` it was rendered with and
+        the dataset service's cache key, when it came through the service
+        (:func:`rasc.testing.render_cached`).
+    """
     root: Path
     manifest_path: Path
     board: Board | CharucoBoard              # the target (rasc.vision.board)
@@ -98,6 +129,98 @@ class Dataset:
     images: tuple[ImageEntry, ...]
     ground_truth: Path | None = None
     length_unit: str | None = None           # the unit of board.square_size, if stated
+    pixels: dict[str, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    corners: dict[str, np.ndarray | None] | None = field(default=None, repr=False,
+                                                         compare=False)
+    sizes: dict[str, tuple[int, int]] | None = None
+    truth: Any = field(default=None, repr=False, compare=False)
+    options: Any = None
+    key: str | None = None
+    #: the manifest dict it was read from or made of (written back as it was)
+    manifest: dict | None = field(default=None, repr=False, compare=False)
+
+    # ------------------------------------------------------------- constructors
+
+    @classmethod
+    def in_memory(cls, board, images: list[dict], pixels: dict[str, np.ndarray], *,
+                  angle_unit: str = "deg", length_unit: str | None = "m",
+                  truth: dict | None = None, where: str | os.PathLike = IN_MEMORY
+                  ) -> Dataset:
+        """A dataset whose images are arrays (file → (H, W) uint8), e.g. rendered:
+        ``images`` are manifest entries (pan, tilt in ``angle_unit``), checked as a
+        manifest's are; ``truth`` the ground-truth document, if any. ``where`` names it in
+        messages. :func:`write_dataset` writes it as a folder."""
+        obj = _manifest_dict(board, [dict(im) for im in images], angle_unit,
+                             None if truth is None else GROUND_TRUTH, length_unit)
+        obj = json.loads(json.dumps(obj, default=to_jsonable))
+        root = Path(where)
+        ds = parse_manifest(obj, root, where=str(root / MANIFEST), check_files=False)
+        for e in ds.images:
+            image = pixels.get(e.file)
+            if image is None:
+                raise InputError(f"{root}: no image in memory for {e.file}")
+            if not (isinstance(image, np.ndarray) and image.ndim == 2
+                    and image.dtype == np.uint8 and image.size):
+                raise InputError(f"{root}: images[{e.index}] ({e.file}): expected an 8-bit "
+                                 "grey image (a 2-D uint8 array), got "
+                                 f"{getattr(image, 'dtype', type(image).__name__)} of shape "
+                                 f"{getattr(image, 'shape', '?')}")
+        ds.pixels = dict(pixels)
+        ds.truth = truth
+        return ds
+
+    @classmethod
+    def with_corners(cls, board, entries: list[ImageEntry],
+                     corners: dict[str, np.ndarray | None], sizes: dict[str, tuple[int, int]],
+                     *, truth: Any = None, where: str | os.PathLike = "<given corners>",
+                     length_unit: str | None = "m") -> Dataset:
+        """A dataset of corners given instead of detected (file → (N, 2), None: not
+        seen), with no images: ``sizes`` gives each eye's image size."""
+        root = Path(where)
+        return cls(root=root, manifest_path=root, board=board, angle_unit="deg",
+                   images=tuple(entries), length_unit=length_unit, corners=dict(corners),
+                   sizes=dict(sizes), truth=truth)
+
+    # ------------------------------------------------------------------- truth
+
+    @property
+    def path(self) -> Path:
+        """The dataset folder (``root``)."""
+        return self.root
+
+    def load(self) -> Dataset:
+        """This dataset (what ``rasc.testing``'s rendered datasets returned by ``load()``)."""
+        return self
+
+    def _truth_document(self) -> dict:
+        if isinstance(self.truth, dict):
+            return self.truth
+        if self.ground_truth is not None:
+            return self.load_ground_truth()
+        raise InputError(f"{self.manifest_path}: no ground truth (not rendered by rasc)")
+
+    def T_cam_from_gaze(self, eye: str) -> np.ndarray:
+        """The TRUE hand-eye transform of ``eye`` ("left" or "right"), (4, 4), metres,
+        from the scene's truth."""
+        if self.truth is not None and not isinstance(self.truth, dict):
+            return np.array(self.truth.T_cam_from_gaze[eye], dtype=float)
+        return np.array(self._truth_document()[eye]["T_cam_from_gaze"], dtype=float)
+
+    def pose_views(self, eye: str) -> tuple[np.ndarray, np.ndarray]:
+        """The pose views' TRUE poses of ``eye``, in view order: ``T_cam_from_world``
+        (n, 4, 4) from the renderer and ``T_gaze_from_ptu`` (n, 4, 4) from the recorded
+        pan/tilt by eq. 3 — hand-eye input without detection error (add your own noise,
+        e.g. :func:`rasc.handeye.noise.perturb_T_cam_from_world`)."""
+        from rasc.geometry.kinematics import T_gaze_from_ptu
+
+        gt = self._truth_document()
+        views = sorted((name, v) for name, v in gt["views"].items()
+                       if name.startswith(f"poses/{eye}_"))
+        T_cw = np.array([v["T_cam_from_world"] for _, v in views], dtype=float)
+        pan_tilt = np.radians([[v["pan"], v["tilt"]] for _, v in views])
+        return T_cw, T_gaze_from_ptu(pan_tilt[:, 0], pan_tilt[:, 1])
+
+    # ------------------------------------------------------------------ images
 
     def select(self, eye: str | None = None, role: str | None = None) -> list[ImageEntry]:
         """Images of one eye and/or role, in manifest order."""
@@ -112,6 +235,8 @@ class Dataset:
     def validate(self, decode: bool = False) -> dict[str, tuple[int, int]]:
         """Read every image's header (``decode=True``: the whole image) and check that
         the images of each eye share one size. Returns eye → (width, height)."""
+        if self.corners is not None:       # given corners: no images to read
+            return dict(self.sizes or {})
         sizes: dict[str, tuple[int, int]] = {}
         first: dict[str, str] = {}
         for e in self.images:
@@ -134,6 +259,11 @@ class Dataset:
 
     def read(self, entry: ImageEntry) -> np.ndarray:
         """The image as 8-bit grey (H, W); errors name the manifest index and file."""
+        if self.pixels is not None:
+            return self.pixels[entry.file]
+        if self.corners is not None:
+            raise InputError(f"{self.manifest_path}: images[{entry.index}] ({entry.file}): "
+                             "a dataset of given corners has no images")
         from rasc.vision.camera import read_image
 
         try:
@@ -143,7 +273,7 @@ class Dataset:
                              f"{_problem(exc, entry.path)}") from None
 
     def _size(self, entry: ImageEntry, decode: bool) -> tuple[int, int]:
-        if decode:
+        if decode or self.pixels is not None:
             h, w = self.read(entry).shape
             return w, h
         from rasc.vision.camera import image_size as read_image_size
@@ -153,6 +283,39 @@ class Dataset:
         except InputError as exc:
             raise InputError(f"{self.manifest_path}: images[{entry.index}] ({entry.file}): "
                              f"{_problem(exc, entry.path)}") from None
+
+    def _corners_of(self, e: ImageEntry, method: str, order_by: str | None,
+                    min_corners: int) -> np.ndarray | None:
+        """The corners of one image: given, or detected (from the file or the array in
+        memory; kept per content, see :data:`DETECTIONS_KEPT`)."""
+        from rasc.vision.camera import detect_corners
+
+        partial = getattr(self.board, "partial_views", False)
+        if self.corners is not None:
+            c = self.corners.get(e.file)
+            if c is None:
+                return None
+            c = np.array(c, dtype=float)
+            if partial and int(np.isfinite(c[:, 0]).sum()) < min_corners:
+                return None
+            return c
+        image = None
+        if self.pixels is not None:
+            image = self.pixels[e.file]
+            digest = _array_digest(image)
+        else:
+            digest = _content_digest(e.path)
+        key = (None if digest is None
+               else (digest, self.board.inner_corners, method, order_by) if not partial
+               else (digest, self.board, min_corners))
+        found, c = _remembered(key)
+        if not found:
+            c = detect_corners(self.read(e) if image is None else image, self.board,
+                               method=method, order_by=order_by, min_corners=min_corners)
+            # kept only if the file still holds the bytes it held before it was read
+            if key is not None and (image is not None or _content_digest(e.path) == digest):
+                _remember(key, c)
+        return c
 
     def detect(self, eye: str, role: str, method: str = "classic",
                order_by: str | None = "colour", min_found: int | None = None,
@@ -179,8 +342,6 @@ class Dataset:
         board, ``method`` and ``order_by``, is not detected again: see
         :data:`DETECTIONS_KEPT`.
         """
-        from rasc.vision.camera import detect_corners
-
         entries = self.select(eye, role)
         if min_found is None:
             min_found = MIN_INTRINSICS_VIEWS if role == "intrinsics" else MIN_POSE_VIEWS
@@ -196,17 +357,7 @@ class Dataset:
         not_found: list[str] = []
         partial = getattr(self.board, "partial_views", False)
         for e in entries:
-            digest = _content_digest(e.path)
-            key = (None if digest is None
-                   else (digest, self.board.inner_corners, method, order_by) if not partial
-                   else (digest, self.board, min_corners))
-            found, c = _remembered(key)
-            if not found:
-                c = detect_corners(self.read(e), self.board, method=method, order_by=order_by,
-                                   min_corners=min_corners)
-                # kept only if the file still holds the bytes it held before it was read
-                if key is not None and _content_digest(e.path) == digest:
-                    _remember(key, c)
+            c = self._corners_of(e, method, order_by, min_corners)
             if c is None:
                 not_found.append(e.file)
                 if partial and log is not None:
@@ -252,13 +403,18 @@ class Dataset:
                           entries={e.file: e for e in entries})
 
     def load_ground_truth(self) -> dict:
-        """The optional ground-truth JSON (written by the simulation), as a dict."""
+        """The optional ground-truth JSON (written by the simulation), as a dict (the
+        document in memory when the dataset holds one)."""
+        if isinstance(self.truth, dict):
+            return self.truth
         if self.ground_truth is None:
             raise InputError(f"{self.manifest_path}: no ground_truth file named in the manifest")
         return _read_json(self.ground_truth, "ground truth")
 
     def to_manifest(self) -> dict:
         """The manifest dict this dataset was read from (angles in its own unit)."""
+        if self.manifest is not None:
+            return json.loads(json.dumps(self.manifest))
         return _manifest_dict(self.board, [_entry_dict(e, self.angle_unit) for e in self.images],
                               self.angle_unit,
                               None if self.ground_truth is None
@@ -310,6 +466,14 @@ def _content_digest(path: Path) -> bytes | None:
     if len(data) > DETECTIONS_KEPT_MAX_BYTES:
         return None
     return hashlib.sha256(data).digest()
+
+
+def _array_digest(image: np.ndarray) -> bytes:
+    """SHA-256 of an image in memory: its shape, type and pixels."""
+    a = np.ascontiguousarray(image)
+    h = hashlib.sha256(f"{a.shape} {a.dtype.str}\0".encode())
+    h.update(a.data)
+    return h.digest()
 
 
 def _remembered(key: tuple | None) -> tuple[bool, np.ndarray | None]:
@@ -474,7 +638,7 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
             raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
     return Dataset(root=root, manifest_path=Path(where), board=board,
                    angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path,
-                   length_unit=length_unit)
+                   length_unit=length_unit, manifest=obj)
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
@@ -552,3 +716,70 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     parse_manifest(obj, manifest.parent, where=str(manifest), check_files=check_files)
     write_json_atomic(manifest, obj)
     return manifest
+
+
+def write_dataset(dataset: Dataset, out: str | os.PathLike, *, atomic: bool = True,
+                  flag: str = "--out") -> Path:
+    """Write ``dataset`` as a dataset folder ``out`` (the one writer of the format): its
+    images as 8-bit grey PNG (from memory, or copied from its files), ``manifest.json``
+    and, when it holds the scene's truth document, ``ground_truth.json``. ``atomic``:
+    built in a temporary folder beside ``out`` and renamed into place
+    (:func:`rasc.io.folder_built_atomically`: ``out`` must be absent or empty; ``flag``
+    names it in messages); else written into ``out`` (absent or empty) directly. Returns
+    the manifest's path. A dataset of given corners has no images and cannot be written.
+    """
+    out = Path(out)
+    if dataset.corners is not None:
+        raise InputError(f"{dataset.manifest_path}: a dataset of given corners has no "
+                         "images to write")
+    if atomic:
+        from rasc.io import folder_built_atomically
+
+        with folder_built_atomically(out, flag=flag) as tmp:
+            _write_files(dataset, tmp)
+        return out / MANIFEST
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: output folder exists as a file")
+    if out.exists() and any(out.iterdir()):
+        raise InputError(f"{out}: output folder exists and is not empty")
+    return _write_files(dataset, out)
+
+
+def _write_files(dataset: Dataset, out: Path) -> Path:
+    import shutil
+
+    for e in dataset.images:
+        if dataset.pixels is not None:
+            write_dataset_image(out, e.file, dataset.pixels[e.file])
+        else:
+            (out / e.file).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(e.path, out / e.file)
+    truth = dataset.truth if isinstance(dataset.truth, dict) else (
+        None if dataset.ground_truth is None else dataset.load_ground_truth())
+    obj = dataset.to_manifest()
+    return write_dataset_index(out, obj["board"], obj["images"], truth,
+                               angle_unit=dataset.angle_unit, length_unit=dataset.length_unit,
+                               provenance=obj.get("provenance"))
+
+
+def write_dataset_image(out: Path, file: str, image: np.ndarray) -> None:
+    """One image of a dataset folder being written (:func:`write_dataset`'s part for a
+    writer that streams its images, as :func:`rasc.sim.render.render_dataset` does):
+    8-bit grey PNG at ``out / file``."""
+    from rasc.vision.camera import write_image
+
+    (out / file).parent.mkdir(parents=True, exist_ok=True)
+    write_image(out / file, image)
+
+
+def write_dataset_index(out: Path, board, images: list[dict], truth: dict | None, *,
+                        angle_unit: str = "deg", length_unit: str | None = "m",
+                        provenance: dict | None = None) -> Path:
+    """The last part of :func:`write_dataset`, once the images are in ``out``:
+    ``ground_truth.json`` (when ``truth`` is given) and ``manifest.json`` (validated
+    against the files). Returns the manifest's path."""
+    if truth is not None:
+        write_json_atomic(out / GROUND_TRUTH, truth)
+    return write_manifest(out, board, images, angle_unit=angle_unit,
+                          ground_truth=None if truth is None else GROUND_TRUTH,
+                          length_unit=length_unit, provenance=provenance)

@@ -26,10 +26,9 @@ def test_a_wrong_angle_reading_is_left_out_of_the_closed_form():
     within 0.05° of the truth (measured 0.011°; the clean right eye's RASC 0.009°) where
     RASC on all views is more than 1° off (measured 1.5°); the right eye keeps RASC."""
     ds = corner_dataset(seed=0, poses_deg=POSES, n_intrinsics=12)
-    det = ds.detections[("left", "pose")]
     bad = "poses/left_05.png"
-    det.entries[bad] = dataclasses.replace(det.entries[bad],
-                                           pan=det.entries[bad].pan + np.radians(10.0))
+    ds.images = tuple(dataclasses.replace(e, pan=e.pan + np.radians(10.0)) if e.file == bad
+                      else e for e in ds.images)
     cal = calibrate_dataset(ds, CalibrationOptions())
     left, right = cal.eyes["left"].handeye, cal.eyes["right"].handeye
     assert left.method == "rasc-robust" and right.method == "rasc"

@@ -145,7 +145,7 @@ def test_calibration_json_loads_back_for_both_models(model):
 def test_gross_corner_errors_are_rejected_and_reported_per_image():
     ds = corner_dataset(default_head(), seed=2, noise_px=0.03)
     f = "poses/left_03.png"
-    ds.detections[("left", "pose")].corners[f][[5, 17]] += np.array([4.0, -3.0])
+    ds.corners[f][[5, 17]] += np.array([4.0, -3.0])
     cal = calibrate_dataset(ds, CalibrationOptions(model="general"))
     res = cal.refinement
     im = next(i for i in res.images if i.name == f)
