@@ -269,8 +269,8 @@ def _compare_mounts(T_measured: np.ndarray, T_loop: np.ndarray,
     b_loop = float(np.linalg.norm(T_loop[:3, 3]))
     if b_loop > 0 and not (1 / MOUNTS_UNIT_RATIO <= b_measured / b_loop <= MOUNTS_UNIT_RATIO):
         raise InputError(f"the measured mounts (T_ptuL_from_ptuR) put the units "
-                         f"{b_measured:.4g} apart but {against} measures {b_loop:.4g} (in the unit of "
-                         "board.square_size): give its translation in that unit")
+                         f"{b_measured:.4g} apart but {against} measures {b_loop:.4g} (in the unit "
+                         "of board.square_size): give its translation in that unit")
     rot = float(rotation_error_deg(T_measured[:3, :3], T_loop[:3, :3]))
     trans = float(np.linalg.norm(T_measured[:3, 3] - T_loop[:3, 3]))
     if warnings is not None and (rot > MOUNTS_WARN_ROTATION_DEG
