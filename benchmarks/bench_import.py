@@ -70,7 +70,7 @@ def main() -> None:
     from rasc.vision.dataset import load_dataset
 
     cache = os.environ.get("RASC_CACHE_DIR") or str(Path(tempfile.gettempdir()) / "rasc-bench")
-    small = render_cached(cache, n_intrinsics=8).load()
+    small = render_cached(cache, intrinsics_views=8).load()
     work = Path(args.work) if args.work else Path(tempfile.mkdtemp(prefix="bench-import-"))
     work.mkdir(parents=True, exist_ok=True)
     cfg = _config()

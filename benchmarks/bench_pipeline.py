@@ -71,8 +71,8 @@ def run_once(folder: Path, options: RenderOptions) -> dict:
     timings = {"rendering": t_render, **{s: cal.timings.get(s, 0.0) for s in STAGES}}
     timings["other"] = t_cal - sum(cal.timings.get(s, 0.0) for s in STAGES)
     timings["total"] = t_render + t_cal
-    out = {"options": {"seed": options.seed, "distance_m": options.target_distance,
-                       "intrinsics_views": options.n_intrinsics},
+    out = {"options": {"seed": options.seed, "distance_m": options.distance,
+                       "intrinsics_views": options.intrinsics_views},
            "timings_s": timings, "eyes": {}}
     for eye in EYES:
         r = cal.eyes[eye]
@@ -153,15 +153,15 @@ def print_report(res: dict) -> None:
 
 
 def sweep(seeds: int, base: RenderOptions, work: Path) -> list[dict]:
-    settings = [(d, base.n_intrinsics) for d in (1.0, 1.5, 2.0, 3.0)] + \
-        [(base.target_distance, n) for n in (10, 40)]
+    settings = [(d, base.intrinsics_views) for d in (1.0, 1.5, 2.0, 3.0)] + \
+        [(base.distance, n) for n in (10, 40)]
     rows = []
     for distance, n in settings:
         runs = []
         for seed in range(seeds):
             folder = work / f"d{distance:g}_n{n}_s{seed}"
-            runs.append(run_once(folder, RenderOptions(seed=seed, target_distance=distance,
-                                                       n_intrinsics=n)))
+            runs.append(run_once(folder, RenderOptions(seed=seed, distance=distance,
+                                                       intrinsics_views=n)))
         rows.append({"distance_m": distance, "intrinsics_views": n, "runs": runs})
     print(f"\nSweep ({seeds} seeds each; mean and worst over seeds and both eyes)\n")
     print("| board distance (m) | intrinsics views | T_cam_from_gaze rotation mean / max "
@@ -190,8 +190,8 @@ def main(argv=None) -> int:
     p.add_argument("--sweep-seeds", type=int, default=3)
     p.add_argument("--json", metavar="FILE", help="write the raw results here")
     args = p.parse_args(argv)
-    options = RenderOptions(seed=args.seed, target_distance=args.distance,
-                            n_intrinsics=args.intrinsics_views)
+    options = RenderOptions(seed=args.seed, distance=args.distance,
+                            intrinsics_views=args.intrinsics_views)
     with tempfile.TemporaryDirectory(prefix="bench_pipeline.") as tmp:
         work = Path(tmp)
         result = {"main": run_once(work / "main", options)}

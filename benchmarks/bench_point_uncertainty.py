@@ -69,7 +69,7 @@ def part_b(cache: str) -> None:
     from rasc.head.uncertainty import covariance_from_refinement, perturbed_head, point_uncertainty
     from rasc.testing import render_cached
 
-    cal = calibrate_dataset(render_cached(cache, n_intrinsics=8).load(),
+    cal = calibrate_dataset(render_cached(cache, intrinsics_views=8).load(),
                             CalibrationOptions(model="general"))
     head, cov = cal.head, covariance_from_refinement(cal.refinement)
     pts = np.array([[0.0, 1.0, 0.0], [0.2, 2.0, -0.3], [-0.1, 1.5, 0.4], [0.05, 0.6, 0.1]])
@@ -94,7 +94,7 @@ def part_c(cache: str, renders: int, noise: float) -> None:
     det: dict[tuple[str, str], list[np.ndarray]] = {}
     truth = None
     for seed in range(renders):
-        r = render_cached(cache, n_intrinsics=3, seed=seed, noise_sigma=noise)
+        r = render_cached(cache, intrinsics_views=3, seed=seed, image_noise=noise)
         ds = r.load()
         gt = r.ground_truth
         if truth is None:

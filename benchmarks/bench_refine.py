@@ -62,8 +62,8 @@ def render(folder: Path, offset_mm: float, seed: int, noise: float = 0.0,
            distance: float = 1.0) -> Path:
     units = ({eye: UnitBuild(tilt_axis_offset_mm=(0.0, offset_mm, 0.0)) for eye in EYES}
              if offset_mm else None)
-    render_dataset(folder, RenderOptions(seed=seed, noise_sigma=noise,
-                                         target_distance=distance), units=units, quiet=True)
+    render_dataset(folder, RenderOptions(seed=seed, image_noise=noise,
+                                         distance=distance), units=units, quiet=True)
     return folder
 
 

@@ -50,7 +50,7 @@ def main(argv=None) -> int:
             poses = POSES if board.partial_views else POSES[:3]
             d = root / f"{board.type}_{args.seed}"
             if not (d / "manifest.json").exists():
-                render_dataset(d, RenderOptions(seed=args.seed, n_intrinsics=3,
+                render_dataset(d, RenderOptions(seed=args.seed, intrinsics_views=3,
                                                 poses_deg=poses), quiet=True, board=board)
             truth = json.loads((d / "ground_truth.json").read_text())
             for k, pose in enumerate(poses):

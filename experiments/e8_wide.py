@@ -110,7 +110,7 @@ def run_case(task: tuple) -> dict:
         tmp = tempfile.TemporaryDirectory(prefix=f"rasc-e8-{head_id}-{proto}-")
         units = {eye: UnitBuild(**fields) for eye in EYES} if fields else None
         render_dataset(Path(tmp.name) / "ds", RenderOptions(seed=seed, poses_deg=poses,
-                                                            n_intrinsics=n_intr),
+                                                            intrinsics_views=n_intr),
                        units=units, quiet=True, board=board)
         dataset = load_dataset(Path(tmp.name) / "ds")
         truth = dataset.load_ground_truth()

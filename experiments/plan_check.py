@@ -47,7 +47,7 @@ def measure_rendered(poses, seed: int) -> dict:
 
     with tempfile.TemporaryDirectory(prefix="rasc-plan-check-") as tmp:
         render_dataset(Path(tmp) / "ds", RenderOptions(seed=seed, poses_deg=tuple(poses),
-                                                       noise_sigma=RENDER_NOISE), quiet=True)
+                                                       image_noise=RENDER_NOISE), quiet=True)
         ds = load_dataset(Path(tmp) / "ds")
         truth = ds.load_ground_truth()
         cal = calibrate_dataset(ds, CalibrationOptions(model="general", scales="hold"))

@@ -312,7 +312,8 @@ def render_cached(cache_dir: str | os.PathLike | None,
     from rasc.vision.dataset import load_dataset
 
     opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
-                            tuple(v) if k == "dist" else v for k, v in options.items()})
+                            tuple(v) if k in ("distortion", "dist") else v
+                            for k, v in options.items()})
     store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
         else None
     path, key = rendered(opts, model_path, store, units=unit_builds(units),

@@ -111,6 +111,12 @@ def _check_out(out: str, model: str | None) -> Path:
     return path
 
 
+#: RenderOptions' fields as this command's options name them (its messages say these)
+FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
+         "distance": "--distance", "seed": "--seed", "image_noise": "--noise",
+         "blur": "--blur", "distortion": "--distortion"}
+
+
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         from rasc.io import finite_numbers, folder_built_atomically
@@ -120,10 +126,12 @@ def run(args: argparse.Namespace) -> int:
     out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():
         raise InputError(f"--model {args.model}: file not found")
-    options = RenderOptions(poses_deg=parse_poses(args.poses),
-                            n_intrinsics=args.intrinsics_views, target_distance=args.distance,
-                            seed=args.seed, noise_sigma=args.noise, blur_sigma=args.blur,
-                            dist=finite_numbers(args.distortion, "--distortion", text=True))
+    options = RenderOptions(
+        poses_deg=parse_poses(args.poses, FLAGS["poses_deg"]),
+        intrinsics_views=args.intrinsics_views, distance=args.distance, seed=args.seed,
+        image_noise=args.noise, blur=args.blur,
+        distortion=finite_numbers(args.distortion, FLAGS["distortion"], text=True),
+    ).validate(FLAGS)
     units = _units(args)
     board = None if args.target is None else parse_target(args.target, "--target")
     if board is not None and args.model is not None:
@@ -132,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     with folder_built_atomically(out, meanwhile=" (another render?)") as tmp:
         render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units,
-                       board=board)
+                       board=board, names=FLAGS)
     if not args.quiet:
         print(f"render: wrote {out}/manifest.json ({time.perf_counter() - t0:.1f} s)",
               file=sys.stderr)

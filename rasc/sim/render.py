@@ -25,6 +25,7 @@ import contextlib
 import json
 import math
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,56 +66,105 @@ MAX_BLUR_PX = 50.0
 MAX_DIST_COEFFS = 5
 
 
+#: RenderOptions' fields before 0.3 (the study spec's names since): old → new
+_RENAMED = {"n_intrinsics": "intrinsics_views", "target_distance": "distance",
+            "noise_sigma": "image_noise", "blur_sigma": "blur", "dist": "distortion"}
+
+
 @dataclass(frozen=True)
 class RenderOptions:
-    """What ``rasc render`` draws. Angles in degrees, lengths in metres."""
+    """What a rendered dataset shows. Angles in degrees, lengths in metres.
+
+    The fields have the study spec's names (``rasc.study.spec.PARAMS``): the same
+    decision has one name in Python, in a study and in messages; ``rasc render`` maps them
+    to its options (``distance`` is ``--distance``, ``image_noise`` ``--noise``).
+    :meth:`validate` refuses values no render can use; the renderers call it.
+    """
 
     poses_deg: tuple[tuple[float, float], ...] = PAPER_POSES_DEG
-    n_intrinsics: int = 20
-    target_distance: float = 1.0
+    intrinsics_views: int = 20
+    distance: float = 1.0
     seed: int = 0
-    noise_sigma: float = 0.0        # grey levels
-    blur_sigma: float = 0.0         # pixels
-    dist: tuple[float, ...] = ()    # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
+    image_noise: float = 0.0        # grey levels
+    blur: float = 0.0               # pixels
+    distortion: tuple[float, ...] = ()  # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
 
-    def __post_init__(self):
-        if not _integer(self.n_intrinsics) or self.n_intrinsics < 3:
-            raise InputError(f"--intrinsics-views: need an integer of at least 3, got "
-                             f"{self.n_intrinsics!r}")
+    def validate(self, names: dict[str, str] | None = None) -> RenderOptions:
+        """Refuse options no render can use; returns ``self``.
+
+        ``names`` maps a field to how the caller's user wrote it (``rasc render`` passes
+        its options, ``{"distance": "--distance", ...}``); messages name the field
+        otherwise. Raises :class:`InputError`, one line."""
+        def name(field: str) -> str:
+            return (names or {}).get(field, field)
+
+        if not _integer(self.intrinsics_views) or self.intrinsics_views < 3:
+            raise InputError(f"{name('intrinsics_views')}: need an integer of at least 3, got "
+                             f"{self.intrinsics_views!r}")
         if len(self.poses_deg) < 3:
-            raise InputError(f"--poses: need at least 3 pan-tilt positions, got "
+            raise InputError(f"{name('poses_deg')}: need at least 3 pan-tilt positions, got "
                              f"{len(self.poses_deg)}")
         for k, pose in enumerate(self.poses_deg):
-            finite_numbers(pose, f"--poses[{k}]", count=2, what="pan, tilt in degrees")
-        if finite_number(self.target_distance, "--distance") <= 0:
-            raise InputError(f"--distance must be a positive number of metres, got "
-                             f"{self.target_distance}")
+            finite_numbers(pose, f"{name('poses_deg')}[{k}]", count=2,
+                           what="pan, tilt in degrees")
+        if finite_number(self.distance, name("distance")) <= 0:
+            raise InputError(f"{name('distance')} must be a positive number of metres, got "
+                             f"{self.distance}")
         if not _integer(self.seed) or not 0 <= self.seed <= MAX_SEED:
-            raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {self.seed!r}")
-        for flag, value, unit, top in (("--noise", self.noise_sigma, "grey levels", MAX_NOISE),
-                                       ("--blur", self.blur_sigma, "pixels", MAX_BLUR_PX)):
-            if not 0 <= finite_number(value, flag) <= top:
-                raise InputError(f"{flag} must be a number from 0 to {top:g} ({unit}), "
+            raise InputError(f"{name('seed')} must be an integer from 0 to 2**63-1, got "
+                             f"{self.seed!r}")
+        for field, unit, top in (("image_noise", "grey levels", MAX_NOISE),
+                                 ("blur", "pixels", MAX_BLUR_PX)):
+            value = getattr(self, field)
+            if not 0 <= finite_number(value, name(field)) <= top:
+                raise InputError(f"{name(field)} must be a number from 0 to {top:g} ({unit}), "
                                  f"got {value:g}")
-        if len(self.dist) > MAX_DIST_COEFFS:
-            raise InputError(f"--distortion: at most {MAX_DIST_COEFFS} coefficients "
-                             f"(k1,k2,p1,p2,k3), got {len(self.dist)}")
-        finite_numbers(self.dist, "--distortion", what="k1,k2,p1,p2,k3")
+        if len(self.distortion) > MAX_DIST_COEFFS:
+            raise InputError(f"{name('distortion')}: at most {MAX_DIST_COEFFS} coefficients "
+                             f"(k1,k2,p1,p2,k3), got {len(self.distortion)}")
+        finite_numbers(self.distortion, name("distortion"), what="k1,k2,p1,p2,k3")
+        return self
+
+
+def _renamed_init(init):
+    def __init__(self, *args, **kwargs):
+        for old, new in _RENAMED.items():
+            if old in kwargs:
+                warnings.warn(f"RenderOptions({old}=...) is RenderOptions({new}=...) since "
+                              "rasc 0.3; the old name goes in 0.4", DeprecationWarning,
+                              stacklevel=2)
+                kwargs[new] = kwargs.pop(old)
+        init(self, *args, **kwargs)
+    __init__.__doc__ = init.__doc__
+    return __init__
+
+
+def _renamed_property(old: str, new: str) -> property:
+    def get(self):
+        warnings.warn(f"RenderOptions.{old} is RenderOptions.{new} since rasc 0.3; the old "
+                      "name goes in 0.4", DeprecationWarning, stacklevel=2)
+        return getattr(self, new)
+    return property(get, doc=f"Deprecated: :attr:`{new}`.")
+
+
+RenderOptions.__init__ = _renamed_init(RenderOptions.__init__)
+for _old, _new in _RENAMED.items():
+    setattr(RenderOptions, _old, _renamed_property(_old, _new))
 
 
 def _integer(value) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
-def parse_poses(text: str) -> tuple[tuple[float, float], ...]:
+def parse_poses(text: str, where: str = "poses") -> tuple[tuple[float, float], ...]:
     """``"0,0;8,8;-8,0"`` → ((0, 0), (8, 8), (-8, 0)) degrees; ``"paper"`` → the nine; the
     name of a positions file (:func:`read_positions`, ``.csv`` or ``.toml``) → its
-    positions."""
+    positions. ``where`` names the value in messages (``rasc render`` passes ``--poses``)."""
     if text.strip() == "paper":
         return PAPER_POSES_DEG
     if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).is_file():
         return read_positions(text.strip())
-    return tuple(finite_numbers(item, f"--poses[{k}]", count=2, what="pan,tilt in degrees",
+    return tuple(finite_numbers(item, f"{where}[{k}]", count=2, what="pan,tilt in degrees",
                                 text=True) for k, item in enumerate(text.split(";")))
 
 
@@ -230,7 +280,7 @@ def visible_corners(T_cam_from_world: np.ndarray, board, K: np.ndarray,
 
 
 def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
-                     log=None) -> float:
+                     log=None, names: dict[str, str] | None = None) -> float:
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
@@ -241,11 +291,15 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
     Raises
     ------
     InputError
-        Naming the ``--poses`` item or the ``--distance`` that cannot be rendered usefully,
-        or the eye and pose where the ground truth disagrees with the model.
+        Naming the ``poses_deg`` item or the ``distance`` that cannot be rendered usefully
+        (as ``names`` maps them, :meth:`RenderOptions.validate`), or the eye and pose
+        where the ground truth disagrees with the model.
     """
+    def name(field: str) -> str:
+        return (names or {}).get(field, field)
+
     board, size = sim.board, sim.image_size
-    d = options.target_distance
+    d = options.distance
     smallest = math.inf
     for eye in EYES:  # the intrinsics views are taken at home
         sim.set_angles(eye, 0.0, 0.0)
@@ -257,16 +311,17 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
             try:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             except InputError as exc:
-                raise InputError(f"--poses: item {k} ({pan:g},{tilt:g}): {exc}") from None
+                raise InputError(f"{name('poses_deg')}: item {k} ({pan:g},{tilt:g}): "
+                                 f"{exc}") from None
         for eye in EYES:
-            sim.check_ground_truth(eye, f"--poses item {k}")
+            sim.check_ground_truth(eye, f"{name('poses_deg')} item {k}")
             T = sim.T_cam_from_world(eye)
             if partial:     # a target seen in part: any share of it may leave the image
                 ids, _ = visible_corners(T, board, sim.K(eye), size, dist)
                 if len(ids) >= MIN_VIEW_CORNERS:
                     smallest = min(smallest, _square_px(T, board, sim.K(eye)))
                 elif log is not None:
-                    log(f"--poses item {k} ({pan:g}, {tilt:g}) deg: the {eye} eye sees "
+                    log(f"{name('poses_deg')} item {k} ({pan:g}, {tilt:g}) deg: the {eye} eye sees "
                         f"{len(ids)} corner(s) of the target, fewer than {MIN_VIEW_CORNERS}: "
                         "rendered, and skipped when calibrating")
                 continue
@@ -274,15 +329,16 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
                 if dist is not None and _visible(T, board, sim.K(eye), size, None,
                                                  board.object_points()):
                     raise InputError(
-                        f"--distortion {','.join(f'{v:g}' for v in dist)}: at pan, tilt = "
+                        f"{name('distortion')} {','.join(f'{v:g}' for v in dist)}: at pan, tilt = "
                         f"({pan:g}, {tilt:g}) deg the distortion moves corners of the board "
                         f"outside the {eye} image ({size[0]}x{size[1]}, {MARGIN_PX:g} px "
                         "margin), which fits without it; use smaller coefficients")
                 raise InputError(
-                    f"--distance {d:g}: at pan, tilt = ({pan:g}, {tilt:g}) deg the corners of "
-                    f"the {board.nx}x{board.ny} board do not all fit inside the {eye} image "
-                    f"({size[0]}x{size[1]}, {MARGIN_PX:g} px margin); put the board farther "
-                    f"away (--distance) or use smaller pan-tilt angles (--poses)")
+                    f"{name('distance')} {d:g}: at pan, tilt = ({pan:g}, {tilt:g}) deg the "
+                    f"corners of the {board.nx}x{board.ny} board do not all fit inside the "
+                    f"{eye} image ({size[0]}x{size[1]}, {MARGIN_PX:g} px margin); put the "
+                    f"board farther away ({name('distance')}) or use smaller pan-tilt angles "
+                    f"({name('poses_deg')})")
             smallest = min(smallest, _square_px(T, board, sim.K(eye)))
     return smallest
 
@@ -344,10 +400,10 @@ def unit_summary(sim) -> list[str]:
 
 
 def distortion_of(options: RenderOptions) -> tuple[np.ndarray, bool]:
-    """The five distortion coefficients (k1 k2 p1 p2 k3) of ``options.dist`` (zeros
+    """The five distortion coefficients (k1 k2 p1 p2 k3) of ``options.distortion`` (zeros
     beyond those given) and whether any is non-zero."""
     dist = np.zeros(5)
-    dist[:len(options.dist)] = options.dist
+    dist[:len(options.distortion)] = options.distortion
     return dist, bool(np.any(dist != 0))
 
 
@@ -361,12 +417,13 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
     image = sim.render_grey(eye)
     if eye in warp:
         image = warp[eye](image)
-    return degrade(image, rng, blur_sigma=options.blur_sigma, noise_sigma=options.noise_sigma)
+    return degrade(image, rng, blur_sigma=options.blur, noise_sigma=options.image_noise)
 
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
                    model_path: str | Path | None = None, quiet: bool = False,
-                   units: dict | None = None, board=None) -> Path:
+                   units: dict | None = None, board=None,
+                   names: dict[str, str] | None = None) -> Path:
     """Render the dataset into folder ``out`` (created; must be empty or absent).
 
     ``units`` ({eye: :class:`rasc.sim.units.UnitBuild`}) makes the pan-tilt units
@@ -383,6 +440,7 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     around the stock head (:func:`rasc.sim.scene.scene_xml`), instead of the model's; not
     with ``model_path``. For a ChArUco target every view's ground truth also lists the
     corners inside the image, by id (``views.<file>.corners``: ``ids``, ``uv`` in pixels).
+    ``names``: how messages name the options (:meth:`RenderOptions.validate`).
     """
     from rasc.vision.dataset import write_dataset_image, write_dataset_index
 
@@ -392,13 +450,15 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
     board, images, gt = _render(options, model_path, quiet, units, board,
-                                lambda name, image: write_dataset_image(out, name, image))
+                                lambda name, image: write_dataset_image(out, name, image),
+                                names)
     return write_dataset_index(out, board, images, gt, angle_unit="deg", length_unit="m")
 
 
 def render_in_memory(options: RenderOptions = RenderOptions(), *,
                      model_path: str | Path | None = None, quiet: bool = False,
-                     units: dict | None = None, board=None):
+                     units: dict | None = None, board=None,
+                     names: dict[str, str] | None = None):
     """Render the dataset of ``options`` into memory: a
     :class:`rasc.vision.dataset.Dataset` holding its images as arrays and the ground
     truth as its ``truth`` (what :func:`render_dataset` writes, without a file;
@@ -410,7 +470,7 @@ def render_in_memory(options: RenderOptions = RenderOptions(), *,
 
     pixels: dict[str, np.ndarray] = {}
     board, images, gt = _render(options, model_path, quiet, units, board,
-                                pixels.__setitem__)
+                                pixels.__setitem__, names)
     # the truth as ground_truth.json holds it (JSON types): what the folder's reader gives
     truth = json.loads(dumps_json(gt))
     ds = Dataset.in_memory(board, images, pixels, angle_unit="deg", length_unit="m",
@@ -419,8 +479,8 @@ def render_in_memory(options: RenderOptions = RenderOptions(), *,
     return ds
 
 
-def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
-            ) -> tuple:
+def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
+            names: dict[str, str] | None = None) -> tuple:
     """Render every view, giving each image to ``put(file, image)``; returns (the
     board, the manifest's image entries, the ground truth document)."""
     from rasc.sim.scene import (
@@ -429,6 +489,8 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
         distortion_warp,
     )
 
+    options.validate(names)
+    distance = (names or {}).get("distance", "distance")
     rng = np.random.default_rng(options.seed)
     with contextlib.ExitStack() as stack:
         if board is not None and model_path is not None:
@@ -446,18 +508,19 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
         for eye in EYES:
             gt[eye]["dist"] = dist.tolist()
         # fail on bad positions or distances before rendering anything
-        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
         square_px = check_pose_views(
             sim, options, dist if distorted else None,
-            log=None if quiet else (lambda line: print(f"render: {line}", file=sys.stderr)))
+            log=None if quiet else (lambda line: print(f"render: {line}", file=sys.stderr)),
+            names=names)
         if square_px < MIN_DETECTABLE_SQUARE_PX:
-            raise InputError(f"--distance {options.target_distance:g}: board squares would be "
+            raise InputError(f"{distance} {options.distance:g}: board squares would be "
                              f"only {square_px:.1f} px in the pose views, where corner "
                              f"detection fails (measured: none found at 12.5 px); bring the "
                              f"board closer")
         if square_px < MIN_SQUARE_PX:     # a warning, not progress: printed even with --quiet
             print(f"rasc render: warning: board squares are only {square_px:.1f} px in the "
-                  f"pose views at --distance {options.target_distance:g}; corner detection "
+                  f"pose views at {distance} {options.distance:g}; corner detection "
                   f"was measured to fail below ~{MIN_SQUARE_PX - 1:g} px", file=sys.stderr)
         if not quiet:
             for line in unit_summary(sim):
@@ -466,7 +529,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
             if distorted else {}
         views: dict[str, dict] = {}
         images: list[dict] = []
-        total = 2 * (options.n_intrinsics + len(options.poses_deg))
+        total = 2 * (options.intrinsics_views + len(options.poses_deg))
         bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
                                            unit="image"))
 
@@ -489,11 +552,11 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
             sim.set_angles("right", 0.0, 0.0)
             T_base_from_cam = invert_transform(sim.T_cam_from_base(eye))
             for k, T_cw in enumerate(intrinsics_board_poses(
-                    rng, board, sim.K(eye), size, options.n_intrinsics,
+                    rng, board, sim.K(eye), size, options.intrinsics_views,
                     dist if distorted else None)):
                 sim.set_target(T_base_from_cam @ T_cw)
                 shoot(eye, f"intrinsics/{eye}_{k:03d}.png", {"role": "intrinsics"})
-        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
         for k, (pan, tilt) in enumerate(options.poses_deg):
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
@@ -502,10 +565,10 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put
                       {"role": "pose", "pan": float(pan), "tilt": float(tilt),
                        "view": f"{k:02d}"})
         gt["views"] = views
-        gt["render_options"] = {"seed": options.seed, "n_intrinsics": options.n_intrinsics,
+        gt["render_options"] = {"seed": options.seed, "n_intrinsics": options.intrinsics_views,
                                 "poses_deg": [list(p) for p in options.poses_deg],
-                                "target_distance": options.target_distance,
-                                "noise_sigma": options.noise_sigma,
-                                "blur_sigma": options.blur_sigma, "dist": dist.tolist()}
+                                "target_distance": options.distance,
+                                "noise_sigma": options.image_noise,
+                                "blur_sigma": options.blur, "dist": dist.tolist()}
         gt["model_file"] = Path(gt["model_file"]).name
     return board, images, gt

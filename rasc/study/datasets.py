@@ -128,31 +128,21 @@ def render_task(task: RenderTask) -> dict | tuple:
     try:
         options = RenderOptions(
             poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
-            n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
-            seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
-            dist=tuple(full["distortion"]))
+            intrinsics_views=full["intrinsics_views"], distance=full["distance"],
+            seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
+            distortion=tuple(full["distortion"]))
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
-                              units=unit_builds(r))
+                              units=unit_builds(r), names=RENDER_NAMES)
         doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
         return (doc, ds) if task.keep else doc
     except RascError as exc:     # name the cell's render parameters, not a CLI flag
         what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
         raise type(exc)(f"{task.where}: the dataset for {what}: "
-                        f"{spec_words(' '.join(str(exc).split()))}") from None
+                        f"{' '.join(str(exc).split())}") from None
 
 
-#: the renderer's option names (its command's flags) and the spec's keys for them
-FLAG_KEYS = (("--intrinsics-views", "intrinsics_views"), ("--distance", "distance"),
-             ("--noise", "image_noise"), ("--blur", "blur"), ("--distortion", "distortion"),
-             ("--poses", "the positions (layout, positions, motion_deg)"),
-             ("--seed", "seed"))
-
-
-def spec_words(message: str) -> str:
-    """A renderer's message in the spec's words: each option named by its spec key."""
-    for flag, key in FLAG_KEYS:
-        message = message.replace(flag, key)
-    return message
+#: RenderOptions' fields have the spec's names; the positions are the spec's layout
+RENDER_NAMES = {"poses_deg": "the positions (layout, positions, motion_deg)"}
 
 
 def folder_task(task: FolderTask) -> dict:
@@ -266,10 +256,10 @@ def pose_task(task: PoseTask) -> dict:
         scene = record["render_options"]
         model_path, units = None, None
     board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
-    options = RenderOptions(poses_deg=poses, target_distance=scene["target_distance"],
-                            seed=scene["seed"], noise_sigma=scene["noise_sigma"] or 0.0,
-                            blur_sigma=scene["blur_sigma"] or 0.0,
-                            dist=tuple(scene["dist"] or ()))
+    options = RenderOptions(poses_deg=poses, distance=scene["target_distance"],
+                            seed=scene["seed"], image_noise=scene["noise_sigma"] or 0.0,
+                            blur=scene["blur_sigma"] or 0.0,
+                            distortion=tuple(scene["dist"] or ()))
     dist, distorted = distortion_of(options)
     rng = np.random.default_rng(np.random.SeedSequence(
         [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
@@ -280,7 +270,7 @@ def pose_task(task: PoseTask) -> dict:
         if sim.board != board:
             raise InputError(f"{where}: intrinsics_from = 'dataset': the scene's board "
                              f"{sim.board} is not the dataset's {board}")
-        sim.set_target(T_base_from_world_facing(board, distance=options.target_distance))
+        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
         if record is not None:
             gt = sim.ground_truth()
             diff = _differs(sim.T_base_from_world.tolist(), record["T_base_from_world"]) \

@@ -86,8 +86,8 @@ from rasc.study.cells import (  # noqa: F401 (re-exported: rasc.study.engine's n
     verified_cell,
 )
 from rasc.study.datasets import (  # noqa: F401
-    FLAG_KEYS,
     POSE_RENDER_KEY,
+    RENDER_NAMES,
     SAME_SCENE_ATOL,
     FolderTask,
     PoseTask,
@@ -107,7 +107,6 @@ from rasc.study.datasets import (  # noqa: F401
     pose_task,
     render_task,
     same_poses,
-    spec_words,
     unit_builds,
 )
 from rasc.study.executors import Executor, WorkerCrashed, make_executor, option_names

@@ -312,7 +312,7 @@ def test_calibrate_runs_a_plugin_and_names_the_eye_when_it_fails(plugins, tmp_pa
     (10 intrinsics views), rendered once per run into conftest's shared cache."""
     from rasc.testing import render_cached
 
-    data = render_cached(rasc_testing_cache, n_intrinsics=10)
+    data = render_cached(rasc_testing_cache, intrinsics_views=10)
     docs = {}
     for name in ("userplug:good", "rasc"):
         out = tmp_path / f"{name.replace(':', '_')}.json"

@@ -30,7 +30,7 @@ def offset_head(tmp_path_factory):
     from rasc.sim.units import UnitBuild
 
     folder = tmp_path_factory.mktemp("offset20") / "ds"
-    render_dataset(folder, RenderOptions(n_intrinsics=8, seed=0), quiet=True,
+    render_dataset(folder, RenderOptions(intrinsics_views=8, seed=0), quiet=True,
                    units={eye: UnitBuild(tilt_axis_offset_mm=OFFSET_MM) for eye in EYES})
     return folder
 

@@ -79,7 +79,7 @@ def test_bad_pixel_sigma_is_refused():
 def refined(rasc_render):
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
 
-    return calibrate_dataset(rasc_render(n_intrinsics=8).load(),
+    return calibrate_dataset(rasc_render(intrinsics_views=8).load(),
                              CalibrationOptions(model="general"))
 
 

@@ -42,7 +42,7 @@ def config(per_unit=False, **kw) -> ImportConfig:
 
 @pytest.fixture(scope="module")
 def small(rasc_render):
-    return rasc_render(n_intrinsics=8).load()
+    return rasc_render(intrinsics_views=8).load()
 
 
 @pytest.fixture(scope="module")

@@ -95,7 +95,7 @@ def pdf_pages(data: bytes) -> int:
 def calibrated(rasc_render):
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
 
-    ds = rasc_render(n_intrinsics=8).load()
+    ds = rasc_render(intrinsics_views=8).load()
     return ds, calibrate_dataset(ds, CalibrationOptions(model="general")).to_dict()
 
 
@@ -151,7 +151,7 @@ def test_cli_refuses_a_missing_calibration(tmp_path, rasc_cli):
 
 @pytest.mark.slow
 def test_calibrate_writes_the_report_too(rasc_render, tmp_path, rasc_cli):
-    ds = rasc_render(n_intrinsics=8).path
+    ds = rasc_render(intrinsics_views=8).path
     cal, pdf = tmp_path / "cal.json", tmp_path / "report.pdf"
     # the report may not overwrite the calibration (an input of the report)
     code, _, err = rasc_cli("calibrate", str(ds), "--out", str(cal), "--report", str(cal),

@@ -20,7 +20,7 @@ def test_render_detect_calibrate_aprilgrid(tmp_path):
 
     board = AprilGrid((7, 5), 0.08, 0.3)
     poses = ((0, 0), (8, 8), (-8, -8), (30, 0), (-30, 0), (0, -25), (20, 20), (45, 0))
-    render_dataset(tmp_path / "ds", RenderOptions(seed=5, n_intrinsics=6, poses_deg=poses),
+    render_dataset(tmp_path / "ds", RenderOptions(seed=5, intrinsics_views=6, poses_deg=poses),
                    quiet=True, board=board)
     ds = load_dataset(tmp_path / "ds")
     assert ds.board == board

@@ -20,7 +20,7 @@ def test_render_detect_calibrate_wide_charuco(tmp_path):
 
     board = CharucoBoard((12, 9), 0.06, 0.045)
     poses = ((0, 0), (30, 0), (-30, 0), (0, -25), (20, 20), (30, 30))
-    render_dataset(tmp_path / "ds", RenderOptions(seed=4, n_intrinsics=6, poses_deg=poses),
+    render_dataset(tmp_path / "ds", RenderOptions(seed=4, intrinsics_views=6, poses_deg=poses),
                    quiet=True, board=board)
     ds = load_dataset(tmp_path / "ds")
     assert ds.board == board

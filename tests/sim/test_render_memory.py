@@ -10,8 +10,8 @@ from rasc.vision import load_dataset, write_dataset
 from rasc.vision.board import parse_target
 from rasc.vision.dataset import forget_detections
 
-SMALL = RenderOptions(n_intrinsics=3, poses_deg=((0, 0), (8, 0), (0, 8)), seed=4,
-                      noise_sigma=2.0, blur_sigma=0.7)
+SMALL = RenderOptions(intrinsics_views=3, poses_deg=((0, 0), (8, 0), (0, 8)), seed=4,
+                      image_noise=2.0, blur=0.7)
 
 
 @pytest.mark.slow

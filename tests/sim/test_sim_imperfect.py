@@ -31,7 +31,7 @@ from rasc.vision.board import DEFAULT_BOARD
 
 from running import run_rasc
 
-SMALL = RenderOptions(poses_deg=((0.0, 0.0), (8.0, 8.0), (-8.0, -6.0)), n_intrinsics=3)
+SMALL = RenderOptions(poses_deg=((0.0, 0.0), (8.0, 8.0), (-8.0, -6.0)), intrinsics_views=3)
 SKEW_DEG = 1.0
 IMPERFECT = UnitBuild(tilt_axis_offset_mm=(4.0, 30.0, -7.0), axis_skew_deg=SKEW_DEG,
                       pan_zero_deg=0.5, tilt_zero_deg=-0.5, pan_scale=1.003, tilt_scale=0.996)

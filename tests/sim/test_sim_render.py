@@ -342,3 +342,20 @@ def test_importing_rasc_sim_loads_neither_mujoco_nor_cv2():
                    MUJOCO_GL=None)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["False", "False"]
+
+
+def test_old_render_option_names_work_for_a_minor_version_with_a_warning():
+    """0.3 gave RenderOptions the study spec's names; the 0.2 names still construct and
+    read, each with a DeprecationWarning naming the new one."""
+    from rasc.sim.render import RenderOptions
+    with pytest.warns(DeprecationWarning, match=r"RenderOptions\(distance=\.\.\.\)"):
+        old = RenderOptions(target_distance=1.5, seed=2)
+    assert old == RenderOptions(distance=1.5, seed=2)
+    for name, new, value in (("n_intrinsics", "intrinsics_views", 5),
+                             ("noise_sigma", "image_noise", 2.0), ("blur_sigma", "blur", 0.5),
+                             ("dist", "distortion", (0.1,))):
+        with pytest.warns(DeprecationWarning, match=new):
+            o = RenderOptions(**{name: value})
+        assert getattr(o, new) == value
+        with pytest.warns(DeprecationWarning, match=f"RenderOptions.{new}"):
+            assert getattr(o, name) == value

@@ -277,9 +277,17 @@ def test_an_output_folder_that_cannot_be_made_is_one_line_exit_2(tmp_path, capsy
 
 
 def test_render_errors_name_the_spec_key_not_a_flag():
-    from rasc.study.engine import spec_words
-    msg = spec_words("--distance 0.2: at pan, tilt = (8, 8) deg the corners of --blur")
-    assert "--" not in msg and "distance 0.2" in msg and "blur" in msg
+    """RenderOptions' fields are the spec's keys: its messages name them as a study spec
+    does, and only a command (rasc render) maps them to its flags."""
+    from rasc.errors import InputError
+    from rasc.sim.render import RenderOptions
+    for field, value in (("distance", -1.0), ("blur", 99.0), ("image_noise", -2.0),
+                         ("intrinsics_views", 2)):
+        with pytest.raises(InputError) as e:
+            RenderOptions(**{field: value}).validate()
+        assert str(e.value).startswith(field) and "--" not in str(e.value)
+    with pytest.raises(InputError, match=r"^--distance must be a positive number"):
+        RenderOptions(distance=-1.0).validate({"distance": "--distance"})
 
 
 # ------------------------------------------------------------ plugins in a study

@@ -100,7 +100,7 @@ def test_assert_handeye_close_passes_and_fails_with_both_errors():
 
 # ------------------------------------------------------------ rendered datasets
 
-SMALL = {"n_intrinsics": 4, "poses_deg": [(0, 0), (8, 0), (0, 8), (-8, -8)]}
+SMALL = {"intrinsics_views": 4, "poses_deg": [(0, 0), (8, 0), (0, 8), (-8, -8)]}
 
 
 @pytest.mark.slow

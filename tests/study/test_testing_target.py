@@ -7,7 +7,7 @@ from rasc.testing import dataset_key, render_cached, target_board
 from rasc.vision import Dataset
 from rasc.vision.board import Board, CharucoBoard
 
-SMALL = {"n_intrinsics": 3, "poses_deg": [[0, 0], [8, 0], [0, 8]]}
+SMALL = {"intrinsics_views": 3, "poses_deg": [[0, 0], [8, 0], [0, 8]]}
 CHARUCO = "charuco:12x9,0.06,0.045"
 
 

@@ -39,7 +39,7 @@ def test_a_bad_field_is_one_line_naming_it():
 
 def test_the_key_covers_the_units_and_keeps_the_ideal_heads():
     from rasc.datasets.render import render_key
-    opts = RenderOptions(n_intrinsics=8)
+    opts = RenderOptions(intrinsics_views=8)
     ideal = render_key(opts)
     assert render_key(opts, units=None) == ideal
     offset = render_key(opts, units=unit_builds({"tilt_axis_offset_mm": OFFSET}))
@@ -56,7 +56,7 @@ def test_the_render_is_of_the_imperfect_head(rasc_render):
     5 mm shows the offset was rendered; the general model recovers it (< 0.5 mm)."""
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
 
-    data = rasc_render(n_intrinsics=8, units={"tilt_axis_offset_mm": OFFSET})
+    data = rasc_render(intrinsics_views=8, units={"tilt_axis_offset_mm": OFFSET})
     ds = data.load()
     paper = calibrate_dataset(ds, CalibrationOptions(model="paper"))
     general = calibrate_dataset(ds)

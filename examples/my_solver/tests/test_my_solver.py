@@ -47,7 +47,7 @@ def test_not_much_worse_than_rasc(rasc_pose_set_factory):
     assert np.all(np.mean(mine, axis=0) < 1.5 * np.mean(rasc, axis=0))
 
 
-@pytest.mark.parametrize("rasc_dataset", [{"n_intrinsics": 10}], indirect=True)
+@pytest.mark.parametrize("rasc_dataset", [{"intrinsics_views": 10}], indirect=True)
 def test_rendered_images_end_to_end(rasc_dataset):
     """rasc's whole pipeline (detection, intrinsics, extrinsics) on rendered images with
     this solver for the hand-eye step, against the model's ground truth. rasc's own
