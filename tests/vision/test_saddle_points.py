@@ -19,7 +19,7 @@ def _corner_image(x0: float, y0: float, size: int = 41) -> np.ndarray:
     return np.rint(20 + 215 * white).astype(np.uint8)
 
 
-def test_saddle_points_find_drawn_corners_and_refuse_flat_patches():
+def test_saddle_points_find_drawn_corners_and_refuse_a_spot():
     rng = np.random.default_rng(7)
     truth = 20 + rng.uniform(0, 1, size=(6, 2))
     found = []
@@ -34,9 +34,11 @@ def test_saddle_points_find_drawn_corners_and_refuse_flat_patches():
     # with r = 6, sigma = 2); 0.01 px is twice that and an eighth of cornerSubPix's 0.08
     # px pixel locking on rendered edges
     assert np.abs(np.array(found) - truth).max() < 0.01
-    flat = np.full((41, 41), 128, np.uint8)
-    _, ok = saddle_points(flat, np.array([[20.0, 20.0]]), 4, 1.3)
-    assert not ok.any()
+    # a bright spot is a maximum, not a saddle (the fitted Hessian is definite): refused
+    ys, xs = np.mgrid[0:41, 0:41]
+    spot = np.rint(20 + 215 * np.exp(-((xs - 20.3) ** 2 + (ys - 19.8) ** 2) / 50.0))
+    c, ok = saddle_points(spot.astype(np.uint8), np.array([[20.0, 20.0]]), 4, 1.3)
+    assert not ok.any() and np.all(c == [[20.0, 20.0]])
 
 
 def test_charuco_window_stays_inside_the_white_margin():
