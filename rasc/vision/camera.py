@@ -852,7 +852,9 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
         obj, c, K, dist, rvec, tvec,
         criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12))
     T = T_from_rvec_tvec(rvec, tvec)
-    if T[2, 3] <= 0:
+    # the corners seen must lie in front of the camera (not the board's origin: a large
+    # board seen in part at a wide pan may have its corner 0 behind the image plane)
+    if not np.all(obj @ T[2, :3] + T[2, 3] > 0):
         raise DegenerateDataError("estimate_extrinsics: the fitted board lies behind the camera; "
                                   "check the corners and intrinsics")
     d = project_board(board, T, K, dist)[seen] - c
