@@ -137,18 +137,51 @@ def scene_xml(board: Board = DEFAULT_BOARD, head_path: str | os.PathLike | None 
 CHARUCO_TEXTURE = "rasc_charuco_pattern.png"
 
 
+#: The fewest texels per metre of a target's image texture (:func:`texture_image`): the
+#: simulated cameras see about 1.15 px per mm at 1 m, so 2 texels per mm keep the texture
+#: minified (mipmapped) for a target 1 m away or farther. A magnified texture's edges are
+#: bilinear ramps whose corners the saddle refinement locates worse (measured on a 20x15
+#: board of 170 mm squares at 1 m, 706 texels/m: 0.019-0.042 px RMS against the truth;
+#: the same pattern replicated 3x, 2118 texels/m: 0.013-0.019 px).
+MIN_TEXELS_PER_METRE = 2000.0
+
+
+def _face_width_m(board) -> float:
+    """The width (metres) the target's texture covers: the target's ``face()`` (x0, y0, x1,
+    y1) when it has one, else its squares (the chessboard grid around the inner corners)."""
+    face = getattr(board, "face", None)
+    if callable(face):
+        x0, _, x1, _ = face()
+        return float(x1 - x0)
+    return float((board.inner_corners[0] + 1) * board.square_size)
+
+
+def texture_image(board) -> np.ndarray:
+    """The target's printed pattern as the renderer's texture: ``board.texture()`` with each
+    texel repeated k×k times, k the smallest integer giving at least
+    :data:`MIN_TEXELS_PER_METRE` (the pattern's edges lie on texel boundaries, so the
+    repeated image is the same drawing, only finer), rows reversed for MuJoCo."""
+    art = np.asarray(board.texture())
+    k = max(1, int(np.ceil(MIN_TEXELS_PER_METRE * _face_width_m(board) / art.shape[1]
+                           - 1e-9)))
+    if k > 1:
+        art = np.repeat(np.repeat(art, k, axis=0), k, axis=1)
+    # MuJoCo puts a 2-D texture's first row at the face's far edge in y (measured: the
+    # unflipped pattern renders mirrored, its corner 0 at the board's last row), so the
+    # rows go in reversed
+    return np.ascontiguousarray(art[::-1])
+
+
 def scene_assets(board) -> dict[str, bytes]:
     """The files :func:`scene_xml`'s scene needs besides the head: for a ChArUco target its
-    pattern as a PNG (grey, OpenCV's drawing); nothing for a chessboard (a builtin
-    texture). Pass them to MuJoCo's loaders (``assets=``), or write them beside the scene."""
+    pattern as a PNG (grey, OpenCV's drawing, :func:`texture_image`); nothing for a
+    chessboard (a builtin texture). Pass them to MuJoCo's loaders (``assets=``), or write
+    them beside the scene."""
     if not isinstance(board, CharucoBoard):
         return {}
     from rasc.vision.camera import encode_png
 
-    # MuJoCo puts a 2-D texture's first row at the face's far edge in y (measured: the
-    # unflipped pattern renders mirrored, its corner 0 at the board's last row), so the
-    # rows go in reversed
-    return {CHARUCO_TEXTURE: encode_png(np.ascontiguousarray(board.texture()[::-1]))}
+    return {CHARUCO_TEXTURE: encode_png(texture_image(board))}
 
 
 def T_base_from_world_facing(board: Board = DEFAULT_BOARD, distance: float = 1.0,
