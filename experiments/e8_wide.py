@@ -318,7 +318,7 @@ def markdown(results: list[dict], args, folder: Path) -> str:
                      f"{_tri(r, 'paper'):.3f} mm | {_tri(r, 'general'):.3f} mm |")
     lines += ["", "The bar (issue 23): hand-eye translation error at ±30° at most a third "
               "of ±8°'s on the same head (mean of the eyes):", ""]
-    for h in {r["head"] for r in results}:
+    for h in [h for h, _, _ in HEADS if any(r["head"] == h for r in results)]:
         rs = {r["protocol"]: r for r in results if r["head"] == h}
         for base in ("chess8", "charuco8"):
             if base in rs and "charuco30" in rs:
