@@ -43,7 +43,9 @@ ROOMS = (
          "detection), `camera` (intrinsics, extrinsics; re-exports the other two; cv2), "
          "`dataset` (the `rasc-dataset/1` folder)"),
     Room("rasc/sim/", 3, "`scene` (the MuJoCo head: the only mujoco importer, lazily), "
-         "`render` (dataset rendering), `units` (imperfect pan-tilt units), `synthetic`"),
+         "`mjcf` (the scene's MJCF and target texture), `degrade` (noise, blur, "
+         "distortion), `render` (dataset rendering), `units` (imperfect pan-tilt units), "
+         "`synthetic`"),
     Room("sim/models/", None, "the MJCF models of the head and scene, shipped in the wheel as "
          "`rasc/sim/models/` (setup.py)"),
     Room("rasc/head/", 3, "`model` (the calibrated head), `base_to_ptu` (eq. 11–12), "

@@ -46,6 +46,12 @@ INTRINSICS_TURN_DEG = 30.0
 #: the printed extent (longer side, m) of the board the distance range above was set for
 #: (the default 9x6 chessboard of 50 mm squares: 10 squares)
 INTRINSICS_REFERENCE_EXTENT_M = 0.5
+#: a target seen in part is waved at most this many times the reference distances for
+#: its intrinsics views (:func:`intrinsics_board_poses`), seen in part with at least
+#: PARTIAL_INTRINSICS_CORNERS corners; 3 leaves boards up to 1.5 m (a 16x12 ChArUco board
+#: of 75 mm squares) whole, as before
+PARTIAL_INTRINSICS_FAR = 3.0
+PARTIAL_INTRINSICS_CORNERS = 40
 #: the whole board with its quiet zone stays this many pixels inside the image
 MARGIN_PX = 12.0
 #: below this many pixels per square in a pose view, ``rasc render`` warns: measured with
@@ -345,7 +351,8 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
 
 def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray,
                            size: tuple[int, int], n: int, dist=None) -> list[np.ndarray]:
-    """``n`` well-spread board poses ``T_cam_from_world`` fully inside the image.
+    """``n`` well-spread board poses ``T_cam_from_world`` fully inside the image (a target
+    seen in part larger than 1.5 m: showing at least PARTIAL_INTRINSICS_CORNERS corners).
 
     The board faces the camera (board axes = camera axes), tilted by 20–45° about a random
     axis in its plane and turned in-plane by up to ±30°; its centre lies on the ray of a
@@ -360,6 +367,13 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     # (the same draws, scaled: the default board's views are unchanged)
     extent = board.extent()
     far = max(1.0, extent / INTRINSICS_REFERENCE_EXTENT_M)
+    # a target seen in part larger than that (a wall) is not waved whole far away, where
+    # its squares shrink to ~20 px and their corners to 0.12-0.17 px RMS (measured on a
+    # 3.4 m board): its views stay within PARTIAL_INTRINSICS_FAR of the reference
+    # distances and show part of it (at least PARTIAL_INTRINSICS_CORNERS corners)
+    partial = getattr(board, "partial_views", False) and far > PARTIAL_INTRINSICS_FAR
+    if partial:
+        far = PARTIAL_INTRINSICS_FAR
     poses = []
     for _ in range(200 * n):
         if len(poses) == n:
@@ -373,7 +387,8 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
         R = matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) @ \
             matrix_from_rotvec([0.0, 0.0, turn])
         T = make_transform(R, d * ray / np.linalg.norm(ray) - R @ centre_w)
-        if _visible(T, board, K, size, dist):
+        if (len(visible_corners(T, board, K, size, dist)[0]) >= PARTIAL_INTRINSICS_CORNERS
+                if partial else _visible(T, board, K, size, dist)):
             poses.append(T)
     if len(poses) < n:
         raise InputError(f"cannot place {n} whole boards of {nx}x{ny} corners, "

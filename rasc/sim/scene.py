@@ -23,7 +23,9 @@ MuJoCo's global frame is called ``scene`` here (z up), to keep ``world`` for the
 (the chessboard frame w of docs/CONTRACTS.md). Only this module imports ``mujoco``, and
 only inside functions: the OpenGL backend (``MUJOCO_GL``) must be chosen before the first
 import (:func:`gl_backend`), so code that needs the module calls :func:`import_mujoco`.
-Image degradation (noise, blur, lens distortion) is at the end, numpy/scipy only.
+The scene's MJCF (:func:`scene_xml`, :func:`scene_assets`, the model paths) comes from
+:mod:`rasc.sim.mjcf`, image degradation (noise, blur, lens distortion; numpy/scipy only)
+from :mod:`rasc.sim.degrade`; both are re-exported here.
 """
 
 from __future__ import annotations
@@ -47,14 +49,29 @@ from rasc.geometry.transforms import (
     rotation_angle,
     validate_rigid_transform,
 )
-from rasc.sim import models_dir
+from rasc.sim.degrade import (  # noqa: F401  (re-exported: rasc.sim.scene's names)
+    add_pixel_noise,
+    blur,
+    degrade,
+    distort,
+    distortion_warp,
+)
+from rasc.sim.mjcf import (  # noqa: F401  (re-exported: rasc.sim.scene's names)
+    CHARUCO_TEXTURE,
+    HEAD_XML,
+    MODELS_DIR,
+    SCENE_XML,
+    T_base_from_world_facing,
+    scene_assets,
+    scene_xml,
+)
 from rasc.sim.units import IDEAL_BUILD, UnitBuild
-from rasc.vision.board import DEFAULT_BOARD, AprilGrid, Board, CharucoBoard, board_from_dict
-
-#: The repository's model folder (the package is installed editable from the repository).
-MODELS_DIR = models_dir()
-HEAD_XML = MODELS_DIR / "stereo_head.xml"
-SCENE_XML = MODELS_DIR / "scene.xml"
+from rasc.vision.board import (  # noqa: F401  (DEFAULT_BOARD, CharucoBoard re-exported)
+    DEFAULT_BOARD,
+    Board,
+    CharucoBoard,
+    board_from_dict,
+)
 
 #: OpenCV camera axes from MuJoCo camera axes (x right; y up → down; z back → forward).
 _CV_FROM_MJ = np.diag([1.0, -1.0, -1.0])
@@ -132,164 +149,8 @@ def import_mujoco():
     try:
         import mujoco
     except Exception as exc:  # RuntimeError (bad value), AttributeError (osmesa missing)
-        from rasc.interrupt import received
-
-        if received():  # a signal while mujoco loads surfaces as its import error
-            raise KeyboardInterrupt from None
         raise _gl_error(exc) from None
     return mujoco
-
-
-# ---------------------------------------------------------------------------------------
-# Chessboard and scene
-
-
-
-_SCENE_TEMPLATE = """\
-<!-- Stereo head and chessboard target{generated}.
-  Board frame w (site board_origin): corner (i, j) at (i s, j s, 0), +z into the board,
-  the square between corners (0,0) and (1,1) black. Board: {nx}x{ny} inner corners,
-  square {s} m; rasc.sim.scene reads these from the custom numerics below. -->
-<mujoco model="stereo_head scene">
-  <include file="{head}"/>
-
-  <statistic extent="2" center="0.5 0 1.1"/>
-
-  <visual>
-    <global offwidth="1280" offheight="960"/>
-    <quality offsamples="0"/>
-    <headlight ambient=".9 .9 .9" diffuse=".1 .1 .1" specular="0 0 0"/>
-    <!-- clipping: znear 0.005 x extent = 1 cm, zfar 5 x extent = 10 m -->
-    <map znear="0.005" zfar="5"/>
-  </visual>
-
-  <custom>
-    <numeric name="rasc_board_inner_corners" data="{nx} {ny}"/>
-    <numeric name="rasc_board_square_size" data="{s}"/>{target_text}
-  </custom>
-
-  <asset>
-{texture}
-    <material name="board_quiet_zone" rgba="1 1 1 1" specular="0"/>
-    <material name="floor" rgba="0.42 0.42 0.44 1" specular="0"/>
-  </asset>
-
-  <worldbody>
-    <geom name="floor" type="plane" size="0 0 0.05" material="floor" contype="0"
-      conaffinity="0"/>
-    <!-- for the rig picture: behind the head's right, looking at (0.35, 0, 1.2) -->
-    <camera name="overview" pos="-0.45 -0.75 1.6" xyaxes="0.6839 -0.7295 0 0.25 0.2344 0.9395"/>
-    <body name="board_link" mocap="true" pos="{px} {py} {pz}" xyaxes="0 -1 0 0 0 -1">
-      <site name="board_origin" size="0.005" group="5" rgba="1 0 0 0"/>
-      <geom name="board_pattern" type="box" pos="{cx} {cy} {pt}" size="{hx} {hy} {pt}"
-        material="board_checker" contype="0" conaffinity="0"/>
-      <geom name="board_quiet_zone" type="box" pos="{cx} {cy} {qz}"
-        size="{qx} {qy} {qt}" material="board_quiet_zone" contype="0" conaffinity="0"/>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-
-def scene_xml(board: Board = DEFAULT_BOARD, head_path: str | os.PathLike | None = None,
-              *, generated: bool = True) -> str:
-    """MJCF of the head plus a chessboard target (docs/NOTES.md recipe).
-
-    Parameters
-    ----------
-    board : Board
-    head_path : path, optional
-        Head model to include (default: ``sim/models/stereo_head.xml``, absolute). A
-        relative path is written as given: MuJoCo resolves it against the scene file's
-        folder, so use it only for a scene written to a file.
-    generated : bool
-        Say in the header comment that the file was generated.
-
-    Returns
-    -------
-    str
-        The scene; the target is a mocap body ``board_link`` whose frame is the board frame
-        w, placed 1 m in front of the head (``StereoHeadSim.set_target`` moves it).
-    """
-    if not isinstance(board, (Board, CharucoBoard, AprilGrid)):
-        raise InputError(f"board: expected a rasc.vision.board.Board, CharucoBoard or "
-                         f"AprilGrid, got {type(board).__name__}")
-    head = str(HEAD_XML if head_path is None else head_path)
-    nx, ny = board.inner_corners
-    s = board.square_size
-    thick = 0.001  # half-thickness of the printed board; quiet zone 10 mm thick behind it
-    # Cosmetic initial pose (rasc.sim.scene moves it): centre 1 m in front of the default head's
-    # base (scene (0, 0, 1.2), facing scene +x), face towards the head, corner (0,0) top left.
-    # the printed face and its quiet zone (centred on it) from the target (Board.face,
-    # Board.quiet_box)
-    centre, (fx0, fy0, fx1, fy1), (qx0, qy0, qx1, qy1) = \
-        board.centre(), board.face(), board.quiet_box()
-    values = dict(
-        px=1.0, py=centre[0], pz=1.2 + centre[1],
-        cx=(fx0 + fx1) / 2, cy=(fy0 + fy1) / 2, pt=thick,
-        hx=(fx1 - fx0) / 2, hy=(fy1 - fy0) / 2,
-        qz=2 * thick + 0.005, qx=(qx1 - qx0) / 2, qy=(qy1 - qy0) / 2, qt=0.005,
-        rx=(nx + 1) / 2, ry=(ny + 1) / 2, s=s)
-    # The builtin checker's first colour lands on the square between corners (0,0) and
-    # (1,1) when the number of squares along x (nx + 1) is even; otherwise swap the colours
-    # (the colour rule, checked by sampling renders in tests/sim/test_sim_render.py).
-    black, white = "0 0 0", "1 1 1"
-    rgb1, rgb2 = (black, white) if (nx + 1) % 2 == 0 else (white, black)
-    if isinstance(board, (CharucoBoard, AprilGrid)):
-        # the pattern drawn by OpenCV (CharucoBoard.generateImage), once over the face;
-        # its orientation on the box face is checked by detecting renders
-        # (tests/sim/test_charuco_render.py)
-        texture = (f'    <texture name="board_checker" type="2d" file="{CHARUCO_TEXTURE}"/>\n'
-                   '    <material name="board_checker" texture="board_checker" texrepeat="1 1"'
-                   '\n      texuniform="false" specular="0"/>')
-        target_text = ("\n    <text name=\"rasc_target\" data=\""
-                       + json.dumps(board.to_dict(), sort_keys=True).replace('"', "&quot;")
-                       + "\"/>")
-    else:
-        texture = ('    <!-- the checks\' phase at corner (0,0) depends on the parity of the '
-                   'square count -->\n'
-                   '    <texture name="board_checker" type="2d" builtin="checker" width="1024" '
-                   'height="1024"\n'
-                   f'      rgb1="{rgb1}" rgb2="{rgb2}"/>\n'
-                   '    <material name="board_checker" texture="board_checker" '
-                   f'texrepeat="{values["rx"]:.12g} {values["ry"]:.12g}"\n'
-                   '      texuniform="false" specular="0"/>')
-        target_text = ""
-    return _SCENE_TEMPLATE.format(
-        generated=" (generated by rasc.sim.scene.scene_xml)" if generated else "",
-        head=head, nx=nx, ny=ny, texture=texture, target_text=target_text,
-        **{k: f"{v:.12g}" for k, v in values.items()})
-
-
-#: the name of a ChArUco scene's texture asset (:func:`scene_assets`)
-CHARUCO_TEXTURE = "rasc_charuco_pattern.png"
-
-
-def scene_assets(board) -> dict[str, bytes]:
-    """The files :func:`scene_xml`'s scene needs besides the head: for a ChArUco target its
-    pattern as a PNG (grey, OpenCV's drawing); nothing for a chessboard (a builtin
-    texture). Pass them to MuJoCo's loaders (``assets=``), or write them beside the scene."""
-    if not isinstance(board, (CharucoBoard, AprilGrid)):
-        return {}
-    from rasc.vision.camera import encode_png
-
-    # MuJoCo puts a 2-D texture's first row at the face's far edge in y (measured: the
-    # unflipped pattern renders mirrored, its corner 0 at the board's last row), so the
-    # rows go in reversed
-    return {CHARUCO_TEXTURE: encode_png(np.ascontiguousarray(board.texture()[::-1]))}
-
-
-def T_base_from_world_facing(board: Board = DEFAULT_BOARD, distance: float = 1.0,
-                             centre_base=(0.0, 0.0)) -> np.ndarray:
-    """Board pose (4, 4) facing the head upright, its centre ``distance`` ahead (base +y).
-
-    ``centre_base`` = (up, left) offsets of the board centre, metres (base x, z). Seen by
-    a camera at home, board +x points right (base −z) and +y down (base −x).
-    """
-    R = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])  # cols: x_w y_w z_w
-    centre = np.array([centre_base[0], distance, centre_base[1]], dtype=float)
-    t = centre - R @ board.centre()
-    return make_transform(R, t)
 
 
 # ---------------------------------------------------------------------------------------
@@ -864,89 +725,3 @@ class StereoHeadSim:
 
 
 # ---------------------------------------------------------------------------------------
-# Image degradation (numpy/scipy; applied to renders for realism)
-
-
-def _image(image: np.ndarray, name: str = "image") -> np.ndarray:
-    image = np.asarray(image)
-    if image.dtype != np.uint8 or image.ndim not in (2, 3):
-        raise InputError(f"{name}: expected a uint8 image (H, W) or (H, W, C), got "
-                         f"{image.dtype} {image.shape}")
-    return image
-
-
-def _to_uint8(a: np.ndarray) -> np.ndarray:
-    return np.clip(np.rint(a), 0, 255).astype(np.uint8)
-
-
-def add_pixel_noise(image: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    """Add Gaussian noise of ``sigma`` grey levels to every pixel, round and clip to uint8."""
-    image = _image(image)
-    if not (np.isfinite(sigma) and sigma >= 0):
-        raise InputError(f"noise sigma must be >= 0 grey levels, got {sigma}")
-    return _to_uint8(image + rng.normal(0.0, sigma, image.shape))
-
-
-def blur(image: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian blur of ``sigma`` pixels in both image axes (not across channels), uint8."""
-    image = _image(image)
-    if not (np.isfinite(sigma) and sigma >= 0):
-        raise InputError(f"blur sigma must be >= 0 pixels, got {sigma}")
-    if sigma == 0:
-        return image.copy()
-    from scipy.ndimage import gaussian_filter
-
-    sigmas = (sigma, sigma) + (0,) * (image.ndim - 2)
-    return _to_uint8(gaussian_filter(image.astype(float), sigmas, mode="nearest"))
-
-
-def distortion_warp(K: np.ndarray, dist, size: tuple[int, int]):
-    """The warp of :func:`distort` for one camera, its remap computed once.
-
-    Returns ``warp(image) -> image`` for images of ``size`` (width, height); the remap
-    costs ~0.8 s at 1280×960, the warp itself ~0.03 s, so a renderer builds it once per
-    camera.
-    """
-    from scipy.ndimage import map_coordinates
-
-    from rasc.geometry.lens import distortion_remap
-
-    map_x, map_y = distortion_remap(K, dist, size)
-    coords = np.stack([map_y.astype(float), map_x.astype(float)])
-
-    def warp(image: np.ndarray) -> np.ndarray:
-        image = _image(image)
-        channels = image[..., None] if image.ndim == 2 else image
-        out = np.stack([map_coordinates(channels[..., c].astype(float), coords, order=1,
-                                        mode="constant", cval=0.0)
-                        for c in range(channels.shape[2])], axis=-1)
-        return _to_uint8(out.reshape(image.shape))
-
-    return warp
-
-
-def distort(image: np.ndarray, K: np.ndarray, dist) -> np.ndarray:
-    """Warp an ideal render into the image of a camera with lens distortion ``dist``.
-
-    A point whose ideal projection (pinhole ``K``) is ``uv`` lands at
-    ``rasc.geometry.lens.project_points`` with ``dist`` (OpenCV model, same ``K``). Bilinear
-    interpolation; pixels whose ray falls outside the render are black.
-    """
-    image = _image(image)
-    h, w = image.shape[:2]
-    return distortion_warp(K, dist, (w, h))(image)
-
-
-def degrade(image: np.ndarray, rng: np.random.Generator, *, K: np.ndarray | None = None,
-            dist=None, blur_sigma: float = 0.0, noise_sigma: float = 0.0) -> np.ndarray:
-    """Lens distortion (if ``dist`` has a non-zero term; needs ``K``), then blur, then noise."""
-    image = _image(image)
-    if dist is not None and np.any(np.asarray(dist, dtype=float) != 0):
-        if K is None:
-            raise InputError("degrade: lens distortion needs the camera matrix K")
-        image = distort(image, K, dist)
-    if blur_sigma:
-        image = blur(image, blur_sigma)
-    if noise_sigma:
-        image = add_pixel_noise(image, noise_sigma, rng)
-    return image

@@ -33,18 +33,21 @@ from rasc.vision.board import (  # noqa: F401  (Board, MIN_INTRINSICS_VIEWS re-e
     spans_plane,
 )
 from rasc.vision.detect import (  # noqa: F401  (re-exported: the camera pipeline's names)
+    CHARUCO_METHODS,
     CHARUCO_SUBPIX_FRACTION,
     DETECTORS,
     ORDER_RULES,
     SUBPIX_CRITERIA,
     _opencv_threads,
     _saddle_window,
+    charuco_saddle_window,
     colour_score,
     detect_charuco,
     detect_corners,
     detect_views,
     order_corners,
     refine_saddle,
+    saddle_points,
     square_means,
 )
 from rasc.vision.images import (  # noqa: F401  (re-exported: the camera pipeline's names)
@@ -337,7 +340,9 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
         obj, c, K, dist, rvec, tvec,
         criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12))
     T = T_from_rvec_tvec(rvec, tvec)
-    if T[2, 3] <= 0:
+    # the corners seen must lie in front of the camera (not the board's origin: a large
+    # board seen in part at a wide pan may have its corner 0 behind the image plane)
+    if not np.all(obj @ T[2, :3] + T[2, 3] > 0):
         raise DegenerateDataError("estimate_extrinsics: the fitted board lies behind the camera; "
                                   "check the corners and intrinsics")
     d = project_board(board, T, K, dist)[seen] - c

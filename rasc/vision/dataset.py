@@ -307,7 +307,7 @@ class Dataset:
             digest = _content_digest(e.path)
         key = (None if digest is None
                else (digest, self.board.inner_corners, method, order_by) if not partial
-               else (digest, self.board, min_corners))
+               else (digest, self.board, method, min_corners))
         found, c = _remembered(key)
         if not found:
             c = detect_corners(self.read(e) if image is None else image, self.board,
