@@ -25,6 +25,7 @@ from rasc.vision.board import (
     spans_plane,
 )
 from rasc.vision.camera import SUBPIX_CRITERIA, _opencv_threads, to_grey
+from rasc.vision.detect import saddle_points
 
 #: cornerSubPix half-window as a fraction of the clean saddle around a tag corner (the
 #: smaller of the tag's 2-bit border and the corner square, in pixels), clipped to
@@ -65,15 +66,24 @@ _CV_TO_PRINTED = (1, 0, 3, 2)
 
 @_opencv_threads(1)
 def detect_aprilgrid(image: np.ndarray, board: AprilGrid,
-                     min_corners: int = MIN_VIEW_CORNERS) -> np.ndarray | None:
+                     min_corners: int = MIN_VIEW_CORNERS,
+                     method: str = "saddle") -> np.ndarray | None:
     """The AprilGrid corners seen in ``image``, by id: (N, 2) float64 with NaN rows for
     the corners not seen; ``None`` when fewer than ``min_corners`` are seen or they all
     lie on one line (no pose, no homography).
 
     Tags with an id outside the grid, and ids seen twice (a stray tag in the scene), are
     left out. Each kept corner is refined with cornerSubPix (:data:`SUBPIX_CRITERIA`,
-    half-window :data:`APRILGRID_SUBPIX_FRACTION` of the local saddle size).
+    half-window :data:`APRILGRID_SUBPIX_FRACTION` of the local saddle size), then with
+    ``method="saddle"`` (the default) moved to the saddle point of the smoothed image
+    (:func:`rasc.vision.detect.saddle_points`, half-window the clean saddle's size, 2 to
+    6 px); a corner that is not a saddle there, or whose window leaves the image, is
+    dropped. ``method="classic"``: cornerSubPix alone. Measured on renders against the
+    truth: 0.08–0.11 px RMS with cornerSubPix alone, about a tenth of that with the saddle.
     """
+    if method not in ("classic", "saddle"):
+        raise InputError(f"detect_aprilgrid: unknown method {method!r} (use classic or "
+                         "saddle)")
     if not isinstance(board, AprilGrid):
         raise InputError(f"detect_aprilgrid: expected an AprilGrid, got {type(board).__name__}")
     if not _is_integral(min_corners) or min_corners < 4:
@@ -103,11 +113,23 @@ def detect_aprilgrid(image: np.ndarray, board: AprilGrid,
     pid, uv = pid[inside], uv[inside]
     if len(pid) < min_corners or not spans_plane(board.object_points()[pid]):
         return None
-    win = _window(board, pid, uv)
+    win, side = _window(board, pid, uv)
     refined = cv2.cornerSubPix(grey, uv.reshape(-1, 1, 2).astype(np.float32), (win, win),
                                (-1, -1), SUBPIX_CRITERIA).reshape(-1, 2).astype(np.float64)
     keep = np.linalg.norm(refined - uv, axis=1) <= win
     pid, refined = pid[keep], refined[keep]
+    if method == "saddle":
+        # cornerSubPix leaves a bias of up to 0.1 px on sharp rendered edges (a sine in the
+        # sub-pixel phase, as for ChArUco); the saddle point of the smoothed image does not.
+        # Its window stays inside the clean saddle (the tag border, the corner square).
+        r = int(np.clip(np.floor(side), 2, 6)) if np.isfinite(side) else 2
+        sigma = float(np.clip(r / 3, 0.8, 2.0))
+        moved, ok = saddle_points(grey, refined, r, sigma)
+        edge = r + int(np.ceil(2 * sigma))
+        for pts in (refined, moved):       # a window leaving the image sees a made-up border
+            ok &= np.all(pts >= edge, axis=1) & (pts[:, 0] <= w - 1 - edge) \
+                & (pts[:, 1] <= h - 1 - edge)
+        pid, refined = pid[ok], moved[ok]
     keep = _consistent(board, pid, refined)
     pid, refined = pid[keep], refined[keep]
     if len(pid) < min_corners or not spans_plane(board.object_points()[pid]):
@@ -236,14 +258,14 @@ def _consistent(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> np.ndarray
     return keep & ~(twin & keep[partner])
 
 
-def _window(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> int:
-    """cornerSubPix half-window (px): a fraction of the smallest image size of the clean
+def _window(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> tuple[int, float]:
+    """cornerSubPix half-window (px), a fraction of the smallest image size of the clean
     saddle (the smaller of the tag border and the corner square) over the seen corners,
-    from the homography of the seen corners."""
+    from the homography of the seen corners; and that size (px, NaN if unknown)."""
     P = board.object_points()[pid, :2]
     H, _ = cv2.findHomography(P, uv, 0)
     if H is None:
-        return 3
+        return 3, float("nan")
     bits = APRILGRID_FAMILIES[board.family][1] + 2 * APRILGRID_BORDER_BITS
     d = min(board.gap, board.tag_size * APRILGRID_BORDER_BITS / bits)
     a = cv2.perspectiveTransform(P.reshape(-1, 1, 2), H).reshape(-1, 2)
@@ -251,5 +273,5 @@ def _window(board: AprilGrid, pid: np.ndarray, uv: np.ndarray) -> int:
     c = cv2.perspectiveTransform((P + [0, d]).reshape(-1, 1, 2), H).reshape(-1, 2)
     side = min(np.linalg.norm(b - a, axis=1).min(), np.linalg.norm(c - a, axis=1).min())
     if not np.isfinite(side):
-        return 3
-    return int(np.clip(round(APRILGRID_SUBPIX_FRACTION * side), 3, 11))
+        return 3, float("nan")
+    return int(np.clip(round(APRILGRID_SUBPIX_FRACTION * side), 3, 11)), float(side)

@@ -114,7 +114,8 @@ def detect_corners(image: np.ndarray, board: Board, method: str = "classic",
     if getattr(board, "type", None) == "aprilgrid":
         from rasc.vision.aprilgrid import detect_aprilgrid
 
-        return detect_aprilgrid(image, board, min_corners=min_corners)
+        return detect_aprilgrid(image, board, min_corners=min_corners,
+                                method="classic" if method == "classic" else "saddle")
     if getattr(board, "partial_views", False):
         # "sb" has no ChArUco counterpart: its corners are refined as "saddle"'s
         return detect_charuco(image, board, min_corners=min_corners,
