@@ -39,9 +39,11 @@ ROOMS = (
          "`advice`, `li`, `opencv`, `methods` (every method by name, plugins, the "
          "jackknife), `inverse`, `noise` (eq. 13–14), `document` (the `rasc-handeye/1` "
          "reader)"),
-    Room("rasc/vision/", 2, "`board`, `images` (image files, grey, PNG), `detect` (corner "
-         "detection), `camera` (intrinsics, extrinsics; re-exports the other two; cv2), "
-         "`dataset` (the `rasc-dataset/1` folder)"),
+    Room("rasc/vision/", 2, "`board` (the targets), `images` (image files, grey, PNG), "
+         "`subpixel` (cornerSubPix's rule, saddle points), `detect` (corner detection), "
+         "`aprilgrid` (its detector), `camera` (intrinsics, extrinsics; re-exports images "
+         "and detect; cv2), `dataset` (the `rasc-dataset/1` folder, the one dataset class), "
+         "`points` (`rasc detect`)"),
     Room("rasc/sim/", 3, "`scene` (the MuJoCo head: the only mujoco importer, lazily), "
          "`mjcf` (the scene's MJCF and target texture), `degrade` (noise, blur, "
          "distortion), `render` (dataset rendering), `units` (imperfect pan-tilt units), "

@@ -149,6 +149,10 @@ def import_mujoco():
     try:
         import mujoco
     except Exception as exc:  # RuntimeError (bad value), AttributeError (osmesa missing)
+        from rasc.interrupt import received
+
+        if received():  # a signal while mujoco loads surfaces as its import error
+            raise KeyboardInterrupt from None
         raise _gl_error(exc) from None
     return mujoco
 

@@ -24,8 +24,8 @@ from rasc.vision.board import (
     _is_integral,
     spans_plane,
 )
-from rasc.vision.camera import SUBPIX_CRITERIA, _opencv_threads, to_grey
-from rasc.vision.detect import saddle_points
+from rasc.vision.images import to_grey
+from rasc.vision.subpixel import SUBPIX_CRITERIA, _opencv_threads, saddle_points
 
 #: cornerSubPix half-window as a fraction of the clean saddle around a tag corner (the
 #: smaller of the tag's 2-bit border and the corner square, in pixels), clipped to
