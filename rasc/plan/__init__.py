@@ -145,7 +145,7 @@ def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
     return uv
 
 
-class _Information:
+class Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
     def __init__(self, setup: PlanSetup, candidates: np.ndarray, margin: float | None = None):
@@ -239,13 +239,25 @@ class _Information:
         self.prob = prob
         self.T_pLpR = T_pLpR
 
-    def covariance(self, chosen, noise_px: float) -> np.ndarray:
-        """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`."""
-        info = self.I0 + self.A[list(chosen)].sum(axis=0)
+    def covariance(self, chosen, noise_px: float,
+                   intrinsics_noise_px: float | None = None) -> np.ndarray:
+        """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`.
+
+        ``intrinsics_noise_px``: a different noise of the intrinsics views (``noise_px``
+        then the pose views'): the covariance of the same unweighted least-squares
+        estimate is H⁻¹ (σᵢ² I₀ + σₚ² Σ A_c) H⁻¹, H = I₀ + Σ A_c (the intrinsics views'
+        board poses eliminated as in I₀)."""
+        A = self.A[list(chosen)].sum(axis=0)
+        info = self.I0 + A
         d = np.sqrt(np.diag(info))
         d = np.where(d > 0, d, 1.0)
-        cov = np.linalg.inv(info / np.outer(d, d)) / np.outer(d, d)
-        return noise_px ** 2 * cov * np.outer(self.scale, self.scale)
+        D = np.outer(d, d)
+        H_inv = np.linalg.inv(info / D) / D
+        if intrinsics_noise_px is None:
+            cov = noise_px ** 2 * H_inv
+        else:
+            cov = H_inv @ (intrinsics_noise_px ** 2 * self.I0 + noise_px ** 2 * A) @ H_inv
+        return cov * np.outer(self.scale, self.scale)
 
 
 def _interest(names) -> np.ndarray:
@@ -314,7 +326,7 @@ WORKSPACE_POINTS = 7
 TRIANGULATION_SAMPLES = 200
 
 
-def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
+def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
                       depth: float, seed: int = 0) -> dict[str, float]:
     """Predicted error of triangulated points (mm): heads drawn from the predicted
     covariance (seeded, :data:`TRIANGULATION_SAMPLES`), each triangulating the points of a
@@ -364,13 +376,13 @@ def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
             "rms_mm": float(np.sqrt(np.mean(e ** 2))), "p95_mm": float(np.percentile(e, 95))}
 
 
-def predict(setup: PlanSetup, positions, info: _Information | None = None,
+def predict(setup: PlanSetup, positions, info: Information | None = None,
             workspace_depth: float | None = 1.5) -> Plan:
     """The prediction for given positions (degrees), each showing the target to both eyes
     (a chessboard whole, without :func:`plan`'s margin); ``info``: the information of
     a candidate set that holds them (else computed for them alone)."""
     positions = np.asarray(positions, float).reshape(-1, 2)
-    info = info or _Information(setup, positions, margin=0.0)
+    info = info or Information(setup, positions, margin=0.0)
     idx = []
     for p in positions:
         hit = np.flatnonzero(np.all(np.abs(info.feasible - p) < 1e-9, axis=1))
@@ -390,7 +402,7 @@ def plan(setup: PlanSetup, k: int, criterion: str = "D",
          workspace_depth: float | None = 1.5) -> Plan:
     """Choose ``k`` positions (module docstring) and predict their accuracy."""
     t0 = time.perf_counter()
-    info = _Information(setup, candidate_grid(setup))
+    info = Information(setup, candidate_grid(setup))
     chosen = greedy(info.I0, info.A, int(k), criterion, _interest(info.names))
     cov = info.covariance(chosen, setup.noise_px)
     std, summary = summarise(info.names, cov)
