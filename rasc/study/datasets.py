@@ -35,7 +35,7 @@ from rasc.study.spec import (
     PARAMS,
     UNIT_PARAMS,
     dataset_metres,
-    pose_grid,
+    poses_of,
 )
 
 
@@ -62,6 +62,15 @@ def unit_builds(render: dict[str, Any]) -> dict | None:
                       pan_scale=v["pan_scale"], tilt_scale=v["tilt_scale"])
     which = render.get("units_eye", PARAMS["units_eye"].default)
     return {eye: build for eye in EYES if which in ("both", eye)}
+
+
+def target_of(render: dict[str, Any]):
+    """The target a cell's ``target`` describes (:func:`rasc.vision.board.parse_target`),
+    or None for the model's own board."""
+    from rasc.vision.board import parse_target
+
+    text = render.get("target", PARAMS["target"].default)
+    return parse_target(text) if text else None
 
 
 def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
@@ -93,8 +102,7 @@ def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
             "files": list(res.pose_files),
             "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
             "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
-                        for f in res.pose_files],
+            "corners": [_nulls(res.corners["pose"][f]) for f in res.pose_files],
             "K": np.asarray(res.intrinsics.K, float).tolist(),
             "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
             "T_cam_from_gaze_true": ref, **extra_eye}
@@ -106,6 +114,13 @@ def dataset_document(cal, board, truth: dict | None, **extra: Any) -> dict:
             "board": {"inner_corners": list(board.inner_corners),
                       "square_size": board.square_size},
             "eyes": eyes}
+
+
+def _nulls(corners) -> list:
+    """Corners as JSON lists, a corner not seen (NaN row of a target seen in part) as
+    ``null``s (read back with ``np.asarray(..., float)`` as NaN)."""
+    a = np.asarray(corners, float)
+    return [[float(v) if np.isfinite(v) else None for v in row] for row in a]
 
 
 def _scene_record(truth: dict, pose_files) -> dict | None:
@@ -177,7 +192,7 @@ def render_task(task: RenderTask) -> dict:
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     options = RenderOptions(
-        poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
+        poses_deg=poses_of(full),
         n_intrinsics=full["intrinsics_views"], target_distance=full["distance"],
         seed=task.seed, noise_sigma=full["image_noise"], blur_sigma=full["blur"],
         dist=tuple(full["distortion"]))
@@ -187,7 +202,7 @@ def render_task(task: RenderTask) -> dict:
         folder = tmp / "dataset"
         try:
             render_dataset(folder, options, model_path=task.model_path, quiet=True,
-                           units=unit_builds(r))
+                           units=unit_builds(r), board=target_of(full))
             ds = load_dataset(folder)
             cal = calibrate_dataset(ds, CalibrationOptions(model="paper"))
         except RascError as exc:     # name the cell's render parameters, not a CLI flag
@@ -305,7 +320,7 @@ def pose_task(task: PoseTask) -> dict:
     base, r = task.base, task.render
     where = task.where
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
-    poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
+    poses = poses_of(full)
     if "render" in base:                   # rendered by this study: its own parameters
         b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
              if p.kind == "render"}
