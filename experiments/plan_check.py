@@ -54,6 +54,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 NOISE_PX = 0.05
 RENDER_NOISE = 2.0            # grey levels
+#: ``--jitter``: the target's distance (m) of capture k is JITTER_DISTANCES[k % 4]: every
+#: capture places the board anew (farther than the planned 1 m only, so that every
+#: position still shows it whole), which moves each corner's sub-pixel phase
+JITTER_DISTANCES = (1.0, 1.02, 1.04, 1.06)
 EYES = ("left", "right")
 #: per eye: (key in the capture record, key in rasc.plan.summarise's std, factor to the
 #: record's unit, unit)
@@ -133,14 +137,15 @@ def record(cal, truth: dict, pose_files: list[str]) -> dict:
     return out
 
 
-def capture_rendered(poses, seed: int, board, truth) -> dict:
+def capture_rendered(poses, seed: int, board, truth, distance: float = 1.0) -> dict:
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.render import RenderOptions, render_dataset
     from rasc.vision.dataset import load_dataset
 
     with tempfile.TemporaryDirectory(prefix="rasc-plan-check-") as tmp:
         render_dataset(Path(tmp) / "ds", RenderOptions(seed=seed, poses_deg=tuple(poses),
-                                                       noise_sigma=RENDER_NOISE),
+                                                       noise_sigma=RENDER_NOISE,
+                                                       target_distance=distance),
                        quiet=True, board=board)
         ds = load_dataset(Path(tmp) / "ds")
         cal = calibrate_dataset(ds, CalibrationOptions(model="general", scales="hold"))
@@ -202,8 +207,14 @@ def residual_split(recs: list[dict]) -> dict[str, float]:
             "intrinsics": float(np.sqrt(var_int * scale)), "corners": int(common.sum())}
 
 
-def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool) -> tuple[list, list]:
-    """Rows of the summary table (see the module docstring) and text lines."""
+def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
+              distances=(1.0,)) -> tuple[list, list]:
+    """Rows of the summary table (see the module docstring) and text lines; ``rendered``:
+    with the split of the residuals (captures at one placement); ``distances``: the
+    target distances the captures cycle through (the prediction: the mean of their
+    covariances)."""
+    from dataclasses import replace
+
     from rasc.plan import Information
     from rasc.plan import summarise as plan_summarise
 
@@ -213,9 +224,12 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool) -> tup
         if n < 3:
             continue
         sigma = float(np.sqrt(sum(r["rss"] for r in recs) / sum(r["dof"] for r in recs)))
-        info = Information(setup, np.asarray(sets[name], float), margin=0.0)
+        infos = [Information(replace(setup, distance=d), np.asarray(sets[name], float),
+                             margin=0.0) for d in distances]
+        info = infos[0]
         chosen = list(range(len(info.feasible)))
-        std, _ = plan_summarise(info.names, info.covariance(chosen, sigma))
+        std, _ = plan_summarise(info.names, np.mean([i.covariance(chosen, sigma)
+                                                     for i in infos], axis=0))
         split_std = None
         if rendered:
             sp = residual_split(recs)
@@ -276,6 +290,8 @@ def main(argv=None) -> int:
     p.add_argument("--rendered", action="store_true", help="render the captures")
     p.add_argument("--target", default=None, metavar="SPEC",
                    help="the target, as rasc render --target (default: the stock chessboard)")
+    p.add_argument("--jitter", action="store_true",
+                   help="each capture with the target at another distance (JITTER_DISTANCES)")
     p.add_argument("--summary-only", action="store_true",
                    help="summarise the captures recorded so far, capture nothing")
     args = p.parse_args(argv)
@@ -286,7 +302,8 @@ def main(argv=None) -> int:
 
     board = parse_target(args.target) if args.target else None
     tag = re.sub(r"[^A-Za-z0-9]+", "_", args.target or "chessboard").strip("_")
-    folder = args.out / ("plan_check_rendered" if args.rendered else "plan_check") / tag
+    folder = args.out / ("plan_check_rendered" if args.rendered else "plan_check") / (
+        tag + ("_jitter" if args.jitter else ""))
     folder.mkdir(parents=True, exist_ok=True)
     head = truth_head(board) if args.rendered else default_head()
     truth = {e: canonical_truth(head.unit[e], head.T_cam_from_gaze[e], head.T_ptu_from_base[e])
@@ -308,9 +325,11 @@ def main(argv=None) -> int:
                 if 100 + s in done[name]:
                     continue
                 t0 = time.perf_counter()
-                rec = capture_rendered(poses, 100 + s, board, truth) if args.rendered \
+                distance = JITTER_DISTANCES[s % 4] if args.jitter else 1.0
+                rec = capture_rendered(poses, 100 + s, board, truth, distance) \
+                    if args.rendered \
                     else capture_projected(poses, 100 + s, board, truth, head)
-                rec.update({"set": name, "seed": 100 + s,
+                rec.update({"set": name, "seed": 100 + s, "distance": distance,
                             "positions": [list(p) for p in poses]})
                 with open(log, "a") as fh:
                     fh.write(json.dumps(rec) + "\n")
@@ -318,7 +337,8 @@ def main(argv=None) -> int:
                 print(f"capture {s + 1}/{args.captures} {name}: σ̂ {rec['sigma_px']:.4f} px, "
                       f"{time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     by_set = {name: [d[k] for k in sorted(d)] for name, d in done.items()}
-    rows, lines = summarise(setup, sets, by_set, args.rendered)
+    rows, lines = summarise(setup, sets, by_set, args.rendered and not args.jitter,
+                            JITTER_DISTANCES if args.jitter else (1.0,))
     if not rows:
         print("plan_check: fewer than 3 captures per position set, nothing to summarise",
               file=sys.stderr)
