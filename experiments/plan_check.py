@@ -259,6 +259,24 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
                     row["predicted_split"] = split_std[k] * f
                     row["predicted_bias"] = bias_std[k] * f
                 rows.append(row)
+    for name in by_set:
+        mine = [r for r in rows if r["positions"] == name]
+        if not mine:
+            continue
+        k = sum(abs(r["ratio"] - 1) <= 0.25 for r in mine)
+        text = (f"{name}: {len(mine)} parameters, measured/predicted σ median "
+                f"{np.median([r['ratio'] for r in mine]):.2f} "
+                f"({min(r['ratio'] for r in mine):.2f}–{max(r['ratio'] for r in mine):.2f}), "
+                f"{k} within ±25 %")
+        if "predicted_split" in mine[0]:
+            q = [r["measured_std"] / r["predicted_split"] for r in mine]
+            z = [r["mean"] / r["predicted_bias"] for r in mine]
+            text += (f"; with the split: median {np.median(q):.2f} ({min(q):.2f}–"
+                     f"{max(q):.2f}), {sum(abs(v - 1) <= 0.25 for v in q)} within ±25 %; "
+                     f"bias / predicted bias σ: RMS {np.sqrt(np.mean(np.square(z))):.2f}")
+        text += (f"; one σ from {mine[0]['captures']} captures has a sampling error of "
+                 f"{100 * _se_std(mine[0]['captures']):.0f} %")
+        lines.append(text)
     return rows, lines
 
 
