@@ -262,6 +262,24 @@ def _blocks_reference(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     return I0, A
 
 
+def _spans_plane_many(seen: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """:func:`rasc.vision.board.spans_plane` of the seen board points of each row of the
+    mask ``seen`` (M, N) at once: the smaller eigenvalue of the seen points' x-y scatter
+    above 1e-12 of the larger (the singular values' 1e-6), so that corners on one line —
+    no pose, no homography — never make a candidate."""
+    w = seen.astype(float)
+    n = np.maximum(w.sum(axis=1), 1.0)
+    xy = P[:, :2]
+    mean = (w @ xy) / n[:, None]
+    sxx = w @ (xy[:, 0] ** 2) - n * mean[:, 0] ** 2
+    syy = w @ (xy[:, 1] ** 2) - n * mean[:, 1] ** 2
+    sxy = w @ (xy[:, 0] * xy[:, 1]) - n * mean[:, 0] * mean[:, 1]
+    half_tr, det = 0.5 * (sxx + syy), sxx * syy - sxy ** 2
+    root = np.sqrt(np.maximum(half_tr ** 2 - det, 0.0))
+    big, small = half_tr + root, half_tr - root
+    return (seen.sum(axis=1) >= 3) & (big > 0) & (small > 1e-12 * big)
+
+
 class Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
@@ -294,7 +312,9 @@ class Information:
             uv_all[eye] = _project_many(head, eye, T_cw_all[eye], P, setup.image_size,
                                         margin if margin is not None
                                         else 0.0 if partial else MARGIN_PX)
-        ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
+        ok = np.all([(np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need)
+                     & _spans_plane_many(np.isfinite(uv_all[e][..., 0]), P) for e in EYES],
+                    axis=0)
         feasible = [(float(a), float(b)) for a, b in candidates[ok]]
         if len(feasible) < 3:
             raise DegenerateDataError(

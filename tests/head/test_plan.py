@@ -129,3 +129,25 @@ def test_covariance_with_its_own_intrinsics_noise():
     parts = info.covariance(chosen, 0.0, intrinsics_noise_px=0.07) \
         + info.covariance(chosen, 0.03, intrinsics_noise_px=0.0)
     np.testing.assert_allclose(both, parts, rtol=1e-9, atol=1e-12 * np.abs(both).max())
+
+
+def test_candidates_whose_corners_lie_on_one_line_are_not_usable():
+    """The vectorised test equals rasc.vision.board.spans_plane on 520 masks of a ChArUco
+    board (random subsets, single rows, single columns, a single corner): a view of one
+    row of corners gives no pose, so the planner never offers it."""
+    from rasc.plan import _spans_plane_many
+    from rasc.vision.board import parse_target, spans_plane
+
+    P = parse_target("charuco:16x12,0.075,0.056").object_points()
+    rng = np.random.default_rng(0)
+    masks = [rng.random(len(P)) < rng.random() ** 4 for _ in range(500)]
+    for r in range(5):
+        row, col, one = (np.zeros(len(P), bool) for _ in range(3))
+        row[r * 15:(r + 1) * 15] = True
+        col[r::15] = True
+        one[r] = True
+        masks += [row, col, one, row | one]
+    masks = np.array(masks)
+    want = np.array([spans_plane(P[m]) for m in masks])
+    assert (~want).sum() > 20 and want.sum() > 20
+    np.testing.assert_array_equal(_spans_plane_many(masks, P), want)
