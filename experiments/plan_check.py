@@ -242,7 +242,9 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
                          f"{sp['common']:.4f} px, independent {sp['independent']:.4f} px "
                          f"({sp['corners']} corners); intrinsics views {sp['intrinsics']:.4f} px")
         else:
-            lines.append(f"{name}: residual σ̂ {sigma:.4f} px (corner noise {NOISE_PX} px)")
+            lines.append(f"{name}: residual σ̂ {sigma:.4f} px" + (
+                f" (corner noise {NOISE_PX} px)" if len(distances) == 1 else
+                f" (target at {', '.join(f'{d:g}' for d in distances)} m in turn)"))
         for eye in EYES:
             for key, pname, factor, unit in PARAMETERS:
                 k = f"{eye}.{pname}"
