@@ -54,10 +54,13 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 NOISE_PX = 0.05
 RENDER_NOISE = 2.0            # grey levels
-#: ``--jitter``: the target's distance (m) of capture k is JITTER_DISTANCES[k % 4]: every
-#: capture places the board anew (farther than the planned 1 m only, so that every
-#: position still shows it whole), which moves each corner's sub-pixel phase
-JITTER_DISTANCES = (1.0, 1.02, 1.04, 1.06)
+#: ``--jitter``: every capture places the target anew, at a distance (m) drawn uniformly
+#: from JITTER_RANGE with the capture's seed (farther than the planned 1 m only, so that
+#: every position still shows it whole): each corner's sub-pixel phase moves, so the
+#: render's systematic corner errors differ between captures. (Captures recorded before
+#: 09:05 UTC on 2026-11-26 cycled through 1.00, 1.02, 1.04, 1.06 m instead; every record
+#: keeps its distance, and the prediction uses the recorded ones.)
+JITTER_RANGE = (1.0, 1.06)
 EYES = ("left", "right")
 #: per eye: (key in the capture record, key in rasc.plan.summarise's std, factor to the
 #: record's unit, unit)
@@ -208,11 +211,10 @@ def residual_split(recs: list[dict]) -> dict[str, float]:
 
 
 def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
-              distances=(1.0,)) -> tuple[list, list]:
+              jitter: bool = False) -> tuple[list, list]:
     """Rows of the summary table (see the module docstring) and text lines; ``rendered``:
-    with the split of the residuals (captures at one placement); ``distances``: the
-    target distances the captures cycle through (the prediction: the mean of their
-    covariances)."""
+    with the split of the residuals (captures at one placement); ``jitter``: each capture
+    at its own target distance (the prediction: the mean of the captures' covariances)."""
     from dataclasses import replace
 
     from rasc.plan import Information
@@ -224,6 +226,7 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
         if n < 3:
             continue
         sigma = float(np.sqrt(sum(r["rss"] for r in recs) / sum(r["dof"] for r in recs)))
+        distances = [r.get("distance", 1.0) for r in recs] if jitter else [1.0]
         infos = [Information(replace(setup, distance=d), np.asarray(sets[name], float),
                              margin=0.0) for d in distances]
         info = infos[0]
@@ -243,8 +246,8 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
                          f"({sp['corners']} corners); intrinsics views {sp['intrinsics']:.4f} px")
         else:
             lines.append(f"{name}: residual σ̂ {sigma:.4f} px" + (
-                f" (corner noise {NOISE_PX} px)" if len(distances) == 1 else
-                f" (target at {', '.join(f'{d:g}' for d in distances)} m in turn)"))
+                f" (target at {min(distances):.3f} to {max(distances):.3f} m)" if jitter
+                else f" (corner noise {NOISE_PX} px)"))
         for eye in EYES:
             for key, pname, factor, unit in PARAMETERS:
                 k = f"{eye}.{pname}"
@@ -345,7 +348,8 @@ def main(argv=None) -> int:
                 if 100 + s in done[name]:
                     continue
                 t0 = time.perf_counter()
-                distance = JITTER_DISTANCES[s % 4] if args.jitter else 1.0
+                distance = float(np.random.default_rng([100 + s, 7]).uniform(*JITTER_RANGE)) \
+                    if args.jitter else 1.0
                 rec = capture_rendered(poses, 100 + s, board, truth, distance) \
                     if args.rendered \
                     else capture_projected(poses, 100 + s, board, truth, head)
@@ -358,7 +362,7 @@ def main(argv=None) -> int:
                       f"{time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     by_set = {name: [d[k] for k in sorted(d)] for name, d in done.items()}
     rows, lines = summarise(setup, sets, by_set, args.rendered and not args.jitter,
-                            JITTER_DISTANCES if args.jitter else (1.0,))
+                            jitter=args.jitter)
     if not rows:
         print("plan_check: fewer than 3 captures per position set, nothing to summarise",
               file=sys.stderr)
