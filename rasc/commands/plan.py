@@ -50,7 +50,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--min-corners", type=int, default=8, metavar="N",
                    help="fewest corners a ChArUco view must show (default 8)")
     p.add_argument("--noise", type=float, default=0.05, metavar="PX",
-                   help="corner noise per coordinate, pixels (default 0.05)")
+                   help="the corner noise per coordinate the prediction assumes, pixels "
+                        "(default 0.05; a calibration's sigma_px, the noise its residuals "
+                        "give, is the number to use); the positions chosen do not depend "
+                        "on it, the predicted sigmas scale with it")
     p.add_argument("--workspace-depth", type=float, default=1.5, metavar="M",
                    help="depth of the 0.6 m square plane of points whose triangulation error "
                         "is predicted (default 1.5)")
@@ -84,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
           f"{result.seconds:.1f} s; corner noise {args.noise:g} px")
     for p in result.positions:
         print(f"  pan {p[0]:+7.2f}  tilt {p[1]:+7.2f}")
-    print("predicted standard deviations:")
+    print(f"predicted standard deviations (assuming corner noise {args.noise:g} px per "
+          "coordinate, independent):")
     for k, v in result.summary.items():
         print(f"  {k:34s} {v:.4g}")
     t = result.triangulation

@@ -64,8 +64,7 @@ def calibration_document(cal, board, truth: dict | None, **extra: Any) -> dict:
             "files": list(res.pose_files),
             "pan_tilt_rad": np.asarray(res.pan_tilt, float).tolist(),
             "T_cam_from_world": np.asarray(res.T_cam_from_world, float).tolist(),
-            "corners": [np.asarray(res.corners["pose"][f], float).tolist()
-                        for f in res.pose_files],
+            "corners": [_nulls(res.corners["pose"][f]) for f in res.pose_files],
             "K": np.asarray(res.intrinsics.K, float).tolist(),
             "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
             "T_cam_from_gaze_true": ref, **extra_eye}
@@ -140,3 +139,11 @@ def in_metres(doc: dict, metres: float) -> dict:
             T[..., :3, 3] *= metres
             eye[key] = T.tolist()
     return doc
+
+
+def _nulls(corners) -> list:
+    """Corners as JSON lists, a corner not seen (a NaN row of a target seen in part) as
+    ``null``s, which ``np.asarray(..., float)`` reads back as NaN (a chessboard's rows
+    are all finite: the same lists as before)."""
+    a = np.asarray(corners, float)
+    return [[float(v) if np.isfinite(v) else None for v in row] for row in a]

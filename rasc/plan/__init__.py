@@ -145,10 +145,146 @@ def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
     return uv
 
 
-class _Information:
+#: candidate images per block of the information computation (memory ~ block × corners
+#: × 2 × 26 doubles: 20 MB for 256 images of 192 corners)
+_BLOCK_IMAGES = 256
+#: step of the central differences of the chain (in the scaled parameters: ~1e-7 rad,
+#: ~1e-7 m): truncation error ~h² relative, round-off ~1e-16/h
+_CHAIN_STEP = 1e-6
+
+
+def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The information ``I0`` of the intrinsics views (their board poses eliminated) and
+    the blocks ``A`` (M, p, p) of the candidate pose views over the parameters ``keep``
+    (indices into ``prob.names``: the globals and the pose views' board).
+
+    Every parameter but the intrinsics moves a pose view's corners only through the
+    chain ``T_cam_from_board = (R, t)``, so its column is a camera-frame twist (ω, v) per
+    image: d pc = ω × pc + v, with ``[ω]x = dR Rᵀ`` and ``v = dt − ω × t`` from the
+    central difference (dR, dt) of the chain of every image at once. Per corner the
+    pixel's derivative with respect to [intrinsics, twist] is a 2×12 matrix
+    (:meth:`rasc.head.refine._Problem._project`'s analytic derivatives: the intrinsics
+    columns, and ``d pixel / d pc`` with the twist's rows ``pc × J_a`` and ``J_a``);
+    its Gram matrix Z_cᵀZ_c (12×12, summed over the image's seen corners) and the
+    image's twist map S_c give ``A_c = T_cᵀ Z_cᵀ Z_c T_c``, T_c = diag(I, S_c). The same
+    numbers as :func:`_blocks_reference` (the refinement's sparse Jacobian, forward
+    differences) to the latter's difference error (~1e-6 relative;
+    tests/head/test_plan.py)."""
+    n = len(prob.names)
+    x = np.zeros(n)
+    where = {j: i for i, j in enumerate(keep)}
+    p = len(keep)
+    I0 = np.zeros((p, p))
+    A = np.zeros((int((prob.img_role == 1).sum()) // 2, p, p))
+    board_cols = list(range(n - 6, n))
+    for ei, eye in enumerate(EYES):
+        c = prob.eye_cols[eye]
+        intr_cols = list(range(c["start"], c["start"] + c["n_intr"]))
+        ni = len(intr_cols)
+        s_intr = prob.scale[intr_cols]
+        # the intrinsics views: [intrinsics, own board pose], the board pose eliminated
+        sel = np.flatnonzero((prob.img_eye == ei) & (prob.img_role == 0))
+        if len(sel):
+            _, d = prob._project(x, sel, prob._chain(x, sel), derivatives=True)
+            idx = np.array([where[j] for j in intr_cols])
+            for k, i in enumerate(sel):
+                b0 = prob.n_global + 6 * int(prob.img_pose[i])
+                m = prob.mask[i]
+                G = (d["intrinsics"][k][m] * s_intr).reshape(-1, ni)
+                B = (d["board"][k][m] * prob.scale[b0:b0 + 6]).reshape(-1, 6)
+                GB = G.T @ B
+                I0[np.ix_(idx, idx)] += G.T @ G - GB @ np.linalg.solve(B.T @ B, GB.T)
+        # the candidate pose views: [intrinsics, kinematic (hand-eye, unit, mounts for
+        # the right eye), the shared board pose]
+        chain_cols = list(range(c["start"] + ni, c["stop"]))
+        if eye == "right":
+            chain_cols += list(range(prob.head_start, prob.head_start + 6))
+        chain_cols += board_cols
+        sel = np.flatnonzero((prob.img_eye == ei) & (prob.img_role == 1))
+        ch0 = prob._chain(x, sel)
+        S = np.empty((len(sel), 6, len(chain_cols)))             # twists per column
+        for k, j in enumerate(chain_cols):
+            dx = np.zeros(n)
+            dx[j] = _CHAIN_STEP
+            hi, lo = prob._chain(x + dx, sel), prob._chain(x - dx, sel)
+            dR = (hi["R"] - lo["R"]) / (2 * _CHAIN_STEP)
+            dt = (hi["t"] - lo["t"]) / (2 * _CHAIN_STEP)
+            W = dR @ ch0["R"].transpose(0, 2, 1)                  # [ω]x (to O(h²))
+            w = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
+                                W[:, 1, 0] - W[:, 0, 1]], axis=-1)
+            S[:, :3, k] = w
+            S[:, 3:, k] = dt - np.cross(w, ch0["t"])
+        q = ni + len(chain_cols)
+        T = np.zeros((len(sel), 12, q))
+        T[:, np.arange(ni), np.arange(ni)] = 1.0
+        T[:, 6:, ni:] = S
+        idx = np.array([where[j] for j in intr_cols + chain_cols])
+        for lo_ in range(0, len(sel), _BLOCK_IMAGES):
+            part = sel[lo_:lo_ + _BLOCK_IMAGES]
+            blk = slice(lo_, lo_ + len(part))
+            ch = prob._chain(x, part)
+            _, d = prob._project(x, part, ch, derivatives=True, board=False)
+            pc = np.einsum("mij,kj->mki", ch["R"], prob.P) + ch["t"][:, None]
+            J = d["point"]                                         # (m, N, 2, 3)
+            Z = np.concatenate([d["intrinsics"] * s_intr,
+                                np.cross(pc[:, :, None, :], J), J], axis=-1)
+            Z[~prob.mask[part]] = 0.0
+            Z = Z.reshape(len(part), -1, Z.shape[-1])
+            M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, 12, 12)
+            Tb = T[blk]
+            cidx = np.array([int(prob.img_name[i][1:]) for i in part])
+            A[np.ix_(cidx, idx, idx)] += Tb.transpose(0, 2, 1) @ M @ Tb
+    return I0, A
+
+
+def _blocks_reference(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_blocks` from the refinement's own sparse Jacobian
+    (:meth:`rasc.head.refine._Problem.jacobian`, forward differences for the kinematic
+    columns), image by image: the reference the fast path is tested and timed against
+    (``Information(..., reference=True)``; 10–30× slower)."""
+    J = prob.jacobian(np.zeros(len(prob.names)), central=False).tocsr()
+    rows = prob._rows_of_images()
+    ng = prob.n_global
+    p = len(keep)
+    I0 = np.zeros((p, p))
+    A = np.zeros((int((prob.img_role == 1).sum()) // 2, p, p))
+    for i in range(len(prob.img_name)):
+        Ji = J[rows[i]]
+        G = Ji[:, keep].toarray()
+        if prob.img_role[i] == 0:
+            k = ng + 6 * int(prob.img_pose[i])
+            B = Ji[:, k:k + 6].toarray()
+            GB = G.T @ B
+            I0 += G.T @ G - GB @ np.linalg.solve(B.T @ B, GB.T)
+        else:
+            c = int(prob.img_name[i][1:])
+            A[c] += G.T @ G
+    return I0, A
+
+
+def _spans_plane_many(seen: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """:func:`rasc.vision.board.spans_plane` of the seen board points of each row of the
+    mask ``seen`` (M, N) at once: the smaller eigenvalue of the seen points' x-y scatter
+    above 1e-12 of the larger (the singular values' 1e-6), so that corners on one line —
+    no pose, no homography — never make a candidate."""
+    w = seen.astype(float)
+    n = np.maximum(w.sum(axis=1), 1.0)
+    xy = P[:, :2]
+    mean = (w @ xy) / n[:, None]
+    sxx = w @ (xy[:, 0] ** 2) - n * mean[:, 0] ** 2
+    syy = w @ (xy[:, 1] ** 2) - n * mean[:, 1] ** 2
+    sxy = w @ (xy[:, 0] * xy[:, 1]) - n * mean[:, 0] * mean[:, 1]
+    half_tr, det = 0.5 * (sxx + syy), sxx * syy - sxy ** 2
+    root = np.sqrt(np.maximum(half_tr ** 2 - det, 0.0))
+    big, small = half_tr + root, half_tr - root
+    return (seen.sum(axis=1) >= 3) & (big > 0) & (small > 1e-12 * big)
+
+
+class Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
-    def __init__(self, setup: PlanSetup, candidates: np.ndarray, margin: float | None = None):
+    def __init__(self, setup: PlanSetup, candidates: np.ndarray, margin: float | None = None,
+                 reference: bool = False):
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.geometry.transforms import invert_transform
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
@@ -161,21 +297,25 @@ class _Information:
         T_bw = T_base_from_world_facing(board, distance=setup.distance)
         partial = getattr(board, "partial_views", False)
         need = setup.min_corners if partial else board.n_corners
-        # every candidate at once: (M, N, 2) pixels per eye, NaN where not seen
+        # every candidate at once: (M, N, 2) pixels per eye, NaN where not seen, and the
+        # camera poses (the pose views' initial values below: the canonical gauge leaves
+        # every camera pose unchanged)
         pan, tilt = np.radians(candidates[:, 0]), np.radians(candidates[:, 1])
-        uv_all = {}
+        uv_all, T_cw_all = {}, {}
         for eye in EYES:
-            T_cw = (head.T_cam_from_gaze[eye] @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
-                    @ head.T_ptu_from_base[eye] @ T_bw)                   # (M, 4, 4)
+            T_cw_all[eye] = (head.T_cam_from_gaze[eye]
+                             @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
+                             @ head.T_ptu_from_base[eye] @ T_bw)          # (M, 4, 4)
             # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
             # it refuses positions without); ChArUco corners count anywhere in the image
             # (``margin`` overrides: positions a user gives are taken as they are)
-            uv_all[eye] = _project_many(head, eye, T_cw, P, setup.image_size,
+            uv_all[eye] = _project_many(head, eye, T_cw_all[eye], P, setup.image_size,
                                         margin if margin is not None
                                         else 0.0 if partial else MARGIN_PX)
-        ok = np.all([np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need for e in EYES], axis=0)
+        ok = np.all([(np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need)
+                     & _spans_plane_many(np.isfinite(uv_all[e][..., 0]), P) for e in EYES],
+                    axis=0)
         feasible = [(float(a), float(b)) for a, b in candidates[ok]]
-        pose_corners = {eye: list(uv_all[eye][ok]) for eye in EYES}
         if len(feasible) < 3:
             raise DegenerateDataError(
                 f"plan: only {len(feasible)} candidate position(s) show the target to both "
@@ -186,6 +326,9 @@ class _Information:
         gauge = {eye: canonical_gauge(head.unit[eye], head.T_cam_from_gaze[eye],
                                       head.T_ptu_from_base[eye]) for eye in EYES}
         T_pLpR = gauge["left"][2] @ invert_transform(gauge["right"][2])
+        names_c = [f"c{c:05d}" for c in range(len(feasible))]
+        pan_tilt = dict(zip(names_c, zip(pan[ok].tolist(), tilt[ok].tolist(), strict=True),
+                            strict=True))
         for eye in EYES:
             unit, T_cg, T_pb = gauge[eye]
             intr, T_intr = {}, {}
@@ -194,58 +337,44 @@ class _Information:
                     head.dist[eye])):
                 intr[f"i{k:03d}"] = _project(head, eye, T_cw, P, setup.image_size)
                 T_intr[f"i{k:03d}"] = T_cw
-            T_pL = gauge["left"][2]
-            T_bw_pL = T_pL @ T_bw                     # the board in the left ptu frame
-            pose, pan_tilt, view, T_pose = {}, {}, {}, {}
-            T_ptu_from_ptuL = T_pb @ invert_transform(T_pL)
-            for c, (pan, tilt) in enumerate(feasible):
-                f = f"c{c:05d}"
-                pose[f] = pose_corners[eye][c]
-                pan_tilt[f] = (np.radians(pan), np.radians(tilt))
-                view[f] = f
-                T_pose[f] = T_cg @ unit.T_gaze_from_ptu(*pan_tilt[f]) @ T_ptu_from_ptuL \
-                    @ T_bw_pL
             eyes[eye] = EyeObservations(
                 K=head.K[eye], dist=np.asarray(head.dist[eye], float),
                 image_size=tuple(setup.image_size), intrinsics=intr,
-                T_cam_from_world_intrinsics=T_intr, pose=pose, pan_tilt=pan_tilt, view=view,
-                T_cam_from_world_pose=T_pose, T_cam_from_gaze=T_cg)
+                T_cam_from_world_intrinsics=T_intr,
+                pose=dict(zip(names_c, uv_all[eye][ok], strict=True)), pan_tilt=pan_tilt,
+                view={f: f for f in names_c},
+                T_cam_from_world_pose=dict(zip(names_c, T_cw_all[eye][ok], strict=True)),
+                T_cam_from_gaze=T_cg)
         obs = HeadObservations(board_points=P, eyes=eyes, T_ptuL_from_ptuR=T_pLpR,
                                dist_model="k1k2")
         prob = _Problem(obs, {eye: list(PLAN_UNIT_PARAMETERS) for eye in EYES})
-        # forward differences for the kinematic columns: their error (~1e-6 relative)
-        # is far below what a design choice or a predicted σ can notice
-        J = prob.jacobian(np.zeros(len(prob.names)), central=False).tocsr()
-        rows = prob._rows_of_images()
         ng = prob.n_global
         keep = list(range(ng)) + list(range(len(prob.names) - 6, len(prob.names)))
         self.names = [prob.names[j] for j in keep]
         self.scale = prob.scale[keep]
-        p = len(keep)
-        I0 = np.zeros((p, p))
-        A = np.zeros((len(feasible), p, p))
-        for i in range(len(prob.img_name)):
-            Ji = J[rows[i]]
-            G = Ji[:, keep].toarray()
-            if prob.img_role[i] == 0:
-                k = ng + 6 * int(prob.img_pose[i])
-                B = Ji[:, k:k + 6].toarray()
-                GB = G.T @ B
-                I0 += G.T @ G - GB @ np.linalg.solve(B.T @ B, GB.T)
-            else:
-                c = int(prob.img_name[i][1:])
-                A[c] += G.T @ G
-        self.I0, self.A = I0, A
+        self.I0, self.A = (_blocks_reference if reference else _blocks)(prob, keep)
         self.prob = prob
         self.T_pLpR = T_pLpR
 
-    def covariance(self, chosen, noise_px: float) -> np.ndarray:
-        """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`."""
-        info = self.I0 + self.A[list(chosen)].sum(axis=0)
+    def covariance(self, chosen, noise_px: float,
+                   intrinsics_noise_px: float | None = None) -> np.ndarray:
+        """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`.
+
+        ``intrinsics_noise_px``: a different noise of the intrinsics views (``noise_px``
+        then the pose views'): the covariance of the same unweighted least-squares
+        estimate is H⁻¹ (σᵢ² I₀ + σₚ² Σ A_c) H⁻¹, H = I₀ + Σ A_c (the intrinsics views'
+        board poses eliminated as in I₀)."""
+        A = self.A[list(chosen)].sum(axis=0)
+        info = self.I0 + A
         d = np.sqrt(np.diag(info))
         d = np.where(d > 0, d, 1.0)
-        cov = np.linalg.inv(info / np.outer(d, d)) / np.outer(d, d)
-        return noise_px ** 2 * cov * np.outer(self.scale, self.scale)
+        D = np.outer(d, d)
+        H_inv = np.linalg.inv(info / D) / D
+        if intrinsics_noise_px is None:
+            cov = noise_px ** 2 * H_inv
+        else:
+            cov = H_inv @ (intrinsics_noise_px ** 2 * self.I0 + noise_px ** 2 * A) @ H_inv
+        return cov * np.outer(self.scale, self.scale)
 
 
 def _interest(names) -> np.ndarray:
@@ -254,10 +383,23 @@ def _interest(names) -> np.ndarray:
                      if ".T_cam_from_gaze." in n or ".unit." in n])
 
 
+#: the lazy D-optimal greedy stops evaluating when the best exact gain beats every other
+#: candidate's bound by this much (relative): gains closer than that are all evaluated,
+#: so round-off in the bounds cannot change the choice
+_LAZY_MARGIN = 1e-9
+
+
 def greedy(I0: np.ndarray, A: np.ndarray, k: int, criterion: str = "D",
-           interest: np.ndarray | None = None) -> list[int]:
+           interest: np.ndarray | None = None, lazy: bool = True) -> list[int]:
     """Indices of ``k`` candidates chosen greedily (module docstring); ties go to the
-    lower index, so the result is deterministic."""
+    lower index, so the result is deterministic.
+
+    D-optimal with ``lazy`` (the default): log det is submodular, so a candidate's gain
+    log det(I + A_c) − log det(I) can only shrink as others are added; its last computed
+    gain is a bound, and each step evaluates candidates in the order of their bounds
+    until the best exact gain beats every remaining bound (lazy greedy, Minoux 1978) —
+    the same choice as evaluating every candidate (``lazy=False``), for a few dozen
+    determinants a step instead of all of them."""
     if criterion not in CRITERIA:
         raise InputError(f"criterion: expected D or A, got {criterion!r}")
     M, p = A.shape[0], A.shape[1]
@@ -270,6 +412,8 @@ def greedy(I0: np.ndarray, A: np.ndarray, k: int, criterion: str = "D",
     # when the pose views' parameters are not yet determined
     info = I0n + 1e-9 * np.eye(p)
     chosen: list[int] = []
+    if criterion == "D" and lazy:
+        return _lazy_d(info, An, k)
     for _ in range(k):
         trial = info[None] + An
         if criterion == "D":
@@ -281,6 +425,45 @@ def greedy(I0: np.ndarray, A: np.ndarray, k: int, criterion: str = "D",
             score = -np.einsum("mii->m", inv[:, idx][:, :, idx] / Dn[idx][:, idx][None])
         score[chosen] = -np.inf
         c = int(np.argmax(score))
+        chosen.append(c)
+        info = info + An[c]
+    return chosen
+
+
+def _logdet(stack: np.ndarray) -> np.ndarray:
+    sign, logdet = np.linalg.slogdet(stack)
+    return np.where(sign > 0, logdet, -np.inf)
+
+
+def _lazy_d(info: np.ndarray, An: np.ndarray, k: int) -> list[int]:
+    """:func:`greedy`'s lazy D-optimal steps from the normalised ``info`` and blocks."""
+    M = len(An)
+    score = _logdet(info[None] + An)                 # the first step evaluates all
+    base = float(np.linalg.slogdet(info)[1])
+    c = int(np.argmax(score))
+    chosen = [c]
+    bound = score - base                             # gains: upper bounds from now on
+    info = info + An[c]
+    for _ in range(k - 1):
+        base = float(np.linalg.slogdet(info)[1])
+        bound[chosen] = -np.inf
+        order = np.argsort(-bound, kind="stable")
+        exact = np.full(M, -np.inf)
+        best, done, batch = -np.inf, 0, 16
+        while done < M:
+            part = order[done:done + batch]
+            part = part[np.isfinite(bound[part])]
+            if not len(part):
+                break
+            exact[part] = _logdet(info[None] + An[part])
+            bound[part] = exact[part] - base
+            best = max(best, float(exact[part].max()))
+            done += batch
+            batch *= 2
+            if done >= M or not np.isfinite(bound[order[done]]) or \
+                    best - base > bound[order[done]] + _LAZY_MARGIN * (1 + abs(best - base)):
+                break
+        c = int(np.argmax(exact))                    # ties to the lower index
         chosen.append(c)
         info = info + An[c]
     return chosen
@@ -314,7 +497,7 @@ WORKSPACE_POINTS = 7
 TRIANGULATION_SAMPLES = 200
 
 
-def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
+def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
                       depth: float, seed: int = 0) -> dict[str, float]:
     """Predicted error of triangulated points (mm): heads drawn from the predicted
     covariance (seeded, :data:`TRIANGULATION_SAMPLES`), each triangulating the points of a
@@ -364,13 +547,13 @@ def triangulation_std(info: _Information, cov: np.ndarray, setup: PlanSetup,
             "rms_mm": float(np.sqrt(np.mean(e ** 2))), "p95_mm": float(np.percentile(e, 95))}
 
 
-def predict(setup: PlanSetup, positions, info: _Information | None = None,
+def predict(setup: PlanSetup, positions, info: Information | None = None,
             workspace_depth: float | None = 1.5) -> Plan:
     """The prediction for given positions (degrees), each showing the target to both eyes
     (a chessboard whole, without :func:`plan`'s margin); ``info``: the information of
     a candidate set that holds them (else computed for them alone)."""
     positions = np.asarray(positions, float).reshape(-1, 2)
-    info = info or _Information(setup, positions, margin=0.0)
+    info = info or Information(setup, positions, margin=0.0)
     idx = []
     for p in positions:
         hit = np.flatnonzero(np.all(np.abs(info.feasible - p) < 1e-9, axis=1))
@@ -390,7 +573,7 @@ def plan(setup: PlanSetup, k: int, criterion: str = "D",
          workspace_depth: float | None = 1.5) -> Plan:
     """Choose ``k`` positions (module docstring) and predict their accuracy."""
     t0 = time.perf_counter()
-    info = _Information(setup, candidate_grid(setup))
+    info = Information(setup, candidate_grid(setup))
     chosen = greedy(info.I0, info.A, int(k), criterion, _interest(info.names))
     cov = info.covariance(chosen, setup.noise_px)
     std, summary = summarise(info.names, cov)

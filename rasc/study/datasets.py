@@ -41,7 +41,7 @@ from rasc.study.spec import (
     PARAMS,
     UNIT_PARAMS,
     dataset_metres,
-    pose_grid,
+    poses_of,
 )
 
 
@@ -68,6 +68,15 @@ def unit_builds(render: dict[str, Any]) -> dict | None:
                       pan_scale=v["pan_scale"], tilt_scale=v["tilt_scale"])
     which = render.get("units_eye", PARAMS["units_eye"].default)
     return {eye: build for eye in EYES if which in ("both", eye)}
+
+
+def target_of(render: dict[str, Any]):
+    """The target a cell's ``target`` describes (:func:`rasc.vision.board.parse_target`),
+    or None for the model's own board."""
+    from rasc.vision.board import parse_target
+
+    text = render.get("target", PARAMS["target"].default)
+    return parse_target(text) if text else None
 
 
 @dataclass(frozen=True)
@@ -127,12 +136,12 @@ def render_task(task: RenderTask) -> dict | tuple:
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     try:
         options = RenderOptions(
-            poses_deg=pose_grid(full["layout"], full["positions"], full["motion_deg"]),
+            poses_deg=poses_of(full),
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
             distortion=tuple(full["distortion"]))
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
-                              units=unit_builds(r), names=RENDER_NAMES)
+                              units=unit_builds(r), board=target_of(full), names=RENDER_NAMES)
         doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
         return (doc, ds) if task.keep else doc
     except RascError as exc:     # name the cell's render parameters, not a CLI flag
@@ -235,7 +244,7 @@ def pose_task(task: PoseTask) -> dict:
     base, r = task.base, task.render
     where = task.where
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
-    poses = pose_grid(full["layout"], full["positions"], full["motion_deg"])
+    poses = poses_of(full)
     if "render" in base:                   # rendered by this study: its own parameters
         b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
              if p.kind == "render"}

@@ -118,7 +118,7 @@ from rasc.study.spec import (
     Cell,
     Spec,
     check_beside_dataset,
-    pose_grid,
+    poses_of,
 )
 from rasc.study.summary import (  # noqa: F401
     BOOTSTRAP_KEY,
@@ -403,7 +403,7 @@ class _Run:
             if c.params["intrinsics_from"] != "dataset":
                 self.keys[c.index] = base_key
                 continue
-            grid = pose_grid(*(c.params[k] for k in ("layout", "positions", "motion_deg")))
+            grid = poses_of(c.params)
             if same_poses(self.docs[base_key], grid):
                 self.keys[c.index] = base_key               # the base's own pose set
                 continue

@@ -50,7 +50,15 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   images and corners stay in memory (rendered, detected and calibrated without a file);
 - ``time_limit_s`` (top level, > 0, at most a week): the time limit of one call of a
   plugin method (:func:`rasc.guard.guarded`; absent: 300 s); a call past it is a failed
-  sample, status ``failed: PluginTimedOut``.
+  sample, status ``failed: PluginTimedOut``;
+- ``target`` (render): the calibration target drawn, as ``rasc render --target`` takes it
+  (``chessboard:NXxNY,SQUARE`` or ``charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy]``,
+  metres; '' = the model's own board); not with ``model`` or ``intrinsics_from =
+  "dataset"``;
+- ``positions_file`` (render): a positions file (relative to the spec; what ``rasc plan``
+  writes and ``rasc render --poses FILE`` reads, :func:`rasc.sim.render.read_positions`)
+  whose positions replace the ``layout``/``positions``/``motion_deg`` grid; a cell's
+  identity holds the positions themselves, not the file's name.
 
 The work a spec asks for is bounded before anything runs (:func:`check_work` and the
 parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
@@ -97,7 +105,7 @@ NOISE_MODELS = ("literal", "exponential")
 NOISE_ON = ("all", "home")
 INTRINSICS_FROM = ("calibrate", "dataset")
 #: the render parameters that make a pose set (what ``intrinsics_from = "dataset"`` varies)
-POSE_PARAMS = ("motion_deg", "layout", "positions")
+POSE_PARAMS = ("motion_deg", "layout", "positions", "positions_file")
 UNITS_EYES = ("both", *EYES)
 #: |axis_skew_deg| below this (rasc.sim.units: at 90° the axes would be parallel)
 MAX_SKEW_DEG = 45.0
@@ -203,6 +211,24 @@ def _text(x) -> str:
     return x
 
 
+def _target(x) -> str:
+    """A target description in ``rasc render --target``'s inline form ('' = the model's
+    board), checked by :func:`rasc.vision.board.parse_target`."""
+    from rasc.vision.board import TARGET_TYPES, parse_target
+
+    x = _text(x).strip()
+    if not x:
+        return x
+    if x.partition(":")[0] not in TARGET_TYPES or ":" not in x:
+        raise ValueError("expected chessboard:NXxNY,SQUARE or charuco:SXxSY,SQUARE,MARKER"
+                         f"[,DICTIONARY][,legacy], got {_show(x)}")
+    try:
+        parse_target(x)
+    except InputError as exc:
+        raise ValueError(str(exc).split(": ", 1)[-1]) from None
+    return x
+
+
 def _show(x) -> str:
     text = repr(x)
     return text if len(text) <= 60 else text[:57] + "..."
@@ -266,6 +292,14 @@ PARAMS: dict[str, Param] = {
                              "calibrate: intrinsics from the cell's own rendered intrinsics "
                              "views; dataset: the base dataset's intrinsics, only the pose "
                              "views rendered (in the base's scene)"),
+    "target": Param(_target, "", "render",
+                    "the calibration target, as rasc render --target: chessboard:NXxNY,SQUARE "
+                    "or charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] (metres; '' = the "
+                    "model's board)"),
+    "positions_file": Param(_text, "", "render",
+                            "a positions file (relative to the spec, as rasc plan writes and "
+                            "rasc render --poses reads) replacing the layout, positions and "
+                            "motion_deg grid"),
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
@@ -280,7 +314,8 @@ PARAMS: dict[str, Param] = {
 UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zero_deg",
                "pan_scale", "tilt_scale")
 #: parameters that enter a cell's identity only when they differ from their default
-IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from")
+IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from",
+                     "target", "positions_file")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None,
@@ -328,6 +363,17 @@ def pose_grid(layout: str, positions: int, motion_deg: float
     return ((0.0, 0.0),) + tuple(
         (a * math.cos(2 * math.pi * i / n), a * math.sin(2 * math.pi * i / n))
         for i in range(n))
+
+
+def poses_of(params: dict[str, Any]) -> tuple[tuple[float, float], ...]:
+    """A cell's pan-tilt positions (deg): its positions file's (``positions_file``, which
+    :meth:`Spec.cells` replaces by the positions), else :func:`pose_grid`'s."""
+    listed = params.get("positions_file")
+    if listed:
+        return tuple((float(p), float(t)) for p, t in listed)
+    return pose_grid(params.get("layout", PARAMS["layout"].default),
+                     params.get("positions", PARAMS["positions"].default),
+                     params.get("motion_deg", PARAMS["motion_deg"].default))
 
 
 def identity(params: dict[str, Any]) -> dict[str, Any]:
@@ -396,6 +442,8 @@ class Spec:
     gross_translation_mm: float | None = None
     #: the time limit of one plugin call, s (None: rasc.guard.DEFAULT_TIME_LIMIT_S)
     time_limit_s: float | None = None
+    #: positions file (as written in the spec) → its positions (deg)
+    positions_files: dict[str, tuple[tuple[float, float], ...]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The normalised spec (what its hash covers; relative model paths resolved to
@@ -413,6 +461,9 @@ class Spec:
             out["paired"] = list(self.paired)
         if self.dataset_digests:
             out["dataset_digests"] = dict(self.dataset_digests)
+        if self.positions_files:
+            out["positions_files"] = {k: [list(p) for p in v]
+                                      for k, v in self.positions_files.items()}
         for key in ("gross_rotation_deg", "gross_translation_mm", "time_limit_s"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
@@ -438,6 +489,8 @@ class Spec:
                 params["model"] = self.model_digests[params["model"]]
             if params["dataset"]:
                 params["dataset"] = self.dataset_digests[params["dataset"]]
+            if params["positions_file"]:
+                params["positions_file"] = self.positions_files[params["positions_file"]]
             out.append(Cell(k, params, swept, self.paired))
         return out
 
@@ -524,8 +577,14 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     check_work(top, len(methods), n_cells, fixed, axes, fail)
     _check_poses(fixed, axes, fail)
     digests = _model_digests(path, fixed, axes, fail)
+    positions_files = _positions_files(path, fixed, axes, fail)
+    _check_target(fixed, axes, fail)
     dataset_digests = _dataset_digests(path, fixed, axes, fail)
     paired = _paired(doc, axes, fail)
+    if positions_files:
+        longest = max(len(v) for v in positions_files.values())
+        check_work(top, len(methods), n_cells,
+                   {**fixed, "positions": max(longest, fixed.get("positions", 9))}, axes, fail)
 
     spec = Spec(path=path, name=top.get("name", path.stem),
                 description=top.get("description", ""), seed=top["seed"],
@@ -535,7 +594,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
                 dataset_digests=dataset_digests,
                 gross_rotation_deg=top.get("gross_rotation_deg"),
                 gross_translation_mm=top.get("gross_translation_mm"),
-                time_limit_s=top.get("time_limit_s"))
+                time_limit_s=top.get("time_limit_s"), positions_files=positions_files)
     narrowed = _quick(doc.get("quick", {}), spec, fail)
     return narrowed if quick else spec
 
@@ -688,6 +747,19 @@ def _model_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
     return digests
 
 
+def _check_target(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
+    """A ``target`` is drawn around the package's head: not with ``model`` or
+    ``intrinsics_from = "dataset"``."""
+    targets = [t for t in axes.get("target", (fixed.get("target", ""),)) if t]
+    if targets:
+        for other in ("model", "intrinsics_from"):
+            value = axes.get(other, (fixed.get(other, PARAMS[other].default),))
+            if any(v and v != PARAMS[other].default for v in value):
+                table = "axes" if "target" in axes else "fixed"
+                fail(f"{table}.target", f"a target is drawn around the package's head; "
+                     f"not with {other} = {_show(next(v for v in value if v))}")
+
+
 def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
                      fail: Fail) -> dict[str, str]:
     """An existing dataset instead of rendering: [fixed] only, and no render parameter;
@@ -727,6 +799,32 @@ def _paired(doc: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> list[str
         if name == "eye":
             fail(f"paired[{k}]", "'eye' cannot be paired: the eyes have different poses")
     return paired
+
+
+def _positions_files(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
+                     fail: Callable[[str, str], None]
+                     ) -> dict[str, tuple[tuple[float, float], ...]]:
+    """Every ``positions_file`` of the spec read (relative to its folder) and checked:
+    3 to :data:`MAX_POSITIONS` positions."""
+    from rasc.sim.render import read_positions
+
+    given = [(f"axes.positions_file[{k}]", rel)
+             for k, rel in enumerate(axes.get("positions_file", ()))]
+    if fixed.get("positions_file"):
+        given.append(("fixed.positions_file", fixed["positions_file"]))
+    out = {}
+    for key, rel in given:
+        if not rel:
+            continue
+        try:
+            poses = read_positions(path.parent / rel)
+        except InputError as exc:
+            fail(key, str(exc))
+        if not 3 <= len(poses) <= MAX_POSITIONS:
+            fail(key, f"{path.parent / rel}: {len(poses)} positions; expected 3 to "
+                 f"{MAX_POSITIONS}")
+        out[rel] = poses
+    return out
 
 
 def check_work(top: dict[str, Any], n_methods: int, n_cells: int, fixed: dict[str, Any],

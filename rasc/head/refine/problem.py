@@ -244,7 +244,7 @@ class _Problem(_JacobianMixin):
                 "D": np.array([s[eye]["dist"] for eye in EYES])[img_eye]}    # (n, 5)
 
     def _project(self, x: np.ndarray, sel: np.ndarray, ch: dict[str, Any],
-                 derivatives: bool = False):
+                 derivatives: bool = False, board: bool = True):
         """Pixels (n, N, 2) of the chain ``ch`` of the images ``sel`` (eq. 1-2 with
         distortion and K; without ``derivatives`` only ``ch``'s ``R``, ``t``, ``Kp`` and
         ``D`` are used, as :meth:`_residuals_batch` passes them); with ``derivatives``
@@ -252,7 +252,8 @@ class _Problem(_JacobianMixin):
         the camera-frame point (k = 3), to the eye's intrinsics in the layout of
         :attr:`names` (fx fy cx cy, then the distortion terms of the dataset's model) and
         to the image's board pose (k = 6: its rotation vector w, ``R = exp(w) R0``, then
-        its translation), in natural units."""
+        its translation), in natural units; ``board=False`` leaves the last out (the
+        planner, :mod:`rasc.plan`, needs the others only)."""
         R, t = ch["R"], ch["t"]
         pc = np.einsum("nij,kj->nki", R, self.P) + t[:, None, :]
         x_, y_ = pc[..., 0] / pc[..., 2], pc[..., 1] / pc[..., 2]
@@ -293,6 +294,8 @@ class _Problem(_JacobianMixin):
         cols = [(xd, zero), (zero, yd), (one, zero), (zero, one)]
         cols += [full[DIST_NAMES[i]] for i in self.dist_idx]
         d_intr = np.stack([np.stack(c, axis=-1) for c in cols], axis=-1)
+        if not board:
+            return uv, {"point": J, "intrinsics": d_intr}
         # board pose: q = exp(w) R0 P + t_b, pc = RA q + tA; a change dw of the rotation
         # vector turns q by J_l(w) dw (J_l: SO(3)'s left Jacobian), so
         # d pc / d w = -RA [Rb P]x J_l(w), d pc / d t_b = RA
