@@ -61,8 +61,9 @@ ROOMS = (
     Room("rasc/datasets/", 4, "the dataset service: the one cache key over the one code "
          "digest (`keys`), the one verified cache store (`cache`), rendered datasets "
          "through it (`render`)"),
-    Room("rasc/study/", 4, "declarative studies: `spec` (TOML), `engine`, `executors`, "
-         "`figures`"),
+    Room("rasc/study/", 4, "declarative studies in stages: `params` (every study "
+         "parameter), `spec` (the TOML file, cells), `datasets`, `cells`, `summary`, "
+         "`figures`, `engine` (the run), `executors` (in process, a process pool, dask)"),
     Room("rasc/testing.py", 5, "the pytest plugin: noisy pose sets, rendered datasets, "
          "`assert_handeye_close`"),
     Room("rasc/commands/", 5, "one module per `rasc` subcommand"),
