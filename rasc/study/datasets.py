@@ -235,16 +235,37 @@ def pose_task(task: PoseTask) -> dict:
         The board is not found in a rendered pose view.
     """
     worker_environment()
-    from rasc.head.pipeline import CalibrationOptions
-    from rasc.sim.render import RenderOptions, check_pose_views, distortion_of, view_image
-    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
+    from rasc.sim.render import RenderOptions
     from rasc.vision.board import Board
-    from rasc.vision.camera import detect_corners, estimate_extrinsics
 
     base, r = task.base, task.render
-    where = task.where
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
     poses = poses_of(full)
+    scene, model_path, units, record = _pose_scene(task)
+    board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
+    options = RenderOptions(poses_deg=poses, distance=scene["target_distance"],
+                            seed=scene["seed"], image_noise=scene["noise_sigma"] or 0.0,
+                            blur=scene["blur_sigma"] or 0.0,
+                            distortion=tuple(scene["dist"] or ())).validate(RENDER_NAMES)
+    rng = np.random.default_rng(np.random.SeedSequence(
+        [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
+    images, T_true, X_sim = _render_pose_views(task, options, board, model_path, units,
+                                               record, rng)
+    eyes = {eye: _pose_eye(task, eye, data, images[eye], T_true[eye], X_sim[eye], board,
+                           poses, full["motion_deg"])
+            for eye, data in base["eyes"].items()}
+    out = {"format": formats.DATASET_CALIBRATION.tag, "key": task.key, "render": r,
+           "seed": task.seed, "intrinsics_of": task.base_key,
+           "board": base["board"], "eyes": eyes}
+    if record is not None:
+        out["scene"] = record
+    return out
+
+
+def _pose_scene(task: PoseTask) -> tuple[dict, Any, Any, dict | None]:
+    """:func:`pose_task`'s scene: (the render options as the ground truth records them,
+    the model path, the units, the base's scene record or None)."""
+    base, where = task.base, task.where
     if "render" in base:                   # rendered by this study: its own parameters
         b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
              if p.kind == "render"}
@@ -264,15 +285,18 @@ def pose_task(task: PoseTask) -> dict:
                              "rendered from a generated scene, which cannot be rendered again")
         scene = record["render_options"]
         model_path, units = None, None
-    board = Board(tuple(base["board"]["inner_corners"]), base["board"]["square_size"])
-    options = RenderOptions(poses_deg=poses, distance=scene["target_distance"],
-                            seed=scene["seed"], image_noise=scene["noise_sigma"] or 0.0,
-                            blur=scene["blur_sigma"] or 0.0,
-                            distortion=tuple(scene["dist"] or ()))
+    return scene, model_path, units, record
+
+
+def _render_pose_views(task: PoseTask, options, board, model_path, units,
+                       record: dict | None, rng: np.random.Generator) -> tuple:
+    """Render :func:`pose_task`'s pose views in the base's scene: per eye the images, the
+    true ``T_cam_from_world`` of each, and the scene's ``T_cam_from_gaze``."""
+    from rasc.sim.render import check_pose_views, distortion_of, view_image
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
+
+    where = task.where
     dist, distorted = distortion_of(options)
-    rng = np.random.default_rng(np.random.SeedSequence(
-        [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
-    detector = CalibrationOptions().detector
     images: dict[str, list] = {eye: [] for eye in EYES}
     T_true: dict[str, list] = {eye: [] for eye in EYES}
     with StereoHeadSim(model_path, units=units) as sim:
@@ -294,42 +318,45 @@ def pose_task(task: PoseTask) -> dict:
         check_pose_views(sim, options, dist if distorted else None)
         warp = {eye: distortion_warp(sim.K(eye), dist, sim.image_size) for eye in EYES} \
             if distorted else {}
-        for pan, tilt in poses:
+        for pan, tilt in options.poses_deg:
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             for eye in EYES:
                 images[eye].append(view_image(sim, eye, warp, rng, options))
                 T_true[eye].append(sim.T_cam_from_world(eye).tolist())
         X_sim = {eye: sim.T_cam_from_gaze(eye) for eye in EYES}
-    pan_tilt = np.radians(np.asarray(poses, float))
-    eyes = {}
-    for eye, data in base["eyes"].items():
-        X_true = np.asarray(data["T_cam_from_gaze_true"], float)
-        if np.abs(X_sim[eye] - X_true).max() > SAME_SCENE_ATOL:
-            raise InputError(f"{where}: intrinsics_from = 'dataset': the rendered {eye} "
-                             "head's T_cam_from_gaze is not the dataset's truth")
-        K, d = np.asarray(data["K"], float), np.asarray(data["dist"], float)
-        files, corners, T_cw = [], [], []
-        for k, image in enumerate(images[eye]):
-            name = f"poses±{full['motion_deg']:g}/{eye}_{k:02d}"
-            c = detect_corners(image, board, method=detector)
-            if c is None:
-                raise DegenerateDataError(f"{where}: the pose view {name} (pan, tilt = "
-                                          f"{poses[k][0]:g}, {poses[k][1]:g} deg): board "
-                                          "not found")
-            files.append(name)
-            corners.append(np.asarray(c, float).tolist())
-            T_cw.append(estimate_extrinsics(c, board, K, d)[0].tolist())
-        eyes[eye] = {"files": files, "pan_tilt_rad": pan_tilt.tolist(), "T_cam_from_world": T_cw,
-                     "corners": corners, "K": data["K"], "dist": data["dist"],
-                     "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
-                     "T_cam_from_world_true": T_true[eye]}
-    out = {"format": formats.DATASET_CALIBRATION.tag, "key": task.key, "render": r,
-           "seed": task.seed, "intrinsics_of": task.base_key,
-           "board": base["board"], "eyes": eyes}
-    if record is not None:
-        out["scene"] = record
-    return out
+    return images, T_true, X_sim
+
+
+def _pose_eye(task: PoseTask, eye: str, data: dict, images: list, T_true: list,
+              X_sim: np.ndarray, board, poses, motion_deg: float) -> dict:
+    """One eye of :func:`pose_task`'s document: its pose views detected with the
+    pipeline's detector and posed with the base's intrinsics."""
+    from rasc.head.pipeline import CalibrationOptions
+    from rasc.vision.camera import detect_corners, estimate_extrinsics
+
+    where = task.where
+    X_true = np.asarray(data["T_cam_from_gaze_true"], float)
+    if np.abs(X_sim - X_true).max() > SAME_SCENE_ATOL:
+        raise InputError(f"{where}: intrinsics_from = 'dataset': the rendered {eye} "
+                         "head's T_cam_from_gaze is not the dataset's truth")
+    detector = CalibrationOptions().detector
+    K, d = np.asarray(data["K"], float), np.asarray(data["dist"], float)
+    files, corners, T_cw = [], [], []
+    for k, image in enumerate(images):
+        name = f"poses±{motion_deg:g}/{eye}_{k:02d}"
+        c = detect_corners(image, board, method=detector)
+        if c is None:
+            raise DegenerateDataError(f"{where}: the pose view {name} (pan, tilt = "
+                                      f"{poses[k][0]:g}, {poses[k][1]:g} deg): board "
+                                      "not found")
+        files.append(name)
+        corners.append(np.asarray(c, float).tolist())
+        T_cw.append(estimate_extrinsics(c, board, K, d)[0].tolist())
+    return {"files": files, "pan_tilt_rad": np.radians(np.asarray(poses, float)).tolist(),
+            "T_cam_from_world": T_cw, "corners": corners, "K": data["K"],
+            "dist": data["dist"], "T_cam_from_gaze_true": data["T_cam_from_gaze_true"],
+            "T_cam_from_world_true": T_true}
 
 
 def cache_dir() -> Path | None:
