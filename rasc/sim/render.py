@@ -72,7 +72,7 @@ MAX_BLUR_PX = 50.0
 MAX_DIST_COEFFS = 5
 
 
-#: RenderOptions' fields before 0.3 (the study spec's names since): old → new
+#: RenderOptions' fields in rasc 0.2 (the study spec's names since): old → new
 _RENAMED = {"n_intrinsics": "intrinsics_views", "target_distance": "distance",
             "noise_sigma": "image_noise", "blur_sigma": "blur", "dist": "distortion"}
 
@@ -136,9 +136,9 @@ def _renamed_init(init):
     def __init__(self, *args, **kwargs):
         for old, new in _RENAMED.items():
             if old in kwargs:
-                warnings.warn(f"RenderOptions({old}=...) is RenderOptions({new}=...) since "
-                              "rasc 0.3; the old name goes in 0.4", DeprecationWarning,
-                              stacklevel=2)
+                warnings.warn(f"RenderOptions({old}=...) is now RenderOptions({new}=...) "
+                              "(renamed after rasc 0.2.0); the old name goes in rasc 0.4",
+                              DeprecationWarning, stacklevel=2)
                 kwargs[new] = kwargs.pop(old)
         init(self, *args, **kwargs)
     __init__.__doc__ = init.__doc__
@@ -147,8 +147,8 @@ def _renamed_init(init):
 
 def _renamed_property(old: str, new: str) -> property:
     def get(self):
-        warnings.warn(f"RenderOptions.{old} is RenderOptions.{new} since rasc 0.3; the old "
-                      "name goes in 0.4", DeprecationWarning, stacklevel=2)
+        warnings.warn(f"RenderOptions.{old} is now RenderOptions.{new} (renamed after rasc "
+                      "0.2.0); the old name goes in rasc 0.4", DeprecationWarning, stacklevel=2)
         return getattr(self, new)
     return property(get, doc=f"Deprecated: :attr:`{new}`.")
 
