@@ -50,6 +50,7 @@ import json
 import os
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -99,10 +100,29 @@ def positions(amplitude: float) -> tuple[tuple[float, float], ...]:
     return tuple((p * a, q * t) for p, q in PAPER_POSES_DEG)
 
 
-def run_case(task: tuple) -> dict:
+@dataclass(frozen=True)
+class CaseTask:
+    """One case of E8 (:func:`run_case`): the head (its id and the unit's imperfections,
+    fields of :class:`rasc.sim.units.UnitBuild`), the protocol (its name, target kind and
+    amplitude), the seed, the intrinsics views, and whether it is projected
+    (``synthetic``) instead of rendered."""
+
+    head: str
+    fields: dict
+    protocol: str
+    target: str
+    amplitude_deg: float
+    seed: int
+    intrinsics_views: int
+    synthetic: bool
+
+
+def run_case(task: CaseTask) -> dict:
     """Render (or project) one head × protocol, calibrate closed form and refined, score."""
     os.environ.setdefault("MUJOCO_GL", "egl")
-    head_id, fields, proto, kind, amp, seed, n_intr, synthetic = task
+    head_id, fields, proto, kind = task.head, task.fields, task.protocol, task.target
+    amp, seed, n_intr, synthetic = (task.amplitude_deg, task.seed, task.intrinsics_views,
+                                    task.synthetic)
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, refine_calibration
 
     board = target(kind)
@@ -336,7 +356,7 @@ def compute(folder: Path, seed: int, quick: bool, workers: int, synthetic: bool,
     intrinsics views and, with pixel noise, its own noise); raw CSV/JSON in ``folder``,
     one row per seed. Returns the per-seed results (:func:`combine` merges them)."""
     n_intr = N_INTRINSICS_QUICK if quick else N_INTRINSICS
-    tasks = [(h, f, p, kind, amp, seed + k, n_intr, synthetic)
+    tasks = [CaseTask(h, f, p, kind, amp, seed + k, n_intr, synthetic)
              for k in range(seeds)
              for h, _, f in HEADS if not quick or h in QUICK_HEADS
              for p, kind, amp in PROTOCOLS if not quick or p in QUICK_PROTOCOLS]
