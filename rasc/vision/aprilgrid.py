@@ -25,7 +25,7 @@ from rasc.vision.board import (
     spans_plane,
 )
 from rasc.vision.images import to_grey
-from rasc.vision.subpixel import SUBPIX_CRITERIA, _opencv_threads, saddle_points
+from rasc.vision.subpixel import SUBPIX_CRITERIA, _opencv_threads, saddle_points_inside
 
 #: cornerSubPix half-window as a fraction of the clean saddle around a tag corner (the
 #: smaller of the tag's 2-bit border and the corner square, in pixels), clipped to
@@ -124,11 +124,7 @@ def detect_aprilgrid(image: np.ndarray, board: AprilGrid,
         # Its window stays inside the clean saddle (the tag border, the corner square).
         r = int(np.clip(np.floor(side), 2, 6)) if np.isfinite(side) else 2
         sigma = float(np.clip(r / 3, 0.8, 2.0))
-        moved, ok = saddle_points(grey, refined, r, sigma)
-        edge = r + int(np.ceil(2 * sigma))
-        for pts in (refined, moved):       # a window leaving the image sees a made-up border
-            ok &= np.all(pts >= edge, axis=1) & (pts[:, 0] <= w - 1 - edge) \
-                & (pts[:, 1] <= h - 1 - edge)
+        moved, ok = saddle_points_inside(grey, refined, r, sigma)
         pid, refined = pid[ok], moved[ok]
     keep = _consistent(board, pid, refined)
     pid, refined = pid[keep], refined[keep]

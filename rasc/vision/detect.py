@@ -35,6 +35,7 @@ from rasc.vision.subpixel import (  # noqa: F401  (re-exported: rasc.vision.dete
     SUBPIX_CRITERIA,
     _opencv_threads,
     saddle_points,
+    saddle_points_inside,
 )
 
 ORDER_RULES = ("colour", "image", None)
@@ -351,14 +352,7 @@ def detect_charuco(image: np.ndarray, board: CharucoBoard,
     if method == "saddle":
         # no homography (side unknown): the smallest window, which reaches no marker
         r, sigma = charuco_saddle_window(board, side) if np.isfinite(side) else (2, 0.8)
-        new, ok = saddle_points(grey, uv, r, sigma)
-        # a window that leaves the image sees a made-up border (measured: a corner 1.7 px
-        # from the top edge moved 2 px out of the image): such corners are dropped
-        edge = r + int(np.ceil(2 * sigma))
-        height, width = grey.shape[:2]
-        for pts in (uv, new):
-            ok &= np.all(pts >= edge, axis=1) & (pts[:, 0] <= width - 1 - edge) \
-                & (pts[:, 1] <= height - 1 - edge)
+        new, ok = saddle_points_inside(grey, uv, r, sigma)
         ids, uv = ids[ok], new[ok]
         if len(ids) < min_corners or not spans_plane(board.object_points()[ids]):
             return None
