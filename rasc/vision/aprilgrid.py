@@ -22,6 +22,7 @@ from rasc.vision.board import (
     MIN_VIEW_CORNERS,
     AprilGrid,
     _is_integral,
+    corners_by_id,
     spans_plane,
 )
 from rasc.vision.images import to_grey
@@ -127,12 +128,7 @@ def detect_aprilgrid(image: np.ndarray, board: AprilGrid,
         moved, ok = saddle_points_inside(grey, refined, r, sigma)
         pid, refined = pid[ok], moved[ok]
     keep = _consistent(board, pid, refined)
-    pid, refined = pid[keep], refined[keep]
-    if len(pid) < min_corners or not spans_plane(board.object_points()[pid]):
-        return None
-    out = np.full((board.n_corners, 2), np.nan)
-    out[pid] = refined
-    return out
+    return corners_by_id(board, pid[keep], refined[keep], min_corners)
 
 
 #: A tag corner farther than this fraction of the local saddle size from where the

@@ -675,3 +675,15 @@ def spans_plane(points: np.ndarray) -> bool:
         return False
     s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
     return bool(s[0] > 0 and s[1] > 1e-6 * s[0])
+
+
+def corners_by_id(board, ids: np.ndarray, uv: np.ndarray, min_corners: int
+                  ) -> np.ndarray | None:
+    """A target seen in part's detection as the detectors return it: (N, 2) pixels by
+    corner id, NaN rows for the corners not seen; None when fewer than ``min_corners``
+    were seen or they all lie on one line (no pose, no homography)."""
+    if len(ids) < min_corners or not spans_plane(board.object_points()[ids]):
+        return None
+    out = np.full((board.n_corners, 2), np.nan)
+    out[ids] = uv
+    return out

@@ -28,6 +28,7 @@ from rasc.vision.board import (
     Board,
     CharucoBoard,
     _is_integral,
+    corners_by_id,
     spans_plane,
 )
 from rasc.vision.images import read_image, to_grey
@@ -353,12 +354,8 @@ def detect_charuco(image: np.ndarray, board: CharucoBoard,
         # no homography (side unknown): the smallest window, which reaches no marker
         r, sigma = charuco_saddle_window(board, side) if np.isfinite(side) else (2, 0.8)
         new, ok = saddle_points_inside(grey, uv, r, sigma)
-        ids, uv = ids[ok], new[ok]
-        if len(ids) < min_corners or not spans_plane(board.object_points()[ids]):
-            return None
-    out = np.full((board.n_corners, 2), np.nan)
-    out[ids] = uv
-    return out
+        return corners_by_id(board, ids[ok], new[ok], min_corners)
+    return corners_by_id(board, ids, uv, min_corners)
 
 
 def detect_views(images: dict, board: Board, method: str = "classic",
