@@ -49,11 +49,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "covariance (default D)")
     p.add_argument("--min-corners", type=int, default=8, metavar="N",
                    help="fewest corners a ChArUco view must show (default 8)")
-    p.add_argument("--noise", type=float, default=0.05, metavar="PX",
-                   help="the corner noise per coordinate the prediction assumes, pixels "
-                        "(default 0.05; a calibration's sigma_px, the noise its residuals "
-                        "give, is the number to use); the positions chosen do not depend "
-                        "on it, the predicted sigmas scale with it")
+    p.add_argument("--noise", type=float, default=None, metavar="PX",
+                   help="the pose views' corner noise per coordinate the prediction "
+                        "assumes, pixels (default: what the --calibration's residuals give, "
+                        "else 0.05); the predicted sigmas scale with it")
+    p.add_argument("--intrinsics-noise", type=float, default=None, metavar="PX",
+                   help="the intrinsics views' corner noise per coordinate, pixels "
+                        "(default: what the --calibration's residuals give, else --noise); "
+                        "the design weighs the two kinds of view by it")
     p.add_argument("--workspace-depth", type=float, default=1.5, metavar="M",
                    help="depth of the 0.6 m square plane of points whose triangulation error "
                         "is predicted (default 1.5)")
@@ -68,7 +71,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     with loading():
         from rasc.io import check_output, write_text_atomic
-        from rasc.plan import PlanSetup, head_from_calibration, plan
+        from rasc.plan import PlanSetup, head_from_calibration, plan, resolve_noise
         from rasc.sim.render import format_positions
         from rasc.sim.synthetic import default_head
         from rasc.vision.board import parse_target
@@ -76,19 +79,20 @@ def run(args: argparse.Namespace) -> int:
     out = check_output(args.out, inputs=[p for p in (args.calibration,) if p])
     board = parse_target(args.target, "--target")
     head = head_from_calibration(args.calibration) if args.calibration else default_head()
+    noise, intrinsics_noise, how = resolve_noise(args.noise, args.intrinsics_noise,
+                                                 args.calibration)
     setup = PlanSetup(head=head, board=board, distance=args.distance,
                       pan_range=_pair(args.pan_range, "--pan-range"),
                       tilt_range=_pair(args.tilt_range, "--tilt-range"),
-                      step_deg=args.step, min_corners=args.min_corners, noise_px=args.noise,
-                      seed=args.seed)
+                      step_deg=args.step, min_corners=args.min_corners, noise_px=noise,
+                      intrinsics_noise_px=intrinsics_noise, seed=args.seed)
     result = plan(setup, args.positions, args.criterion, args.workspace_depth)
     print(f"plan: {len(result.positions)} of {result.candidates} usable positions "
           f"({args.step:g} deg grid), criterion {args.criterion}, "
-          f"{result.seconds:.1f} s; corner noise {args.noise:g} px")
+          f"{result.seconds:.1f} s")
     for p in result.positions:
         print(f"  pan {p[0]:+7.2f}  tilt {p[1]:+7.2f}")
-    print(f"predicted standard deviations (assuming corner noise {args.noise:g} px per "
-          "coordinate, independent):")
+    print(f"predicted standard deviations (assuming {how}):")
     for k, v in result.summary.items():
         print(f"  {k:34s} {v:.4g}")
     t = result.triangulation

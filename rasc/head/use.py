@@ -79,6 +79,12 @@ class CalibrationFile:
         Per eye the paper model's fit check (``paper_model_fit``: ``F``, ``threshold_F``)
         when the file's head IS the paper model (``rasc-calibration/1`` without a
         whole-head refinement), else None: what :func:`reading_warnings` reads.
+    corner_noise : dict or None
+        The corner noise per coordinate (px) the whole-head refinement's residuals give,
+        by role: ``{"pose": σₚ, "intrinsics": σᵢ}`` — each role's RMS residual scaled by
+        the fit's degrees of freedom as ``sigma_px`` is (σ_role = rms_role · sigma_px /
+        rms_after). None without a refinement or its residuals. What :mod:`rasc.plan`
+        predicts with.
     """
 
     head: HeadCalibration
@@ -86,6 +92,7 @@ class CalibrationFile:
     joint_range: dict[str, dict[str, tuple[float, float]]] | None
     source: str
     paper_fit: dict[str, dict[str, float]] | None = None
+    corner_noise: dict[str, float] | None = None
 
 
 def read_json_document(path: str | os.PathLike, what: str = "calibration file") -> Any:
@@ -170,6 +177,30 @@ def _paper_fit(fits: Any) -> dict | None:
     return out or None
 
 
+def _corner_noise(ref: Any) -> dict[str, float] | None:
+    """:attr:`CalibrationFile.corner_noise` from a calibration's ``refinement``."""
+    if ref is None:
+        return None
+    if not isinstance(ref, dict):
+        raise InputError("refinement: expected an object")
+    by_role = ref.get("rms_by_role_px")
+    if by_role is None or ref.get("sigma_px") is None or ref.get("rms_after_px") is None:
+        return None
+    if not isinstance(by_role, dict):
+        raise InputError("refinement.rms_by_role_px: expected an object with 'pose' and "
+                         "'intrinsics'")
+    sigma = finite_number(ref.get("sigma_px"), "refinement.sigma_px")
+    rms = finite_number(ref.get("rms_after_px"), "refinement.rms_after_px")
+    out = {}
+    for role in ("pose", "intrinsics"):
+        v = finite_number(by_role.get(role), f"refinement.rms_by_role_px.{role}")
+        if v <= 0 or sigma <= 0 or rms <= 0:
+            raise InputError(f"refinement.rms_by_role_px.{role}: expected a positive RMS "
+                             f"with a positive sigma_px and rms_after_px, got {v:g}")
+        out[role] = v * sigma / rms
+    return out
+
+
 def calibration_from_document(doc: Any, source: str = "calibration") -> CalibrationFile:
     """A parsed ``rasc-calibration/1`` or ``rasc-head/1`` document → :class:`CalibrationFile`.
 
@@ -193,7 +224,8 @@ def calibration_from_document(doc: Any, source: str = "calibration") -> Calibrat
         if unit is not None and not isinstance(unit, str):
             raise InputError(f"length_unit: expected text, got {json.dumps(unit)[:40]}")
         fit = None if "refinement" in doc else _paper_fit(doc.get("paper_model_fit"))
-        return CalibrationFile(head, unit, _joint_range(doc.get("eyes")), source, fit)
+        return CalibrationFile(head, unit, _joint_range(doc.get("eyes")), source, fit,
+                               _corner_noise(doc.get("refinement")))
     except InputError as exc:
         raise InputError(f"{source}: {exc}") from None
 

@@ -10,6 +10,12 @@ every calibrated parameter and of triangulated points in a stated workspace.
 noise: the prediction assumes the model is right and the noise is independent with
 ``noise_px`` per coordinate) gives the information matrix JᵀJ; the covariance of the
 estimate is ``noise_px² (JᵀJ)⁻¹`` — exactly what the refinement reports after the fit.
+The two kinds of view may have different noise (``intrinsics_noise_px``: a board seen
+close and tilted is often located better than one seen at the pose views' distance);
+the covariance of the same least-squares estimate is then the sandwich
+``H⁻¹ (σᵢ² I₀ + σₚ² Σ A_c) H⁻¹``, ``H = I₀ + Σ A_c``. A calibration's residuals give both
+(:attr:`rasc.head.use.CalibrationFile.corner_noise`, what ``rasc plan --calibration``
+uses unless told otherwise).
 The intrinsics views (drawn as ``rasc render`` draws them, seeded) contribute a fixed
 information ``I₀`` after their board poses are eliminated (Schur complement); each
 candidate position c contributes ``A_c = J_cᵀ J_c`` over the global parameters
@@ -46,6 +52,9 @@ PLAN_UNIT_PARAMETERS = ("tilt_axis_x", "tilt_point_y")
 DEFAULT_PAN_RANGE = (-60.0, 60.0)
 DEFAULT_TILT_RANGE = (-45.0, 30.0)
 CRITERIA = ("D", "A")
+#: the corner noise (px per coordinate) a plan assumes without a calibration to take it
+#: from: about what OpenCV's sub-pixel chessboard corners give on sharp real images
+DEFAULT_NOISE_PX = 0.05
 
 
 @dataclass
@@ -59,7 +68,8 @@ class PlanSetup:
     tilt_range: tuple[float, float] = DEFAULT_TILT_RANGE
     step_deg: float = 2.0
     min_corners: int = MIN_VIEW_CORNERS
-    noise_px: float = 0.05                       # corner noise per coordinate
+    noise_px: float = DEFAULT_NOISE_PX           # pose views' corner noise per coordinate
+    intrinsics_noise_px: float | None = None     # the intrinsics views' (None: noise_px)
     n_intrinsics: int = 20
     seed: int = 0
     image_size: tuple[int, int] = (1280, 960)
@@ -70,9 +80,18 @@ class PlanSetup:
                 raise InputError(f"{name}: expected MIN,MAX with MIN < MAX, got {r!r}")
         if not (np.isfinite(self.step_deg) and 0.1 <= self.step_deg <= 30):
             raise InputError(f"step: expected 0.1 to 30 degrees, got {self.step_deg!r}")
-        if not (np.isfinite(self.noise_px) and self.noise_px > 0):
-            raise InputError(f"noise: expected a positive number of pixels, got "
-                             f"{self.noise_px!r}")
+        for name, v in (("noise", self.noise_px),
+                        ("intrinsics noise", self.intrinsics_noise_px)):
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise InputError(f"{name}: expected a positive number of pixels, got {v!r}")
+        if self.noise_px is None:
+            raise InputError("noise: expected a positive number of pixels, got None")
+
+    @property
+    def noise(self) -> tuple[float, float]:
+        """(pose views', intrinsics views') corner noise, px per coordinate."""
+        return self.noise_px, (self.noise_px if self.intrinsics_noise_px is None
+                               else self.intrinsics_noise_px)
         if not (np.isfinite(self.distance) and self.distance > 0):
             raise InputError(f"distance: expected a positive number of metres, got "
                              f"{self.distance!r}")
@@ -155,8 +174,9 @@ _CHAIN_STEP = 1e-6
 
 def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """The information ``I0`` of the intrinsics views (their board poses eliminated) and
-    the blocks ``A`` (M, p, p) of the candidate pose views over the parameters ``keep``
-    (indices into ``prob.names``: the globals and the pose views' board).
+    the blocks ``A`` (2, M, p, p) of the candidate pose views, per eye, over the
+    parameters ``keep`` (indices into ``prob.names``: the globals and the pose views'
+    board).
 
     Every parameter but the intrinsics moves a pose view's corners only through the
     chain ``T_cam_from_board = (R, t)``, so its column is a camera-frame twist (ω, v) per
@@ -175,7 +195,7 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     where = {j: i for i, j in enumerate(keep)}
     p = len(keep)
     I0 = np.zeros((p, p))
-    A = np.zeros((int((prob.img_role == 1).sum()) // 2, p, p))
+    A = np.zeros((len(EYES), int((prob.img_role == 1).sum()) // 2, p, p))
     board_cols = list(range(n - 6, n))
     for ei, eye in enumerate(EYES):
         c = prob.eye_cols[eye]
@@ -233,7 +253,7 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
             M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, 12, 12)
             Tb = T[blk]
             cidx = np.array([int(prob.img_name[i][1:]) for i in part])
-            A[np.ix_(cidx, idx, idx)] += Tb.transpose(0, 2, 1) @ M @ Tb
+            A[ei][np.ix_(cidx, idx, idx)] += Tb.transpose(0, 2, 1) @ M @ Tb
     return I0, A
 
 
@@ -247,7 +267,7 @@ def _blocks_reference(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     ng = prob.n_global
     p = len(keep)
     I0 = np.zeros((p, p))
-    A = np.zeros((int((prob.img_role == 1).sum()) // 2, p, p))
+    A = np.zeros((len(EYES), int((prob.img_role == 1).sum()) // 2, p, p))
     for i in range(len(prob.img_name)):
         Ji = J[rows[i]]
         G = Ji[:, keep].toarray()
@@ -258,7 +278,7 @@ def _blocks_reference(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
             I0 += G.T @ G - GB @ np.linalg.solve(B.T @ B, GB.T)
         else:
             c = int(prob.img_name[i][1:])
-            A[c] += G.T @ G
+            A[int(prob.img_eye[i])][c] += G.T @ G
     return I0, A
 
 
@@ -352,27 +372,40 @@ class Information:
         keep = list(range(ng)) + list(range(len(prob.names) - 6, len(prob.names)))
         self.names = [prob.names[j] for j in keep]
         self.scale = prob.scale[keep]
-        self.I0, self.A = (_blocks_reference if reference else _blocks)(prob, keep)
+        #: I0: the intrinsics views' information; A_by_eye (2, M, p, p): each candidate's
+        #: pose view per eye (left, right); A: both eyes' (what the design adds up)
+        self.I0, self.A_by_eye = (_blocks_reference if reference else _blocks)(prob, keep)
+        self.A = self.A_by_eye.sum(axis=0)
         self.prob = prob
         self.T_pLpR = T_pLpR
 
-    def covariance(self, chosen, noise_px: float,
-                   intrinsics_noise_px: float | None = None) -> np.ndarray:
+    def covariance(self, chosen, noise_px, intrinsics_noise_px: float | None = None
+                   ) -> np.ndarray:
         """σ² (I₀ + Σ A_c)⁻¹ in natural units over :attr:`names`.
 
         ``intrinsics_noise_px``: a different noise of the intrinsics views (``noise_px``
         then the pose views'): the covariance of the same unweighted least-squares
         estimate is H⁻¹ (σᵢ² I₀ + σₚ² Σ A_c) H⁻¹, H = I₀ + Σ A_c (the intrinsics views'
-        board poses eliminated as in I₀)."""
-        A = self.A[list(chosen)].sum(axis=0)
-        info = self.I0 + A
+        board poses eliminated as in I₀). ``noise_px`` may also give each pose view its
+        own noise: an array (len(chosen), 2), per chosen position the left and right
+        eye's (σₚ² Σ A_c becomes Σ σ_c,e² A_c,e)."""
+        chosen = list(chosen)
+        per_view = np.ndim(noise_px) > 0
+        info = self.I0 + self.A[chosen].sum(axis=0)
         d = np.sqrt(np.diag(info))
         d = np.where(d > 0, d, 1.0)
         D = np.outer(d, d)
         H_inv = np.linalg.inv(info / D) / D
-        if intrinsics_noise_px is None:
+        if per_view:
+            s2 = np.square(np.asarray(noise_px, float)).reshape(len(chosen), len(EYES))
+            middle = np.einsum("ce,ecij->ij", s2, self.A_by_eye[:, chosen])
+            si = float(np.sqrt(np.mean(s2))) if intrinsics_noise_px is None \
+                else intrinsics_noise_px
+            cov = H_inv @ (si ** 2 * self.I0 + middle) @ H_inv
+        elif intrinsics_noise_px is None or intrinsics_noise_px == noise_px:
             cov = noise_px ** 2 * H_inv
         else:
+            A = self.A[chosen].sum(axis=0)
             cov = H_inv @ (intrinsics_noise_px ** 2 * self.I0 + noise_px ** 2 * A) @ H_inv
         return cov * np.outer(self.scale, self.scale)
 
@@ -561,7 +594,8 @@ def predict(setup: PlanSetup, positions, info: Information | None = None,
             raise InputError(f"plan: position ({p[0]:g}, {p[1]:g}) deg does not show the "
                              "target to both eyes")
         idx.append(int(hit[0]))
-    cov = info.covariance(idx, setup.noise_px)
+    sp, si = setup.noise
+    cov = info.covariance(idx, sp, intrinsics_noise_px=si)
     std, summary = summarise(info.names, cov)
     tri = {} if workspace_depth is None else triangulation_std(info, cov, setup,
                                                                workspace_depth, setup.seed)
@@ -574,8 +608,12 @@ def plan(setup: PlanSetup, k: int, criterion: str = "D",
     """Choose ``k`` positions (module docstring) and predict their accuracy."""
     t0 = time.perf_counter()
     info = Information(setup, candidate_grid(setup))
-    chosen = greedy(info.I0, info.A, int(k), criterion, _interest(info.names))
-    cov = info.covariance(chosen, setup.noise_px)
+    sp, si = setup.noise
+    # the design weighs each kind of view by its noise (the information of the weighted
+    # estimate; the same choice when the noises are equal)
+    chosen = greedy(info.I0 * (sp / si) ** 2, info.A, int(k), criterion,
+                    _interest(info.names))
+    cov = info.covariance(chosen, sp, intrinsics_noise_px=si)
     std, summary = summarise(info.names, cov)
     seconds = time.perf_counter() - t0
     tri = {} if workspace_depth is None else triangulation_std(info, cov, setup,
@@ -591,6 +629,40 @@ def nominal_setup(board=None, **kw) -> PlanSetup:
     from rasc.vision.board import DEFAULT_BOARD
 
     return PlanSetup(head=default_head(), board=board or DEFAULT_BOARD, **kw)
+
+
+def noise_from_calibration(path) -> tuple[float, float] | None:
+    """(pose views', intrinsics views') corner noise per coordinate (px) that a ``rasc
+    calibrate`` JSON's whole-head refinement residuals give
+    (:attr:`rasc.head.use.CalibrationFile.corner_noise`), or None when it has none."""
+    from rasc.head.use import read_calibration
+
+    noise = read_calibration(path).corner_noise
+    return None if noise is None else (noise["pose"], noise["intrinsics"])
+
+
+def resolve_noise(noise: float | None = None, intrinsics_noise: float | None = None,
+                  calibration=None) -> tuple[float, float | None, str]:
+    """The corner noise a plan assumes: ``(noise_px, intrinsics_noise_px, how)`` for
+    :class:`PlanSetup`, ``how`` a phrase saying where they come from. Each noise given
+    is kept; one not given comes from the ``calibration`` file's residuals
+    (:func:`noise_from_calibration`) when there is one with a refinement, else the pose
+    views' is :data:`DEFAULT_NOISE_PX` and the intrinsics views' the same."""
+    found = noise_from_calibration(calibration) if calibration is not None else None
+    pose = noise if noise is not None else found[0] if found else DEFAULT_NOISE_PX
+    intr = intrinsics_noise if intrinsics_noise is not None else found[1] if found else None
+    taken = [what for what, given in (("pose", noise), ("intrinsics", intrinsics_noise))
+             if given is None and found]
+    how = (f"corner noise {pose:.3g} px per coordinate"
+           + (f" in the pose views and {intr:.3g} px in the intrinsics views"
+              if intr is not None and intr != pose else "") + ", independent")
+    if len(taken) == 2:
+        how += f" (from {calibration}'s residuals)"
+    elif taken:
+        how += f" (the {taken[0]} views' from {calibration}'s residuals)"
+    elif noise is None and intrinsics_noise is None:
+        how += " (the default)"
+    return pose, intr, how
 
 
 def head_from_calibration(path) -> Any:

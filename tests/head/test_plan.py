@@ -35,7 +35,7 @@ def test_greedy_d_optimal_is_exact_on_a_toy_problem():
 
 
 @pytest.mark.slow
-def test_prediction_matches_the_refinements_own_covariance():
+def test_prediction_matches_the_refinements_own_covariance(tmp_path):
     """The planner's σ for the paper's nine equals the σ the refinement reports after
     fitting noisy corners of the same head (σ² (JᵀJ)⁻¹ both): within 20 % (the noise
     estimate from ~2000 corners is good to ~2 %, the right eye's intrinsics views are
@@ -54,6 +54,18 @@ def test_prediction_matches_the_refinements_own_covariance():
                      "unit.tilt_point_y", "fx"):
             got, want = pred.std[f"{eye}.{name}"], par[eye][name]["std"]
             assert got == pytest.approx(want, rel=0.2), (eye, name)
+    # the calibration file's residuals give the noise of each kind of view: here both
+    # 0.05 px (~1000 pose and ~4000 intrinsics coordinates: a few % of sampling error)
+    import json
+
+    from rasc.plan import noise_from_calibration, resolve_noise
+
+    path = tmp_path / "cal.json"
+    path.write_text(json.dumps(cal.to_dict()))
+    pose, intr = noise_from_calibration(path)
+    assert pose == pytest.approx(0.05, rel=0.1) and intr == pytest.approx(0.05, rel=0.1)
+    assert resolve_noise(0.03, None, path)[:2] == (0.03, intr)
+    assert "intrinsics views' from" in resolve_noise(0.03, None, path)[2]
 
 
 @pytest.mark.slow
@@ -93,9 +105,11 @@ def test_fast_information_equals_the_refinements_jacobian(spec, step):
     ref = Information(setup, cand, reference=True)
     assert len(fast.feasible) >= 9
     np.testing.assert_allclose(fast.I0, ref.I0, rtol=1e-12, atol=1e-12 * np.abs(ref.I0).max())
-    d = np.sqrt(np.einsum("mii->mi", ref.A))
-    scale = d[:, :, None] * d[:, None, :]
-    assert np.max(np.abs(fast.A - ref.A) / np.where(scale > 0, scale, 1.0)) < 2e-5
+    d = np.sqrt(np.einsum("emii->emi", ref.A_by_eye))
+    scale = d[..., :, None] * d[..., None, :]
+    assert np.max(np.abs(fast.A_by_eye - ref.A_by_eye)
+                  / np.where(scale > 0, scale, 1.0)) < 2e-5
+    np.testing.assert_array_equal(fast.A, fast.A_by_eye[0] + fast.A_by_eye[1])
     if "charuco" in spec:   # some views show the board in part
         seen = np.isfinite(np.stack(list(fast.prob.obs.eyes["left"].pose.values()))[..., 0])
         assert (~seen).any(axis=1).any()
@@ -129,6 +143,51 @@ def test_covariance_with_its_own_intrinsics_noise():
     parts = info.covariance(chosen, 0.0, intrinsics_noise_px=0.07) \
         + info.covariance(chosen, 0.03, intrinsics_noise_px=0.0)
     np.testing.assert_allclose(both, parts, rtol=1e-9, atol=1e-12 * np.abs(both).max())
+
+
+def test_covariance_with_each_views_own_noise():
+    """Each pose view with its own noise (an array, per position the left and right
+    eye's): the same σ everywhere is the plain σ² H⁻¹; the covariance is linear in the
+    views' variances (two noise arrays whose squares add up give the sum of their
+    covariances); and a noisier left eye widens the left eye's hand-eye more than the
+    right eye's."""
+    from rasc.plan import Information
+
+    setup = nominal_setup(step_deg=6.0)
+    info = Information(setup, candidate_grid(setup))
+    chosen = list(range(6))
+    plain = info.covariance(chosen, 0.05)
+    tol = 1e-9 * np.abs(plain).max()
+    np.testing.assert_allclose(info.covariance(chosen, np.full((6, 2), 0.05),
+                                               intrinsics_noise_px=0.05), plain,
+                               rtol=1e-7, atol=tol)
+    rng = np.random.default_rng(3)
+    n1, n2 = rng.uniform(0.01, 0.05, (6, 2)), rng.uniform(0.01, 0.05, (6, 2))
+    both = info.covariance(chosen, np.hypot(n1, n2), intrinsics_noise_px=0.0)
+    parts = info.covariance(chosen, n1, intrinsics_noise_px=0.0) \
+        + info.covariance(chosen, n2, intrinsics_noise_px=0.0)
+    np.testing.assert_allclose(both, parts, rtol=1e-9, atol=tol)
+    noisy_left = np.column_stack([np.full(6, 0.10), np.full(6, 0.05)])
+    from rasc.plan import summarise
+    s0 = summarise(info.names, plain)[1]
+    s1 = summarise(info.names, info.covariance(chosen, noisy_left,
+                                               intrinsics_noise_px=0.05))[1]
+    grow = {e: s1[f"{e}.handeye_rotation_deg"] / s0[f"{e}.handeye_rotation_deg"]
+            for e in ("left", "right")}
+    assert grow["left"] > grow["right"] >= 1.0 - 1e-9
+
+
+def test_resolve_noise_takes_each_noise_given_else_the_default():
+    from rasc.plan import DEFAULT_NOISE_PX, resolve_noise
+
+    assert resolve_noise() == (DEFAULT_NOISE_PX, None,
+                               f"corner noise {DEFAULT_NOISE_PX:g} px per coordinate, "
+                               "independent (the default)")
+    pose, intr, how = resolve_noise(0.02, 0.01)
+    assert (pose, intr) == (0.02, 0.01)
+    assert "0.02 px per coordinate in the pose views and 0.01 px in the intrinsics" in how
+    with pytest.raises(Exception, match="intrinsics noise"):
+        nominal_setup(noise_px=0.05, intrinsics_noise_px=-1.0)
 
 
 def test_candidates_whose_corners_lie_on_one_line_are_not_usable():
