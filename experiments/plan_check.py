@@ -31,7 +31,13 @@ capture (the same positions render the same image up to noise: a systematic rend
 detection error, which moves every capture's estimate the same way — a bias, not a
 spread) and the part that changes from capture to capture, and predicts the spread with
 that split (:meth:`rasc.plan.Information.covariance`'s separate noise of the intrinsics
-and pose views).
+and pose views: ``predicted_split``; with ``--jitter`` the common part is nearly nil and
+this is the prediction with each kind of view's own noise, what ``rasc plan
+--calibration`` does) and with each pose view's own noise (``predicted_view``: per
+position and eye, its residuals' mean square over the captures).
+
+``--start I`` begins at capture I (seed 100 + I): two processes with their own ``--out``
+split a run, and their ``captures.jsonl`` files joined make one.
 
     python experiments/plan_check.py [--rendered] [--captures N] [--target SPEC] [--out DIR]
 """
@@ -302,10 +308,15 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
                 f"{k} within ±25 %")
         if "predicted_split" in mine[0]:
             q = [r["measured_std"] / r["predicted_split"] for r in mine]
-            z = [r["mean"] / r["predicted_bias"] for r in mine]
+            z = [r["mean"] / r["predicted_bias"] for r in mine if r["predicted_bias"] > 0]
             text += (f"; with the split: median {np.median(q):.2f} ({min(q):.2f}–"
                      f"{max(q):.2f}), {sum(abs(v - 1) <= 0.25 for v in q)} within ±25 %; "
-                     f"bias / predicted bias σ: RMS {np.sqrt(np.mean(np.square(z))):.2f}")
+                     + (f"bias / predicted bias σ: RMS {np.sqrt(np.mean(np.square(z))):.2f}"
+                        if z else "no common part"))
+            w = [r["measured_std"] / r["predicted_view"] for r in mine]
+            text += (f"; with each view's own noise: median {np.median(w):.2f} "
+                     f"({min(w):.2f}–{max(w):.2f}), {sum(abs(v - 1) <= 0.25 for v in w)} "
+                     "within ±25 %")
         text += (f"; one σ from {mine[0]['captures']} captures has a sampling error of "
                  f"{100 * _se_std(mine[0]['captures']):.0f} %")
         lines.append(text)
@@ -317,7 +328,8 @@ def markdown(rows: list[dict]) -> str:
     head = ["positions", "eye", "parameter", "n", "predicted σ", "measured σ ± se",
             "ratio", "mean ± se", "RMS"]
     if split:
-        head += ["predicted (split)", "ratio (split)", "bias σ (common part)"]
+        head += ["predicted (split)", "ratio (split)", "bias σ (common part)",
+                 "predicted (each view)", "ratio (each view)"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         cells = [r["positions"], r["eye"], f"{r['parameter']} ({r['unit']})",
@@ -327,7 +339,8 @@ def markdown(rows: list[dict]) -> str:
         if split:
             cells += [f"{r['predicted_split']:.3g}",
                       f"{r['measured_std'] / r['predicted_split']:.2f}",
-                      f"{r['predicted_bias']:.3g}"]
+                      f"{r['predicted_bias']:.3g}", f"{r['predicted_view']:.3g}",
+                      f"{r['measured_std'] / r['predicted_view']:.2f}"]
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
 
