@@ -33,3 +33,16 @@ def test_e8_quick_synthetic(tmp_path):
             # 0.015 px corner noise: measured 0.01-0.05 mm; 0.5 mm would be a broken
             # partial-view path (a wrong corner id moves the hand-eye by centimetres)
             assert r["models"]["general"]["handeye"][eye]["translation_mm"] < 0.5
+
+
+def test_e8_places_the_rendered_target_anew_per_seed():
+    """A render's corner errors follow where the board falls on the pixel grid, so each
+    seed's target stands at its own distance (seeded, inside the range in which the
+    chessboard stays whole at ±8°): reproducible, different between seeds."""
+    from experiments import e8_wide
+
+    d = [e8_wide.placement_distance(s) for s in range(20)]
+    lo, hi = e8_wide.PLACEMENT_RANGE_M
+    assert all(lo <= x <= hi for x in d)
+    assert len(set(d)) == 20
+    assert d == [e8_wide.placement_distance(s) for s in range(20)]
