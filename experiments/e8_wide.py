@@ -341,7 +341,7 @@ def markdown(results: list[dict], args, folder: Path) -> str:
              f"{1000 * b['square_size']:g} mm ({b['dictionary']}; "
              f"{b['squares'][0] * b['square_size']:g} m × {b['squares'][1] * b['square_size']:g}"
              + (" m) 1 m ahead" if args.synthetic else
-                f" m) {PLACEMENT_RANGE_M[0]:g}–{PLACEMENT_RANGE_M[1]:g} m ahead (drawn per "
+                f" m) {PLACEMENT_RANGE_M[0]:.2f}–{PLACEMENT_RANGE_M[1]:.2f} m ahead (drawn per "
                 "seed)") + "; positions: the "
              f"paper's nine scaled to ±A (tilt at most ±{TILT_LIMIT_DEG:g}°). Hand-eye error "
              "in the canonical gauge, translation in mm, per eye (L; R); triangulation: "
@@ -368,6 +368,11 @@ def markdown(results: list[dict], args, folder: Path) -> str:
                     ratio = _he(rs["charuco30"], model) / _he(rs[base], model)
                     lines.append(f"- {labels[h]}, {model}: ChArUco ±30° / {base} = "
                                  f"{ratio:.3f} ({'met' if ratio <= 1 / 3 else 'NOT met'})")
+    if results[0].get("seeds", 1) == 1 and not args.synthetic:
+        lines += ["", "One placement: its ratios scatter, each a draw of the render's "
+                  "systematic corner errors at that placement; `--seeds N` (every seed its "
+                  "own placement) gives their RMS over N placements (docs/topics/"
+                  "wide-motions.md reports 24)."]
     lines += ["", f"Figure: `{(folder / 'fig_wide_motions.png').name}`."]
     return "\n".join(lines) + "\n"
 
