@@ -80,21 +80,21 @@ class PlanSetup:
                 raise InputError(f"{name}: expected MIN,MAX with MIN < MAX, got {r!r}")
         if not (np.isfinite(self.step_deg) and 0.1 <= self.step_deg <= 30):
             raise InputError(f"step: expected 0.1 to 30 degrees, got {self.step_deg!r}")
-        for name, v in (("noise", self.noise_px),
-                        ("intrinsics noise", self.intrinsics_noise_px)):
-            if v is not None and not (np.isfinite(v) and v > 0):
+        noises = [("noise", self.noise_px)]
+        if self.intrinsics_noise_px is not None:        # None: the pose views' noise
+            noises.append(("intrinsics noise", self.intrinsics_noise_px))
+        for name, v in noises:
+            if v is None or not (np.isfinite(v) and v > 0):
                 raise InputError(f"{name}: expected a positive number of pixels, got {v!r}")
-        if self.noise_px is None:
-            raise InputError("noise: expected a positive number of pixels, got None")
+        if not (np.isfinite(self.distance) and self.distance > 0):
+            raise InputError(f"distance: expected a positive number of metres, got "
+                             f"{self.distance!r}")
 
     @property
     def noise(self) -> tuple[float, float]:
         """(pose views', intrinsics views') corner noise, px per coordinate."""
         return self.noise_px, (self.noise_px if self.intrinsics_noise_px is None
                                else self.intrinsics_noise_px)
-        if not (np.isfinite(self.distance) and self.distance > 0):
-            raise InputError(f"distance: expected a positive number of metres, got "
-                             f"{self.distance!r}")
 
 
 @dataclass

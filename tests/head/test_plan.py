@@ -188,6 +188,11 @@ def test_resolve_noise_takes_each_noise_given_else_the_default():
     assert "0.02 px per coordinate in the pose views and 0.01 px in the intrinsics" in how
     with pytest.raises(Exception, match="intrinsics noise"):
         nominal_setup(noise_px=0.05, intrinsics_noise_px=-1.0)
+    with pytest.raises(Exception, match="^noise: .* got None"):
+        nominal_setup(noise_px=None)
+    # the setup's other checks stand beside the noise's
+    with pytest.raises(Exception, match="distance: expected a positive number"):
+        nominal_setup(distance=-1.0)
 
 
 def test_candidates_whose_corners_lie_on_one_line_are_not_usable():
