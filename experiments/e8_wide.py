@@ -145,6 +145,7 @@ def run_case(task: CaseTask) -> dict:
 
     board = target(kind)
     poses = positions(amp)
+    distance = 1.0 if synthetic else placement_distance(seed)
     skipped: list[str] = []
     if synthetic:
         dataset, truth = _synthetic(fields, seed, board, poses, n_intr)
@@ -157,7 +158,7 @@ def run_case(task: CaseTask) -> dict:
         units = {eye: UnitBuild(**fields) for eye in EYES} if fields else None
         render_dataset(Path(tmp.name) / "ds", RenderOptions(seed=seed, poses_deg=poses,
                                                             intrinsics_views=n_intr,
-                                                            distance=placement_distance(seed)),
+                                                            distance=distance),
                        units=units, quiet=True, board=board)
         dataset = load_dataset(Path(tmp.name) / "ds")
         truth = dataset.load_ground_truth()
@@ -167,7 +168,7 @@ def run_case(task: CaseTask) -> dict:
     cal_g = refine_calibration(cal_p, dataset)
     true = true_head(truth)
     out = {"head": head_id, "protocol": proto, "target": kind, "amplitude_deg": amp,
-           "seed": seed, "distance_m": 1.0 if synthetic else placement_distance(seed),
+           "seed": seed, "distance_m": distance,
            "positions_deg": [list(p) for p in poses],
            "positions_used": {eye: len(cal_p.eyes[eye].pose_files) for eye in EYES},
            "skipped": skipped, "models": {}}

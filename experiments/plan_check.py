@@ -200,36 +200,25 @@ def _se_std(n: int) -> float:
 def supersample_renders(factor: int) -> None:
     """Make every :class:`rasc.sim.scene.StereoHeadSim` of this process render at
     ``factor`` times its image size and average down to it (``--supersample``; the
-    module docstring). An experiment of this script only: it replaces the class's
-    ``render_camera`` for the process."""
+    module docstring). An experiment of this script only: it wraps the class's
+    ``render_camera`` for the process, giving it an offscreen renderer ``factor`` times
+    the size before its first image (the sim's camera matrices stay the output size's)."""
     import cv2
 
     from rasc.sim import scene
 
+    render = scene.StereoHeadSim.render_camera
+
     def render_camera(self, name: str) -> np.ndarray:
-        mujoco = scene.import_mujoco()
-        if mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, name) < 0:
-            raise ValueError(f"{self.model_file}: no camera named {name!r}")
         w, h = self.image_size
-        if getattr(self, "_supersampled", None) is None:
+        if self._renderer is None:
             g = self.model.vis.global_
             g.offwidth, g.offheight = max(g.offwidth, w * factor), max(g.offheight, h * factor)
-            self._supersampled = mujoco.Renderer(self.model, height=h * factor,
-                                                 width=w * factor)
-        self.forward()
-        self._supersampled.update_scene(self.data, camera=name)
-        return cv2.resize(self._supersampled.render(), (w, h), interpolation=cv2.INTER_AREA)
-
-    close = scene.StereoHeadSim.close
-
-    def close_both(self) -> None:
-        if getattr(self, "_supersampled", None) is not None:
-            self._supersampled.close()
-            self._supersampled = None
-        close(self)
+            self._renderer = scene.import_mujoco().Renderer(self.model, height=h * factor,
+                                                            width=w * factor)
+        return cv2.resize(render(self, name), (w, h), interpolation=cv2.INTER_AREA)
 
     scene.StereoHeadSim.render_camera = render_camera
-    scene.StereoHeadSim.close = close_both
 
 
 def residual_split(recs: list[dict]) -> dict[str, float]:

@@ -390,13 +390,13 @@ class Information:
         own noise: an array (len(chosen), 2), per chosen position the left and right
         eye's (σₚ² Σ A_c becomes Σ σ_c,e² A_c,e)."""
         chosen = list(chosen)
-        per_view = np.ndim(noise_px) > 0
-        info = self.I0 + self.A[chosen].sum(axis=0)
+        A = self.A[chosen].sum(axis=0)
+        info = self.I0 + A
         d = np.sqrt(np.diag(info))
         d = np.where(d > 0, d, 1.0)
         D = np.outer(d, d)
         H_inv = np.linalg.inv(info / D) / D
-        if per_view:
+        if np.ndim(noise_px) > 0:                       # each pose view its own noise
             s2 = np.square(np.asarray(noise_px, float)).reshape(len(chosen), len(EYES))
             middle = np.einsum("ce,ecij->ij", s2, self.A_by_eye[:, chosen])
             si = float(np.sqrt(np.mean(s2))) if intrinsics_noise_px is None \
@@ -405,7 +405,6 @@ class Information:
         elif intrinsics_noise_px is None or intrinsics_noise_px == noise_px:
             cov = noise_px ** 2 * H_inv
         else:
-            A = self.A[chosen].sum(axis=0)
             cov = H_inv @ (intrinsics_noise_px ** 2 * self.I0 + noise_px ** 2 * A) @ H_inv
         return cov * np.outer(self.scale, self.scale)
 

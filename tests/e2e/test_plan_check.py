@@ -40,9 +40,8 @@ def test_supersampled_renders_put_the_corners_closer_to_the_truth(monkeypatch):
     from rasc.sim import scene
 
     plain = _left_eye_errors()
-    # the experiment replaces the class's methods for the process: restored after the test
+    # the experiment wraps the class's render_camera for the process: restored after the test
     monkeypatch.setattr(scene.StereoHeadSim, "render_camera", scene.StereoHeadSim.render_camera)
-    monkeypatch.setattr(scene.StereoHeadSim, "close", scene.StereoHeadSim.close)
     plan_check.supersample_renders(2)
     fine = _left_eye_errors()
     rms = [float(np.sqrt(np.mean(e ** 2))) for e in (plain, fine)]
