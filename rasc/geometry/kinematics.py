@@ -18,7 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rasc.errors import InputError
+from rasc.errors import DegenerateDataError, InputError
+from rasc.geometry.transforms import (
+    invert_transform,
+    make_transform,
+    matrix_from_rotvec,
+    rotation_angle,
+    rotvec_from_matrix,
+    validate_rigid_transform,
+)
 from rasc.io import finite_number
 
 
@@ -361,3 +369,43 @@ def canonical_gauge(unit: PanTiltUnit, T_cam_from_gaze: np.ndarray,
                             tilt_point=(0.0, float(q0[1]), 0.0),
                             pan_scale=unit.pan_scale, tilt_scale=unit.tilt_scale)
     return canonical, T_cg, T_pb
+
+
+#: Relative rotations closer than this to a half turn have no unique geodesic midpoint.
+HALF_TURN_MARGIN_RAD = 1e-6
+
+
+def cyclopean_base(T_ptuL_from_ptuR):
+    """Place the base frame between the two units (docs/CONTRACTS.md).
+
+    With ``v = log R_ptuL_from_ptuR`` and ``t = t_ptuL_from_ptuR``:
+    ``R_base_from_ptuL = exp(−v/2)``, ``R_base_from_ptuR = exp(+v/2)`` (the geodesic
+    midpoint), and the base origin is the midpoint ``t/2`` of the two unit centres, so
+    the ptu origins in base are ``∓ R_base_from_ptuL t/2`` — equal and opposite.
+
+    Parameters
+    ----------
+    T_ptuL_from_ptuR : array-like, shape (4, 4)
+
+    Returns
+    -------
+    T_ptu_from_base_left, T_ptu_from_base_right : ndarray, shape (4, 4)
+        With ``T_ptu_from_base_left @ inv(T_ptu_from_base_right) = T_ptuL_from_ptuR``.
+
+    Raises
+    ------
+    DegenerateDataError
+        The units are turned half a turn relative to each other: no unique midpoint.
+    """
+    T = validate_rigid_transform(T_ptuL_from_ptuR, name="T_ptuL_from_ptuR")
+    if rotation_angle(T[:3, :3]) > np.pi - HALF_TURN_MARGIN_RAD:
+        raise DegenerateDataError(
+            "cyclopean_base: the two units are turned 180 deg relative to each other, so "
+            "the midpoint orientation is not unique; check T_ptuL_from_ptuR (mounts facing "
+            "the same way differ by a small rotation)")
+    v = rotvec_from_matrix(T[:3, :3])
+    R_base_from_ptuL = matrix_from_rotvec(-v / 2.0)
+    t = T[:3, 3]
+    T_base_from_ptuL = make_transform(R_base_from_ptuL, -R_base_from_ptuL @ t / 2.0)
+    T_base_from_ptuR = T_base_from_ptuL @ T
+    return invert_transform(T_base_from_ptuL), invert_transform(T_base_from_ptuR)

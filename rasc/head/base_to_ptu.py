@@ -28,13 +28,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from rasc.errors import DegenerateDataError, InputError
+
+# the cyclopean base is geometry (rasc.sim places its truth in it too): re-exported here
+from rasc.geometry.kinematics import HALF_TURN_MARGIN_RAD, cyclopean_base  # noqa: F401
 from rasc.geometry.kinematics import T_gaze_from_ptu as _T_gaze_from_ptu
 from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
     matrix_from_rotvec,
-    rotation_angle,
-    rotvec_from_matrix,
     validate_rigid_transform,
 )
 from rasc.geometry.transforms import rotation_error_deg as _angle_deg
@@ -270,46 +271,6 @@ def mount_errors(T_est, T_true) -> MountError:
         rotation_deg=float(_angle_deg(T_est[:3, :3], T_true[:3, :3])),
         translation=float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])),
         baseline_length=float(np.linalg.norm(T_est[:3, 3]) - np.linalg.norm(T_true[:3, 3])))
-
-
-#: Relative rotations closer than this to a half turn have no unique geodesic midpoint.
-HALF_TURN_MARGIN_RAD = 1e-6
-
-
-def cyclopean_base(T_ptuL_from_ptuR):
-    """Place the base frame between the two units (docs/CONTRACTS.md).
-
-    With ``v = log R_ptuL_from_ptuR`` and ``t = t_ptuL_from_ptuR``:
-    ``R_base_from_ptuL = exp(−v/2)``, ``R_base_from_ptuR = exp(+v/2)`` (the geodesic
-    midpoint), and the base origin is the midpoint ``t/2`` of the two unit centres, so
-    the ptu origins in base are ``∓ R_base_from_ptuL t/2`` — equal and opposite.
-
-    Parameters
-    ----------
-    T_ptuL_from_ptuR : array-like, shape (4, 4)
-
-    Returns
-    -------
-    T_ptu_from_base_left, T_ptu_from_base_right : ndarray, shape (4, 4)
-        With ``T_ptu_from_base_left @ inv(T_ptu_from_base_right) = T_ptuL_from_ptuR``.
-
-    Raises
-    ------
-    DegenerateDataError
-        The units are turned half a turn relative to each other: no unique midpoint.
-    """
-    T = validate_rigid_transform(T_ptuL_from_ptuR, name="T_ptuL_from_ptuR")
-    if rotation_angle(T[:3, :3]) > np.pi - HALF_TURN_MARGIN_RAD:
-        raise DegenerateDataError(
-            "cyclopean_base: the two units are turned 180 deg relative to each other, so "
-            "the midpoint orientation is not unique; check T_ptuL_from_ptuR (mounts facing "
-            "the same way differ by a small rotation)")
-    v = rotvec_from_matrix(T[:3, :3])
-    R_base_from_ptuL = matrix_from_rotvec(-v / 2.0)
-    t = T[:3, 3]
-    T_base_from_ptuL = make_transform(R_base_from_ptuL, -R_base_from_ptuL @ t / 2.0)
-    T_base_from_ptuR = T_base_from_ptuL @ T
-    return invert_transform(T_base_from_ptuL), invert_transform(T_base_from_ptuR)
 
 
 def unit_side_warnings(T_ptu_from_base_left, T_ptu_from_base_right) -> list[str]:

@@ -355,14 +355,18 @@ SCALES_F_ESTIMATE = 10.0
 
 
 def _scales_F(held, estimated) -> float:
-    """The F statistic of :data:`SCALES_F_ESTIMATE`; NaN when the two fits kept different
-    corners (then they cannot be compared: estimate)."""
+    """The F statistic of :data:`SCALES_F_ESTIMATE` of two fits of the same corners
+    (``auto`` fits the held scales on the corners the estimate kept): always a number,
+    ``inf`` when the estimate fits exactly and holding does not."""
     if held.kept is None or estimated.kept is None or \
             not np.array_equal(held.kept, estimated.kept):
-        return float("nan")
-    extra = held.dof - estimated.dof
-    return float(((held.rss - estimated.rss) / max(extra, 1))
-                 / (estimated.rss / max(estimated.dof, 1)))
+        raise RuntimeError("the scales' F test needs both fits on one corner set")
+    extra = max(held.dof - estimated.dof, 1)
+    gain = max(held.rss - estimated.rss, 0.0) / extra
+    noise = estimated.rss / max(estimated.dof, 1)
+    if noise <= 0.0:
+        return 0.0 if gain <= 0.0 else float("inf")
+    return float(gain / noise)
 
 
 #: After refinement, pose-view RMS above this multiple of the intrinsics views' RMS is
@@ -412,10 +416,15 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
     obs = observations_from_calibration(cal, dataset.board)
     try:
         if options.scales_mode == "auto":
-            res_h = refine_head(obs, estimate_scales=False)
-            res_e = refine_head(obs, estimate_scales=True, start=res_h)
+            # one corner set for both fits: the scales estimated (the larger model) with
+            # its own rejection, from the closed form; then held, started there, on exactly
+            # the corners it kept and rejecting none. (Held first, its rejection took the
+            # corners that a wrong scale distorts, and the estimate never saw them again.)
+            res_e = refine_head(obs, estimate_scales=True)
+            res_h = refine_head(obs, estimate_scales=False, start=res_e,
+                                reject_k=float("inf"))
             F = _scales_F(res_h, res_e)
-            res = res_e if not np.isfinite(F) or F > SCALES_F_ESTIMATE else res_h
+            res = res_e if F > SCALES_F_ESTIMATE else res_h
             res.scales = {"mode": "auto", "F": F, "threshold_F": SCALES_F_ESTIMATE,
                           "estimated": res is res_e}
             log(f"encoder scales {'estimated' if res is res_e else 'held at 1'} "
@@ -560,20 +569,27 @@ def errors_against_truth(cal: Calibration, truth: dict,
     """
     unit = cal.length_unit or "unit of board.square_size"
     out: dict[str, Any] = {"units": f"degrees; {unit}; pixels"}
-    T_pb_true = {}
+    T_cg_true, T_pb_true = {}, {}
     try:
         for eye in EYES:
             t = truth[eye]
-            est = getattr(cal.head, eye)
-            K_t = np.asarray(t["K"], float)
-            T_cg_t = np.asarray(t["T_cam_from_gaze"], float)
-            T_pb_t = np.asarray(t["T_ptu_from_base"], float)
+            T_cg_true[eye] = np.asarray(t["T_cam_from_gaze"], float)
+            T_pb_true[eye] = np.asarray(t["T_ptu_from_base"], float)
             if "unit" in t:   # a general unit: compare in the gauge both share (METHOD §10)
-                _, T_cg_t, T_pb_t = canonical_gauge(
-                    PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"), T_cg_t, T_pb_t)
-            T_pb_true[eye] = T_pb_t
-            he = transform_error(est.T_cam_from_gaze, T_cg_t)
-            pb = transform_error(est.T_ptu_from_base, T_pb_t)
+                _, T_cg_true[eye], T_pb_true[eye] = canonical_gauge(
+                    PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"),
+                    T_cg_true[eye], T_pb_true[eye])
+        # ... and in the base both share, the cyclopean base of the canonical units: a
+        # truth written in another base frame (a model's base_link, as rasc render did
+        # before 0.3) is moved to it. Only the units' relative pose is observed; where the
+        # base sits is the convention of docs/guide/concepts.md.
+        T_pb_true = dict(zip(EYES, cyclopean_base(
+            T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])), strict=True))
+        for eye in EYES:
+            est = getattr(cal.head, eye)
+            K_t = np.asarray(truth[eye]["K"], float)
+            he = transform_error(est.T_cam_from_gaze, T_cg_true[eye])
+            pb = transform_error(est.T_ptu_from_base, T_pb_true[eye])
             out[eye] = {
                 "T_cam_from_gaze": he, "T_ptu_from_base": pb,
                 "K": {"fx": float(est.K[0, 0] - K_t[0, 0]), "fy": float(est.K[1, 1] - K_t[1, 1]),
@@ -587,9 +603,7 @@ def errors_against_truth(cal: Calibration, truth: dict,
                 out[eye]["pose_extrinsics_max"] = {
                     "rotation_deg": max(e["rotation_deg"] for e in errs),
                     "translation": max(e["translation"] for e in errs)}
-        T_pLpR_true = np.asarray(truth["T_ptuL_from_ptuR"], float)
-        if any("unit" in truth[eye] for eye in EYES):
-            T_pLpR_true = T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])
+        T_pLpR_true = T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])
         me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float), T_pLpR_true)
         out["T_ptuL_from_ptuR"] = {"rotation_deg": me.rotation_deg,
                                    "translation": me.translation,

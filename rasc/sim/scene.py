@@ -42,7 +42,7 @@ import numpy as np
 
 from rasc.errors import InputError, RascError
 from rasc.geometry.frames import EYES
-from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge
+from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge, cyclopean_base
 from rasc.geometry.transforms import (
     invert_transform,
     make_transform,
@@ -157,8 +157,37 @@ def import_mujoco():
     return mujoco
 
 
+#: A cyclopean base closer than this to base_link (largest element) is base_link itself:
+#: the stock model's two units sit symmetrically on it, and its cyclopean base differs
+#: from it by round-off (2e-16) only; taking base_link exactly keeps its renders the bytes
+#: they were.
+BASE_LINK_ROUNDOFF = 1e-12
+
+
+def base_from_base_link(T_ptuL_from_base_link: np.ndarray,
+                        T_ptuR_from_base_link: np.ndarray) -> np.ndarray:
+    """``T_base_from_base_link`` (4, 4): the calibration's base (the cyclopean base of the
+    two units' canonical frames, :func:`rasc.geometry.kinematics.cyclopean_base`) in the
+    model's ``base_link`` frame, given each unit's canonical mount on ``base_link``.
+
+    Identity (exactly) when the two differ by round-off (:data:`BASE_LINK_ROUNDOFF`)."""
+    T_pLpR = T_ptuL_from_base_link @ invert_transform(T_ptuR_from_base_link)
+    T_pb_left, _ = cyclopean_base(T_pLpR)
+    T = invert_transform(T_pb_left) @ T_ptuL_from_base_link
+    if float(np.abs(T - np.eye(4)).max()) < BASE_LINK_ROUNDOFF:
+        return np.eye(4)
+    return T
+
+
 # ---------------------------------------------------------------------------------------
 # The simulator
+
+#: What ground_truth.json says about its base frame.
+BASE = ("the calibration's base: the cyclopean base of the two units' canonical frames "
+        "(rasc.geometry.kinematics.cyclopean_base of T_ptuL_from_ptuR), so that every "
+        "transform here compares with a calibration's as it is; the model's body base_link "
+        "is T_base_from_base_link from it (identity for the stock head; encoder zeros "
+        "turn it about the pan axes)")
 
 #: What ground_truth.json says about its gauge.
 GAUGE = ("canonical (rasc.geometry.kinematics.canonical_gauge): pan axis = ptu x, tilt axis "
@@ -388,20 +417,33 @@ class StereoHeadSim:
         d = mujoco.MjData(self.model)
         mujoco.mj_forward(self.model, d)
         ids = self._ids
-        self.T_scene_from_base = _pose(d.xpos[ids["base_link"]], d.xmat[ids["base_link"]])
+        #: the model's body ``base_link`` in the scene (the frame the MJCF builds in)
+        self.T_scene_from_base_link = _pose(d.xpos[ids["base_link"]],
+                                            d.xmat[ids["base_link"]])
         self._as_built: dict[str, tuple[PanTiltUnit, np.ndarray, np.ndarray]] = {}
         self._unit, self._T_cam_from_gaze, self._T_ptu_from_base = {}, {}, {}
         for eye in EYES:
             b_ptu = ids[f"{eye}_ptu_link"]
             T_scene_from_ptu = _pose(d.xpos[b_ptu], d.xmat[b_ptu])
-            T_ptu_from_base = invert_transform(T_scene_from_ptu) @ self.T_scene_from_base
+            T_ptu_from_base_link = invert_transform(T_scene_from_ptu) @ self.T_scene_from_base_link
             unit, T_cam_from_ptu0, anchor = self._read_unit(eye)
             # pan axis through the anchor a, not the ptu origin: work in ptu shifted by a
             T_cg = T_cam_from_ptu0 @ make_transform(np.eye(3), anchor)
-            T_pb = make_transform(np.eye(3), -anchor) @ T_ptu_from_base
+            T_pb = make_transform(np.eye(3), -anchor) @ T_ptu_from_base_link
             self._as_built[eye] = (unit, T_cg, T_pb)
             canon = canonical_gauge(unit, T_cg, T_pb)
             self._unit[eye], self._T_cam_from_gaze[eye], self._T_ptu_from_base[eye] = canon
+        # The base: the calibration's (the cyclopean base of the canonical units, docs/
+        # CONTRACTS.md), not base_link. They differ by a rotation about the pan axes when the
+        # encoders' zeros are off (the canonical gauge puts a pan zero into the mount), and
+        # by a shift or turn when the units sit asymmetrically on base_link.
+        T_base_from_base_link = base_from_base_link(self._T_ptu_from_base["left"],
+                                                    self._T_ptu_from_base["right"])
+        T_base_link_from_base = invert_transform(T_base_from_base_link)
+        for eye in EYES:
+            self._T_ptu_from_base[eye] = self._T_ptu_from_base[eye] @ T_base_link_from_base
+        self.T_base_from_base_link = T_base_from_base_link
+        self.T_scene_from_base = self.T_scene_from_base_link @ T_base_link_from_base
 
     def _local_chain(self, top: int, body: int, eye: str, what: str) -> list[int]:
         """Bodies from ``top`` (excluded) down to ``body`` (included); ``body`` must lie
@@ -488,7 +530,9 @@ class StereoHeadSim:
 
     def unit_as_built(self, eye: str) -> tuple[PanTiltUnit, np.ndarray, np.ndarray]:
         """(unit, T_cam_from_gaze, T_ptu_from_base) as the model builds them: ptu frame =
-        body ``{eye}_ptu_link`` moved to the pan joint's anchor, encoder offsets as set."""
+        body ``{eye}_ptu_link`` moved to the pan joint's anchor, encoder offsets as set,
+        and the mount on the model's body ``base_link`` (not the calibration's base,
+        :attr:`T_base_from_base_link`)."""
         unit, T_cg, T_pb = self._as_built[self._eye(eye)]
         return unit, T_cg.copy(), T_pb.copy()
 
@@ -711,6 +755,9 @@ class StereoHeadSim:
             "board": None if self.board is None else self.board.to_dict(),
             "T_ptuL_from_ptuR": self.T_ptuL_from_ptuR().tolist(),
             "T_scene_from_base": self.T_scene_from_base.tolist(),
+            "T_scene_from_base_link": self.T_scene_from_base_link.tolist(),
+            "T_base_from_base_link": self.T_base_from_base_link.tolist(),
+            "base": BASE,
             "units": "metres, radians; pixels with centres at integers (OpenCV)",
             "gauge": GAUGE,
         }

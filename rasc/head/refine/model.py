@@ -24,6 +24,37 @@ UNIT_PARAMETERS = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_point_y",
 DIST_PARAMS = {"k1k2": (0, 1), "opencv5": (0, 1, 2, 3, 4), "none": ()}
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
 
+#: The unit of every refined parameter, by its name within its group (an eye's, or the
+#: head's ``T_ptuL_from_ptuR``): "length" is the dataset's length unit (that of
+#: board.square_size), "deg" a small rotation's std about an axis (``rot*``), "1" a
+#: pure number. The one table the result, the calibration file and the report read;
+#: a name missing here is a programming error (:func:`parameter_unit` raises).
+PARAMETER_UNITS = {
+    **{n: "px" for n in ("fx", "fy", "cx", "cy")},
+    **{n: "1" for n in DIST_NAMES},
+    **{f"{T}.rot{a}": "deg" for T in ("T_cam_from_gaze", "T_ptuL_from_ptuR") for a in "xyz"},
+    **{f"{T}.t{a}": "length" for T in ("T_cam_from_gaze", "T_ptuL_from_ptuR") for a in "xyz"},
+    "unit.pan_scale": "1", "unit.tilt_scale": "1",
+    # the x and y components of the unnormalised tilt axis (x, y, 1): pure numbers (tan of
+    # the axis's tilt towards the pan axis, and about it)
+    "unit.tilt_axis_x": "1", "unit.tilt_axis_y": "1",
+    "unit.tilt_point_x": "length", "unit.tilt_point_y": "length", "unit.tilt_point_z": "length",
+    "unit.pan_offset": "rad", "unit.tilt_offset": "rad",
+}
+
+
+def parameter_unit(name: str) -> str:
+    """The unit of the refined parameter ``name`` (``"left.unit.tilt_scale"``,
+    ``"T_ptuL_from_ptuR.tx"`` or the bare ``"unit.tilt_scale"``) from
+    :data:`PARAMETER_UNITS`."""
+    group, _, rest = name.partition(".")
+    if group in EYES:
+        name = rest
+    try:
+        return PARAMETER_UNITS[name]
+    except KeyError:
+        raise KeyError(f"refined parameter {name!r} has no unit in PARAMETER_UNITS") from None
+
 
 # ----------------------------------------------------------------------------- inputs
 

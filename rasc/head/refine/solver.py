@@ -20,6 +20,7 @@ from rasc.head.refine.model import (
     HeadObservations,
     ImageResidual,
     RefinementResult,
+    parameter_unit,
     unit_from_parameters,
 )
 from rasc.head.refine.problem import _Problem
@@ -209,22 +210,19 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     # parameters, by eye, in natural units
     params: dict[str, dict[str, dict[str, Any]]] = {eye: {} for eye in EYES}
     params["head"] = {}
-    unit_of = {"fx": "px", "fy": "px", "cx": "px", "cy": "px"}
     for j, name in enumerate(prob.names[:prob.n_global]):
         group, _, pname = name.partition(".")
         if group not in params:
             group, pname = "head", name
-        if ".rot" in pname:
+        if parameter_unit(name) == "deg":
             # a small rotation about this axis (left perturbation): the refined rotation
             # itself is in the transform, reported whole
             entry = {"value": None, "std": float(np.degrees(std[j])), "unit": "deg",
                      "note": "std of a small rotation about this axis; the value is the "
                              "transform's rotation"}
         else:
-            u = unit_of.get(pname, "length" if (".t" in pname or "tilt_point" in pname)
-                            else ("rad" if pname.startswith("unit.") and
-                                  ("axis" in pname or "offset" in pname) else "1"))
-            entry = {"value": float(p[j]), "std": float(std[j]), "unit": u}
+            entry = {"value": float(p[j]), "std": float(std[j]),
+                     "unit": parameter_unit(name)}
         params[group][pname] = entry
     for eye in EYES:
         uv = s[eye]["unit"]

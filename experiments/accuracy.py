@@ -1,0 +1,487 @@
+"""The accuracy matrix: every combination a user brings, checked against the truth.
+
+Five factors, each cell one level of each (docs/results/accuracy_matrix.md):
+
+* **target**: the 9×6 chessboard seen whole, a ChArUco board (16×12 squares of 40 mm)
+  and an AprilGrid (6×4 tags of 100 mm), the last two seen in part at wide positions;
+* **head**: the ideal unit; a tilt axis 25 mm off the pan axis and skewed 0.5°; encoder
+  zero offsets; encoder scale errors; cameras moved in their housings;
+* **motion**: the paper's nine positions (±8°), the same scaled to ±30° pan and ±20° tilt,
+  and nine positions chosen by ``rasc plan`` (pan −40…35°, tilt −30…20°);
+* **options**: the defaults, ``--scales estimate``, ``--scales hold``, ``--model paper``;
+* **door**: the Python API (:func:`rasc.head.pipeline.calibrate_dataset`) or the command
+  line (``rasc calibrate``), which must write the same file.
+
+The cells are a covering design (:func:`covering_cells`): every pair of levels of two
+factors appears in at least one cell, except the impossible pair (a chessboard, seen
+whole, at ±30°). Each cell renders its dataset with truth, calibrates it through its
+door (the command-line door also calibrates through Python and compares the files),
+builds the report, and scores the calibration (:func:`score`):
+
+* **accuracy**, in the calibration's own gauge (the renderer writes its truth there):
+  each quantity's error against its predicted covariance, as a Mahalanobis distance
+  ``d² = eᵀ Σ⁻¹ e`` over the quantity's components, bounded by the χ² quantile of its
+  dimension at :data:`BOUND_P` (one false alarm in 10⁴ quantities when Σ is right);
+* **honesty**: every compared parameter's normalized error z = e / σ, the fraction
+  within 3σ and the χ² per cell (over all compared parameters, with their correlations)
+  against its number of components;
+* **verdict**: a cell whose errors lie outside their bounds must not be judged "usable"
+  (the report's verdict, :func:`rasc.report.verdict.verdict`).
+
+``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
+``benchmarks/bench_accuracy_matrix.py`` writes its results page); the test suite runs a
+few cells (``tests/e2e/test_accuracy_matrix.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: The factors and their levels, in the order the covering design takes them.
+FACTORS: dict[str, tuple[str, ...]] = {
+    "head": ("ideal", "offset_skew", "encoder_zeros", "encoder_scales", "cameras_moved"),
+    "options": ("defaults", "scales_estimate", "scales_hold", "model_paper"),
+    "target": ("chessboard", "charuco", "aprilgrid"),
+    "motion": ("paper", "wide", "planned"),
+    "door": ("python", "cli"),
+}
+
+TARGETS = {"chessboard": "chessboard:9x6,0.05",
+           "charuco": "charuco:16x12,0.04,0.03",
+           "aprilgrid": "aprilgrid:6x4,0.1,0.3"}
+
+#: Each head's units (rasc.sim.units.UnitBuild fields), per eye.
+HEADS: dict[str, dict[str, dict[str, Any]]] = {
+    "ideal": {"left": {}, "right": {}},
+    "offset_skew": {eye: {"tilt_axis_offset_mm": (0.0, 25.0, 0.0), "axis_skew_deg": 0.5}
+                    for eye in ("left", "right")},
+    "encoder_zeros": {"left": {"pan_zero_deg": 0.4, "tilt_zero_deg": -0.3},
+                      "right": {"pan_zero_deg": -0.2, "tilt_zero_deg": 0.25}},
+    "encoder_scales": {"left": {"pan_scale": 1.006}, "right": {"tilt_scale": 0.995}},
+    # the stock cameras sit at (48, 36, 21) and (52, 31, -18) mm, euler (1.3, -2.1, 0.8)
+    # and (-0.9, 1.2, -0.6) deg: moved by 6-12 mm and 1-2 deg
+    "cameras_moved": {"left": {"camera_position_mm": (40.0, 45.0, 30.0),
+                               "camera_euler_deg": (2.5, -1.0, 1.8)},
+                      "right": {"camera_position_mm": (60.0, 25.0, -10.0),
+                                "camera_euler_deg": (-2.0, 0.3, 0.4)}},
+}
+
+#: CalibrationOptions fields of each options level ("defaults": none given).
+OPTIONS: dict[str, dict[str, str]] = {
+    "defaults": {},
+    "scales_estimate": {"scales": "estimate"},
+    "scales_hold": {"scales": "hold"},
+    "model_paper": {"model": "paper"},
+}
+#: ... and the same on the command line
+FLAGS = {"scales": "--scales", "model": "--model"}
+
+WIDE_PAN_DEG, WIDE_TILT_DEG = 30.0, 20.0
+PLAN_PAN_RANGE, PLAN_TILT_RANGE = (-40.0, 35.0), (-30.0, 20.0)
+N_POSITIONS = 9
+#: intrinsics views per eye: fewer than rasc render's 20 keep a cell at ~20 s of CPU; the
+#: bounds come from each calibration's own covariance, which knows how many there were
+INTRINSICS_VIEWS = 12
+#: image noise (grey levels): real sensors' order; it makes the corner noise random
+#: (0.02-0.05 px) rather than the renderer's own structured 0.017 px
+IMAGE_NOISE = 1.0
+#: a quantity's bound: the χ² quantile of its dimension at this tail probability
+BOUND_P = 1e-4
+
+#: pairs of levels no cell can show: a chessboard is only used when seen whole
+IMPOSSIBLE = {(("target", "chessboard"), ("motion", "wide"))}
+
+
+def _valid(cell: dict[str, str]) -> bool:
+    items = set(cell.items())
+    return not any(set(pair) <= items for pair in IMPOSSIBLE)
+
+
+def _pairs(cell: dict[str, str]) -> set[tuple]:
+    return {((a, cell[a]), (b, cell[b])) for a, b in itertools.combinations(FACTORS, 2)}
+
+
+def covering_cells(factors: dict[str, tuple[str, ...]] = FACTORS) -> list[dict[str, str]]:
+    """A pairwise covering design: cells (factor → level) such that every pair of levels
+    of two factors that some valid cell shows appears in at least one cell. Greedy and
+    deterministic: each step takes the valid cell covering most pairs not yet covered
+    (the first in the product's order among equals)."""
+    candidates = [dict(zip(factors, combo, strict=True))
+                  for combo in itertools.product(*factors.values())]
+    candidates = [c for c in candidates if _valid(c)]
+    needed = set().union(*(_pairs(c) for c in candidates))
+    cells: list[dict[str, str]] = []
+    while needed:
+        best = max(candidates, key=lambda c: len(_pairs(c) & needed))
+        cells.append(best)
+        needed -= _pairs(best)
+    return cells
+
+
+def cell_name(cell: dict[str, str]) -> str:
+    return "-".join(cell[f] for f in FACTORS)
+
+
+# ----------------------------------------------------------------------------- making
+
+def positions(cell: dict[str, str]) -> tuple[tuple[float, float], ...]:
+    """The cell's pan-tilt readings (degrees)."""
+    from rasc.geometry.kinematics import PAPER_POSES_DEG
+
+    if cell["motion"] == "paper":
+        return tuple(PAPER_POSES_DEG)
+    if cell["motion"] == "wide":
+        return tuple((p / 8.0 * WIDE_PAN_DEG, t / 8.0 * WIDE_TILT_DEG)
+                     for p, t in PAPER_POSES_DEG)
+    from rasc.plan import nominal_setup, plan
+    from rasc.vision.board import parse_target
+
+    setup = nominal_setup(parse_target(TARGETS[cell["target"]]), pan_range=PLAN_PAN_RANGE,
+                          tilt_range=PLAN_TILT_RANGE)
+    return tuple(plan(setup, N_POSITIONS, workspace_depth=None).positions)
+
+
+def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
+    """Render the cell's dataset (with its truth) into ``folder``."""
+    from rasc.sim.render import RenderOptions, render_dataset
+    from rasc.sim.units import UnitBuild
+    from rasc.vision.board import parse_target
+
+    units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
+    options = RenderOptions(poses_deg=positions(cell), intrinsics_views=INTRINSICS_VIEWS,
+                            seed=seed, image_noise=IMAGE_NOISE)
+    render_dataset(folder, options, units=units, board=parse_target(TARGETS[cell["target"]]),
+                   quiet=True)
+    return folder
+
+
+def calibrate_python(folder: Path, options_level: str) -> dict:
+    """The Python door: what ``rasc calibrate`` writes, from the library."""
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.vision.dataset import load_dataset
+
+    cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**OPTIONS[options_level]))
+    return json.loads(json.dumps(_document(cal, folder), allow_nan=True))
+
+
+def _document(cal, folder: Path) -> dict:
+    from rasc.io import dumps_json
+
+    doc = cal.to_dict()
+    doc["dataset"] = str(folder)
+    return json.loads(dumps_json(doc))
+
+
+def calibrate_cli(folder: Path, options_level: str, out: Path) -> tuple[dict, str]:
+    """The command-line door: ``rasc calibrate FOLDER --out OUT`` with the level's flags;
+    returns the document written and the command's stderr."""
+    argv = [sys.executable, "-m", "rasc", "calibrate", str(folder), "--out", str(out),
+            "--quiet"]
+    for key, value in OPTIONS[options_level].items():
+        argv += [FLAGS[key], value]
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    run = subprocess.run(argv, capture_output=True, text=True, env=env, check=False)
+    if run.returncode != 0:
+        raise RuntimeError(f"rasc calibrate exited {run.returncode}: {run.stderr.strip()}")
+    return json.loads(out.read_text()), run.stderr
+
+
+#: what two doors may write differently: how long each stage took, and the dataset path
+#: as each was given it
+DOOR_VOLATILE = ("timings_s", "dataset")
+
+
+def same_document(a: dict, b: dict) -> bool:
+    """The two doors' files are the same but for :data:`DOOR_VOLATILE`."""
+    def strip(d):
+        return {k: v for k, v in d.items() if k not in DOOR_VOLATILE}
+
+    return json.dumps(strip(a), sort_keys=True) == json.dumps(strip(b), sort_keys=True)
+
+
+# ----------------------------------------------------------------------------- scoring
+
+def _rotvec(R: np.ndarray) -> np.ndarray:
+    from rasc.geometry.transforms import rotvec_from_matrix
+
+    return rotvec_from_matrix(np.asarray(R, float))
+
+
+def truth_values(truth: dict) -> dict[str, Any]:
+    """The truth in the calibration's gauge: per eye K, the canonical unit's refinement
+    parameters (tilt axis (x, y, 1), tilt point, scales, offsets), T_cam_from_gaze; and
+    T_ptuL_from_ptuR."""
+    from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge
+
+    out: dict[str, Any] = {}
+    T_pb = {}
+    for eye in ("left", "right"):
+        t = truth[eye]
+        unit, T_cg, T_pb[eye] = canonical_gauge(
+            PanTiltUnit.from_dict(t["unit"]), np.asarray(t["T_cam_from_gaze"], float),
+            np.asarray(t["T_ptu_from_base"], float))
+        a = np.asarray(unit.tilt_axis, float)
+        q = np.asarray(unit.tilt_point, float)
+        K = np.asarray(t["K"], float)
+        out[eye] = {
+            "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
+            **dict(zip(("k1", "k2", "p1", "p2", "k3"), np.asarray(t["dist"], float),
+                       strict=False)),
+            "unit.tilt_axis_x": a[0] / a[2], "unit.tilt_axis_y": a[1] / a[2],
+            "unit.tilt_point_x": q[0], "unit.tilt_point_y": q[1], "unit.tilt_point_z": q[2],
+            "unit.pan_scale": unit.pan_scale, "unit.tilt_scale": unit.tilt_scale,
+            "unit.pan_offset": 0.0, "unit.tilt_offset": 0.0,
+            "T_cam_from_gaze": T_cg,
+        }
+    out["T_ptuL_from_ptuR"] = T_pb["left"] @ np.linalg.inv(T_pb["right"])
+    return out
+
+
+#: The quantities whose accuracy is bounded, each a block of parameters (per eye, or the
+#: head's): name → (parameter names, unit the report states the error in)
+QUANTITIES = {
+    "intrinsics": ("fx", "fy", "cx", "cy"),
+    "hand-eye rotation": ("T_cam_from_gaze.rotx", "T_cam_from_gaze.roty",
+                          "T_cam_from_gaze.rotz"),
+    "hand-eye translation": ("T_cam_from_gaze.tx", "T_cam_from_gaze.ty",
+                             "T_cam_from_gaze.tz"),
+    "unit axes": ("unit.tilt_axis_x", "unit.tilt_point_y"),
+    "encoder scales": ("unit.pan_scale", "unit.tilt_scale"),
+    "mounts rotation": ("T_ptuL_from_ptuR.rotx", "T_ptuL_from_ptuR.roty",
+                        "T_ptuL_from_ptuR.rotz"),
+    "mounts translation": ("T_ptuL_from_ptuR.tx", "T_ptuL_from_ptuR.ty",
+                           "T_ptuL_from_ptuR.tz"),
+}
+
+
+def parameter_errors(doc: dict, truth: dict) -> dict[str, float]:
+    """Estimate − truth of every parameter in the calibration's covariance (natural units:
+    px, rad as a small left rotation, metres, pure numbers)."""
+    from rasc.head.uncertainty import covariance_of_document
+
+    cov = covariance_of_document(doc)
+    if cov is None:
+        return {}
+    tv = truth_values(truth)
+    params = doc["refinement"]["parameters"]
+    errors: dict[str, float] = {}
+    for name in cov.names:
+        group, _, rest = name.partition(".")
+        if group == "T_ptuL_from_ptuR":
+            T_est = np.asarray(doc["refinement"]["T_ptuL_from_ptuR"], float)
+            T_true = tv["T_ptuL_from_ptuR"]
+        elif rest.startswith("T_cam_from_gaze"):
+            T_est = np.asarray(doc["head"][group]["T_cam_from_gaze"], float)
+            T_true = tv[group]["T_cam_from_gaze"]
+        else:
+            errors[name] = float(params[group][rest]["value"]) - float(tv[group][rest])
+            continue
+        axis = "xyz".index(name[-1])
+        if ".rot" in name:
+            errors[name] = float(_rotvec(T_est[:3, :3] @ T_true[:3, :3].T)[axis])
+        else:
+            errors[name] = float(T_est[axis, 3] - T_true[axis, 3])
+    return errors
+
+
+@dataclass
+class Score:
+    """One cell's figures against the truth."""
+
+    n_parameters: int = 0
+    chi2: float | None = None                 # eᵀ Σ⁻¹ e over every compared parameter
+    within_3sigma: float | None = None        # fraction of |z| ≤ 3
+    max_abs_z: float | None = None
+    z: dict[str, float] = field(default_factory=dict)
+    #: quantity (per eye, or the head's) → (d², bound, dimension)
+    quantities: dict[str, tuple[float, float, int]] = field(default_factory=dict)
+    errors: dict[str, float] = field(default_factory=dict)    # readable: deg, mm
+    within_bounds: bool | None = None
+
+
+def score(doc: dict, truth: dict) -> Score:
+    """Score a calibration document against its truth (module docstring)."""
+    from scipy.stats import chi2 as chi2_dist
+
+    from rasc.head.uncertainty import covariance_of_document
+
+    s = Score()
+    ea = doc.get("errors_against_truth") or {}
+    for eye in ("left", "right"):
+        he = ea.get(eye, {}).get("T_cam_from_gaze", {})
+        if he:
+            s.errors[f"{eye} hand-eye rotation (deg)"] = he["rotation_deg"]
+            s.errors[f"{eye} hand-eye translation (mm)"] = 1e3 * he["translation"]
+    mounts = ea.get("T_ptuL_from_ptuR") or {}
+    if mounts:
+        s.errors["mounts translation (mm)"] = 1e3 * mounts["translation"]
+    errors = parameter_errors(doc, truth)
+    if not errors:
+        return s
+    cov = covariance_of_document(doc)
+    idx = {n: i for i, n in enumerate(cov.names)}
+    names = list(errors)
+    e = np.array([errors[n] for n in names])
+    sig = np.sqrt(np.diag(cov.matrix)[[idx[n] for n in names]])
+    z = e / sig
+    s.z = dict(zip(names, map(float, z), strict=True))
+    s.n_parameters = len(names)
+    sub = cov.matrix[np.ix_([idx[n] for n in names], [idx[n] for n in names])]
+    # correlations, not variances, set the conditioning: whiten by the σ first
+    corr = sub / np.outer(sig, sig)
+    s.chi2 = float(z @ np.linalg.lstsq(corr, z, rcond=1e-12)[0])
+    s.within_3sigma = float(np.mean(np.abs(z) <= 3.0))
+    s.max_abs_z = float(np.max(np.abs(z)))
+    ok = True
+    for q, members in QUANTITIES.items():
+        for group in ("left", "right", "T_ptuL_from_ptuR"):
+            qn = [n for n in names if n.startswith(group + ".") and n.partition(".")[2]
+                  in members] if group != "T_ptuL_from_ptuR" else \
+                [n for n in names if n in members]
+            if not qn or (group == "T_ptuL_from_ptuR") != q.startswith("mounts"):
+                continue
+            ii = [names.index(n) for n in qn]
+            zq = z[ii]
+            d2 = float(zq @ np.linalg.lstsq(corr[np.ix_(ii, ii)], zq, rcond=1e-12)[0])
+            bound = float(chi2_dist.isf(BOUND_P, len(ii)))
+            key = q if group == "T_ptuL_from_ptuR" else f"{group} {q}"
+            s.quantities[key] = (d2, bound, len(ii))
+            ok &= d2 <= bound
+    s.within_bounds = ok
+    return s
+
+
+# ----------------------------------------------------------------------------- a cell
+
+@dataclass
+class CellResult:
+    cell: dict[str, str]
+    seed: int
+    score: Score
+    verdict: str
+    verdict_line: str
+    warnings: list[str]
+    doors_agree: bool | None
+    report_pages: int | None
+    scales: dict | None
+    seconds: float
+    error: str | None = None
+    report_error: str | None = None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["name"] = cell_name(self.cell)
+        return d
+
+
+def run_cell(cell: dict[str, str], work: Path, seed: int, *, report: bool = True) -> CellResult:
+    """Render, calibrate through the cell's door, build the report, score."""
+    from rasc.report.pdf import write_report
+    from rasc.report.verdict import verdict
+    from rasc.vision.dataset import load_dataset
+
+    t0 = time.perf_counter()
+    folder = render(cell, work / "dataset", seed)
+    truth = json.loads((folder / "ground_truth.json").read_text())
+    doc = calibrate_python(folder, cell["options"])
+    agree = None
+    if cell["door"] == "cli":
+        doc_cli, _ = calibrate_cli(folder, cell["options"], work / "cal.json")
+        agree = same_document(doc, doc_cli)
+        doc = doc_cli
+    pages, report_error = None, None
+    v = verdict(doc)
+    if report:
+        try:
+            v = write_report(doc, work / "report.pdf", dataset=load_dataset(folder))
+            pages = _pdf_pages(work / "report.pdf")
+        except Exception as exc:     # a report that does not build is the cell's finding
+            report_error = f"{type(exc).__name__}: {exc}"
+    ref = doc.get("refinement") or {}
+    return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,
+                      verdict_line=v.line(), warnings=list(doc.get("warnings", [])),
+                      doors_agree=agree, report_pages=pages, scales=ref.get("scales"),
+                      seconds=time.perf_counter() - t0, report_error=report_error)
+
+
+def _pdf_pages(path: Path) -> int:
+    """Pages of a PDF (its page objects; no PDF library needed)."""
+    data = path.read_bytes()
+    return data.count(b"/Type /Page") - data.count(b"/Type /Pages")
+
+
+def cell_passes(r: CellResult) -> tuple[bool, str]:
+    """The matrix's rule for one cell: the report built, the doors agree, and either the
+    calibration is within its bounds or its verdict is not "usable"."""
+    if r.error is not None:
+        return False, r.error
+    if r.report_error is not None:
+        return False, f"the report did not build ({r.report_error})"
+    if r.report_pages is not None and r.report_pages < 1:
+        return False, "the report has no page"
+    if r.doors_agree is False:
+        return False, "the Python and command-line doors wrote different files"
+    if r.score.within_bounds is False and r.verdict == "usable":
+        worst = max(r.score.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
+        return False, (f"errors outside their bounds ({worst[0]}: d² = {worst[1][0]:.3g} > "
+                       f"{worst[1][1]:.3g}) but the verdict is {r.verdict_line!r}")
+    return True, "ok"
+
+
+# ----------------------------------------------------------------------------- the run
+
+def run_matrix(out: Path, cells: list[dict[str, str]] | None = None, seed: int = 0,
+               log=print) -> list[CellResult]:
+    """Every cell (default: :func:`covering_cells`), results to ``out/cells.json``."""
+    import tempfile
+
+    cells = covering_cells() if cells is None else cells
+    results = []
+    out.mkdir(parents=True, exist_ok=True)
+    for k, cell in enumerate(cells):
+        with tempfile.TemporaryDirectory() as tmp:
+            try:
+                r = run_cell(cell, Path(tmp), seed + k)
+            except Exception as exc:   # a cell that fails is a finding, recorded as such
+                r = CellResult(cell=dict(cell), seed=seed + k, score=Score(), verdict="",
+                               verdict_line="", warnings=[], doors_agree=None,
+                               report_pages=None, scales=None, seconds=0.0,
+                               error=f"{type(exc).__name__}: {exc}")
+        results.append(r)
+        ok, why = cell_passes(r)
+        log(f"[{k + 1}/{len(cells)}] {cell_name(cell)}: {'ok' if ok else 'FAIL ' + why}; "
+            f"chi2 {r.score.chi2 if r.score.chi2 is None else round(r.score.chi2, 1)}"
+            f"/{r.score.n_parameters}, verdict {r.verdict}, {r.seconds:.0f} s")
+    from rasc.io import write_json_atomic
+
+    write_json_atomic(out / "cells.json", [r.to_dict() for r in results])
+    return results
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m experiments.accuracy",
+                                description="Run the accuracy matrix (module docstring).")
+    p.add_argument("--out", default="accuracy", help="output folder (cells.json)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--cells", help="comma-separated cell indices (default: all)")
+    args = p.parse_args(argv)
+    cells = covering_cells()
+    if args.cells:
+        cells = [cells[int(i)] for i in args.cells.split(",")]
+    run_matrix(Path(args.out), cells, args.seed)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
