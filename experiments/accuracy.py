@@ -147,9 +147,31 @@ def positions(cell: dict[str, str]) -> tuple[tuple[float, float], ...]:
     from rasc.plan import nominal_setup, plan
     from rasc.vision.board import parse_target
 
-    setup = nominal_setup(parse_target(TARGETS[cell["target"]]), pan_range=PLAN_PAN_RANGE,
-                          tilt_range=PLAN_TILT_RANGE)
-    return tuple(plan(setup, N_POSITIONS, workspace_depth=None).positions)
+    board = parse_target(TARGETS[cell["target"]])
+    setup = nominal_setup(board, pan_range=PLAN_PAN_RANGE, tilt_range=PLAN_TILT_RANGE)
+    planned = tuple(plan(setup, N_POSITIONS, workspace_depth=None).positions)
+    if getattr(board, "partial_views", False):
+        return planned
+    # a plan is made for the nominal head; a chessboard must be seen whole, and on the
+    # cell's own head a planned position may cut it: that view is left out, as detection
+    # would leave it out of a real capture (rasc render refuses to render it)
+    return tuple(p for p in planned if _shown_whole(cell, board, p))
+
+
+def _shown_whole(cell: dict[str, str], board, position: tuple[float, float]) -> bool:
+    from rasc.errors import InputError
+    from rasc.sim.render import RenderOptions, check_pose_views
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
+    from rasc.sim.units import UnitBuild
+
+    units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
+    with StereoHeadSim(board=board, units=units) as sim:
+        sim.set_target(T_base_from_world_facing(board, distance=RenderOptions().distance))
+        try:
+            check_pose_views(sim, RenderOptions(poses_deg=(position,)), None)
+        except InputError:
+            return False
+    return True
 
 
 def render(cell: dict[str, str], folder: Path, seed: int) -> Path:

@@ -369,6 +369,19 @@ def _scales_F(held, estimated) -> float:
     return float(gain / noise)
 
 
+def scales_hold_warning(F: float, estimated) -> str:
+    """The warning when ``--scales hold`` is contradicted by the corners (F above
+    :data:`SCALES_F_ESTIMATE`); ``estimated``: the fit with the scales free."""
+    found = ", ".join(f"{eye} {name} {estimated.parameters[eye][f'unit.{name}']['value']:.5g}"
+                      for eye in EYES for name in ("pan_scale", "tilt_scale")
+                      if f"unit.{name}" in estimated.parameters[eye]
+                      and estimated.parameters[eye][f"unit.{name}"].get("value") is not None)
+    return (f"the encoder scales were held at 1 (--scales hold) but the corners reject 1 "
+            f"(F = {F:.3g} against {SCALES_F_ESTIMATE:g}; estimated: {found}): a held scale "
+            "error goes into the hand-eye and the unit's axes, beyond their standard "
+            "deviations; calibrate with --scales auto or estimate")
+
+
 #: After refinement, pose-view RMS above this multiple of the intrinsics views' RMS is
 #: warned (readings that are not the images', a unit the model cannot express).
 #: Measured on the default renders: 1.6-2.0 (the pose views' board is farther, its
@@ -429,10 +442,20 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
                           "estimated": res is res_e}
             log(f"encoder scales {'estimated' if res is res_e else 'held at 1'} "
                 f"(F = {F:.3g} against {SCALES_F_ESTIMATE:g})")
+        elif options.scales_mode == "hold":
+            # held by choice; the same F test as auto says whether the corners contradict
+            # the choice (a warning, and the report's verdict): the scales estimated from
+            # the held fit, on exactly its corners
+            res = refine_head(obs, estimate_scales=False)
+            res_e = refine_head(obs, estimate_scales=True, start=res, reject_k=float("inf"))
+            F = _scales_F(res, res_e)
+            res.scales = {"mode": "hold", "F": F, "threshold_F": SCALES_F_ESTIMATE,
+                          "estimated": False}
+            if F > SCALES_F_ESTIMATE:
+                cal.warnings.append(scales_hold_warning(F, res_e))
         else:
-            res = refine_head(obs, estimate_scales=options.scales_mode == "estimate")
-            res.scales = {"mode": options.scales_mode,
-                          "estimated": options.scales_mode == "estimate"}
+            res = refine_head(obs, estimate_scales=True)
+            res.scales = {"mode": "estimate", "estimated": True}
     except RascError as exc:
         raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
     timer.add("refinement", time.perf_counter() - t0)

@@ -21,6 +21,9 @@ message. The thresholds:
   few are glints, many mean bad detections or a moving board.
 * :data:`CHECK_FOCAL_REL_STD` (1 %): the relative standard deviation of a focal length;
   good intrinsics views give ~0.1 %.
+* the encoder scales held at 1 (``--scales hold``) where the corners reject 1: the F
+  test of ``--scales auto`` (:data:`rasc.head.pipeline.SCALES_F_ESTIMATE`, 10) above its
+  threshold (a held scale error goes into the hand-eye and the unit's axes).
 * :data:`UNIT_PARAMETERS_NEEDED`: a unit parameter the motions could not determine that a
   well-spread set of positions determines (the encoder scales aside, which are held by
   choice) — the positions do not turn about two different axes enough.
@@ -141,6 +144,13 @@ def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None) -> Ve
                                         rel <= CHECK_FOCAL_REL_STD,
                                         f"the {eye} {f} is uncertain by {100 * rel:.2g} % "
                                         "(more intrinsics views, tilted 20-45 deg)"))
+        sc = ref.get("scales") if isinstance(ref.get("scales"), dict) else {}
+        f_stat, f_max = _num(sc.get("F")), _num(sc.get("threshold_F"))
+        if f_stat is not None and f_max is not None and sc.get("estimated") is False:
+            checks.append(Check("scales", f_stat, f_max, "check", f_stat <= f_max,
+                                f"the encoder scales were held at 1 but the corners reject 1 "
+                                f"(F = {f_stat:.3g} against {f_max:g}): calibrate with --scales "
+                                "auto or estimate"))
         missing = [f"{d.get('eye')} {d.get('parameter')}" for d in ref.get("not_identifiable")
                    or [] if d.get("parameter") in UNIT_PARAMETERS_NEEDED]
         checks.append(Check("unit", float(len(missing)), 0.0, "check", not missing,
