@@ -151,7 +151,9 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     T_cam_from_gaze : ndarray, shape (4, 4), or a HandEyeResult
         The solution. A ``rasc-robust`` result
         (:class:`~rasc.handeye.robust.RobustHandEyeResult`) is checked on its inliers
-        only: the positions it rejected are named by its own result.
+        only: the positions it rejected are named by its own result. A result with a
+        ``scale`` of the camera translations (``rasc-scale``, or its refinement) is
+        checked on the camera translations multiplied by it: the translations it solved.
     names : how to name position k in the message (default ``positions[k]``)
     scale_check : when the translations scatter, first ask whether a common scale of the
         camera translations explains them (:func:`rasc.handeye.scale.scale_warning`):
@@ -170,6 +172,10 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     if inliers:
         keep = list(inliers)
         T_cw, T_gp, names = T_cw[keep], T_gp[keep], [names[k] for k in keep]
+    s_cam = getattr(T_cam_from_gaze, "scale", None)
+    if s_cam is not None and np.isfinite(s_cam) and s_cam > 0:
+        T_cw = T_cw.copy()
+        T_cw[:, :3, 3] *= s_cam
     if isinstance(T_cam_from_gaze, HandEyeResult):
         T_cam_from_gaze = T_cam_from_gaze.T_cam_from_gaze
     X = np.asarray(T_cam_from_gaze, dtype=float)
@@ -222,7 +228,9 @@ def solution_warnings(result: HandEyeResult, *,
     """
     out = []
     rejected = getattr(result, "rejected", ())
-    if rejected:        # rasc-robust (rasc.handeye.robust): which positions it left out
+    # rasc-robust (rasc.handeye.robust): which positions it left out, unless the outlier
+    # policy chose it (rasc.handeye.robust_calibrate.closed_form), whose note names them
+    if rejected and not getattr(result, "replaces", ""):
         out.append(f"{len(rejected)} position(s) rejected as inconsistent with the others "
                    "and left out: " + "; ".join(f"positions[{r.index}] ({r.reason})"
                                                 for r in rejected))
