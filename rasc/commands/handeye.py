@@ -137,7 +137,9 @@ def run(args: argparse.Namespace) -> int:
     kwargs = {} if args.home is None else {"home": args.home}
     try:
         # the outlier policy rasc calibrate uses: rasc, or rasc-robust when the data ask
-        closed = closed_form(solve, data.T_cam_from_world, data.T_gaze_from_ptu, **kwargs)
+        closed = closed_form(solve, data.T_cam_from_world, data.T_gaze_from_ptu,
+                             names=[label or f"positions[{k}]"
+                                    for k, label in enumerate(data.labels)], **kwargs)
     except (PluginError, PluginExited, PluginTimedOut):
         raise  # names the plugin and what it did; the input is not at fault
     except DegenerateDataError as exc:
