@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from rasc.errors import DegenerateDataError
-from rasc.handeye.advice import QUALITY_UNUSABLE, translation_warnings
+from rasc.handeye.advice import QUALITY_UNUSABLE, translation_warnings, unit_suspect
 from rasc.handeye.methods import Method, solve
 from rasc.handeye.robust import NAME as ROBUST
 from rasc.handeye.robust import solve_rasc_robust
@@ -60,10 +60,12 @@ class ClosedForm:
 
 
 def contamination(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
-                  result: HandEyeResult) -> list[str]:
+                  result: HandEyeResult, names: list[str] | None = None) -> list[str]:
     """The consistency checks of :mod:`rasc.handeye.advice` that flag ``result``: a
     quality (eq. 10) above the paper's limit and translations that contradict each other
-    (:func:`~rasc.handeye.advice.translation_warnings`), unless a common scale of the
+    (:func:`~rasc.handeye.advice.translation_warnings`; with the position whose target
+    distance is :data:`~rasc.handeye.advice.UNIT_RATIO` times off the median named, as
+    ``names[k]``: a translation in another length unit?), unless a common scale of the
     camera translations explains them (:func:`rasc.handeye.scale.scale_warning`: poses
     without metric scale are not bad positions, and the translation warning names that
     cause). Empty: nothing flagged."""
@@ -73,7 +75,15 @@ def contamination(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     X = np.asarray(result.T_cam_from_gaze, dtype=float)
     if translation_warnings(T_cam_from_world, T_gaze_from_ptu, X, scale_check=False) \
             and scale_warning(T_cam_from_world, T_gaze_from_ptu, X[:3, :3]) is None:
-        out.append("the translations contradict each other")
+        suspect = unit_suspect(T_cam_from_world)
+        if suspect is None:
+            out.append("the translations contradict each other")
+        else:
+            k, ratio = suspect
+            name = names[k] if names else f"positions[{k}]"
+            out.append(f"the translations contradict each other; {name}'s target is "
+                       f"{ratio:.3g}× as far from the camera as at the median position: a "
+                       "translation in another length unit?")
     return out
 
 
@@ -94,7 +104,8 @@ def closed_form(method: str | Method | Callable[..., Any], T_cam_from_world: np.
     result = solve(method, T_cam_from_world, T_gaze_from_ptu, **options)
     if _name(method) != SWITCHED:
         return ClosedForm(result)
-    flagged = contamination(T_cam_from_world, T_gaze_from_ptu, result)
+    names = names or [f"positions[{k}]" for k in range(len(T_cam_from_world))]
+    flagged = contamination(T_cam_from_world, T_gaze_from_ptu, result, names)
     if not flagged:
         return ClosedForm(result)
     shared = {k: v for k, v in options.items() if k in _SHARED_OPTIONS}
@@ -106,7 +117,6 @@ def closed_form(method: str | Method | Callable[..., Any], T_cam_from_world: np.
                                    f"({exc}); the closed form uses every position"])
     if not robust.rejected:
         return ClosedForm(result)
-    names = names or [f"positions[{k}]" for k in range(len(T_cam_from_world))]
     which = "; ".join(f"{names[r.index]} ({r.reason})" for r in robust.rejected)
     robust = dataclasses.replace(robust, replaces=SWITCHED, flagged=tuple(flagged))
     return ClosedForm(robust, [
