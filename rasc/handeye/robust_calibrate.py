@@ -81,8 +81,8 @@ def contamination(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         else:
             k, ratio = suspect
             name = names[k] if names else f"positions[{k}]"
-            out.append(f"the translations contradict each other; {name}'s target is "
-                       f"{ratio:.3g}× as far from the camera as at the median position: a "
+            out.append(f"the translations contradict each other; {name}: the target is "
+                       f"{ratio:.3g}× as far from the camera as at the median position, a "
                        "translation in another length unit?")
     return out
 
