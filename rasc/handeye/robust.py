@@ -51,9 +51,9 @@ consistent positions, or inliers that are degenerate, raise
 :class:`~rasc.errors.DegenerateDataError`: no number is returned that the data do not
 support.
 
-:func:`rasc.handeye.robust_calibrate.closed_form` is what ``rasc calibrate`` uses: RASC,
-or ``rasc-robust`` when the consistency checks of :mod:`rasc.handeye.advice` flag the RASC
-solution.
+:func:`rasc.handeye.robust_calibrate.closed_form` is the outlier policy ``rasc calibrate``
+and ``rasc handeye`` both use: RASC, or ``rasc-robust`` when the consistency checks of
+:mod:`rasc.handeye.advice` flag the RASC solution.
 """
 
 from __future__ import annotations
