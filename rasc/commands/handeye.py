@@ -13,6 +13,12 @@ Output (``rasc-handeye-result/1``): ``T_cam_from_gaze`` (4×4) and its inverse
 ``home`` with ``--method li``. Each of :func:`rasc.handeye.solver.solution_warnings` (a quality
 above 1, motions mostly about one axis, a large estimated error, a camera looking
 backwards) adds a warning line on stderr; the exit status stays 0.
+
+The method goes through the outlier policy ``rasc calibrate`` uses
+(:func:`rasc.handeye.robust_calibrate.closed_form`): with "rasc", the default, a solution
+the consistency checks flag is replaced by ``rasc-robust``'s when it rejects positions;
+the output's ``method`` is then "rasc-robust", its ``robust`` block says why, and the
+policy's note is a warning. Any other method is used as it is.
 """
 
 from __future__ import annotations
@@ -39,7 +45,9 @@ METHOD_NAMES = ("rasc", "li", "rasc-inverse", "rasc-views", "rasc-robust", "rasc
 #: --method's help, shared with ``rasc calibrate``.
 METHOD_HELP = ("hand-eye method: a built-in name (" + ", ".join(METHOD_NAMES) + "), "
                "package.module:function, or a name an installed package registers in the "
-               "rasc.methods entry points (default: rasc, the paper's method)")
+               "rasc.methods entry points (default: rasc, the paper's method, replaced by "
+               "rasc-robust when its solution fails the consistency checks and rasc-robust "
+               "rejects positions; any other name is used as it is)")
 
 QUALITY_NOTE = ("eq. 10: mean over ordered pairs i != j of ||X B_ij X^T - A_ij||_F; "
                 "0 is a perfect fit, the paper found solutions above 1 unusable")
@@ -116,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
         from rasc.handeye.document import load_handeye_input
         from rasc.handeye.li import NO_HOME_POSE, has_home_pose, home_index
         from rasc.handeye.methods import PluginError, jackknife_uncertainty
+        from rasc.handeye.robust_calibrate import closed_form
         from rasc.io import check_outputs, dumps_json, write_json_atomic, write_stdout
 
     source = args.poses
@@ -127,13 +136,19 @@ def run(args: argparse.Namespace) -> int:
     data = load_handeye_input(source)
     kwargs = {} if args.home is None else {"home": args.home}
     try:
-        result = solve(data.T_cam_from_world, data.T_gaze_from_ptu, **kwargs)
+        # the outlier policy rasc calibrate uses: rasc, or rasc-robust when the data ask
+        closed = closed_form(solve, data.T_cam_from_world, data.T_gaze_from_ptu,
+                             names=[label or f"positions[{k}]"
+                                    for k, label in enumerate(data.labels)], **kwargs)
     except (PluginError, PluginExited, PluginTimedOut):
         raise  # names the plugin and what it did; the input is not at fault
     except DegenerateDataError as exc:
         raise DegenerateDataError(f"{source}: {exc}") from None
     except RascError as exc:
         raise RascError(f"{source}: {exc}") from None
+    result, method = closed.result, closed.method if closed.switched else args.method
+    if closed.switched:
+        solve = _solver(method)     # the jackknife repeats the method that was used
     if args.refine:
         from rasc.handeye.robust_refine import refine_handeye
 
@@ -141,12 +156,12 @@ def run(args: argparse.Namespace) -> int:
             result = refine_handeye(data.T_cam_from_world, data.T_gaze_from_ptu, result)
         except RascError as exc:
             raise type(exc)(f"{source}: --refine: {exc}") from None
-    home, notes = None, []
+    home, notes = None, list(closed.notes)
     if args.method == "li":
         home = home_index(data.T_gaze_from_ptu) if args.home is None else args.home
         if args.home is None and data.from_angles and not has_home_pose(data.T_gaze_from_ptu):
             notes.append(f"{NO_HOME_POSE}; give --home K or add the (0, 0) position")
-    doc = result_document(data, result, source=source, method=args.method, home=home)
+    doc = result_document(data, result, source=source, method=method, home=home)
     uncertainty = jackknife_uncertainty(solve, data.T_cam_from_world,
                                         data.T_gaze_from_ptu, result, **kwargs)
     doc["uncertainty"] = uncertainty.to_dict()

@@ -122,6 +122,22 @@ MAX_TRANSLATION_SCATTER = 0.1
 UNIT_RATIO = 3.0
 
 
+def unit_suspect(T_cam_from_world: np.ndarray) -> tuple[int, float] | None:
+    """The position whose target distance (``‖t_cam_from_world‖``) is furthest from the
+    median, with its ratio to the median, when that is :data:`UNIT_RATIO` times off (a
+    translation in another length unit), else None."""
+    with np.errstate(all="ignore"):
+        distance = np.linalg.norm(np.asarray(T_cam_from_world, dtype=float)[:, :3, 3], axis=1)
+        median = float(np.median(distance))
+        if not (np.isfinite(median) and median > 0):
+            return None
+        ratio = distance / median
+        k = int(np.argmax(np.abs(np.log(np.where(ratio > 0, ratio, np.inf)))))
+    if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
+        return k, float(ratio[k])
+    return None
+
+
 def _scale_explains(T_cam_from_world, T_gaze_from_ptu, R_cam_from_gaze=None) -> str | None:
     """The unknown-scale sentence when the translations fit a scaled solution far better
     (:func:`rasc.handeye.scale.scale_warning`; R_cam_from_gaze from RASC when not given),
@@ -151,7 +167,9 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     T_cam_from_gaze : ndarray, shape (4, 4), or a HandEyeResult
         The solution. A ``rasc-robust`` result
         (:class:`~rasc.handeye.robust.RobustHandEyeResult`) is checked on its inliers
-        only: the positions it rejected are named by its own result.
+        only: the positions it rejected are named by its own result. A result with a
+        ``scale`` of the camera translations (``rasc-scale``, or its refinement) is
+        checked on the camera translations multiplied by it: the translations it solved.
     names : how to name position k in the message (default ``positions[k]``)
     scale_check : when the translations scatter, first ask whether a common scale of the
         camera translations explains them (:func:`rasc.handeye.scale.scale_warning`):
@@ -170,6 +188,10 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
     if inliers:
         keep = list(inliers)
         T_cw, T_gp, names = T_cw[keep], T_gp[keep], [names[k] for k in keep]
+    s_cam = getattr(T_cam_from_gaze, "scale", None)
+    if s_cam is not None and np.isfinite(s_cam) and s_cam > 0:
+        T_cw = T_cw.copy()
+        T_cw[:, :3, 3] *= s_cam
     if isinstance(T_cam_from_gaze, HandEyeResult):
         T_cam_from_gaze = T_cam_from_gaze.T_cam_from_gaze
     X = np.asarray(T_cam_from_gaze, dtype=float)
@@ -185,15 +207,15 @@ def translation_warnings(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarr
         worst = float(np.max(scatter))
         if np.isfinite(worst) and worst <= MAX_TRANSLATION_SCATTER * scale:
             return []
-        ratio = distance / scale
-        k = int(np.argmax(np.abs(np.log(np.where(ratio > 0, ratio, np.inf)))))
     scaled = _scale_explains(T_cw, T_gp, X[:3, :3]) if scale_check else None
     if scaled:
         return [scaled]
     advice = ("give every T_cam_from_world translation in one length unit, and check that "
               "each belongs to the motion beside it")
-    if ratio[k] > UNIT_RATIO or ratio[k] < 1 / UNIT_RATIO:
-        return [f"{names[k]}: the target is {ratio[k]:.3g}× as far from the camera as at the "
+    suspect = unit_suspect(T_cw)
+    if suspect is not None:
+        k, ratio = suspect
+        return [f"{names[k]}: the target is {ratio:.3g}× as far from the camera as at the "
                 f"median position ({distance[k]:.3g} against {scale:.3g}): a translation in "
                 f"another length unit? The solution's translation "
                 f"({np.linalg.norm(X[:3, 3]):.3g}) is then wrong; {advice}"]
@@ -222,7 +244,9 @@ def solution_warnings(result: HandEyeResult, *,
     """
     out = []
     rejected = getattr(result, "rejected", ())
-    if rejected:        # rasc-robust (rasc.handeye.robust): which positions it left out
+    # rasc-robust (rasc.handeye.robust): which positions it left out, unless the outlier
+    # policy chose it (rasc.handeye.robust_calibrate.closed_form), whose note names them
+    if rejected and not getattr(result, "replaces", ""):
         out.append(f"{len(rejected)} position(s) rejected as inconsistent with the others "
                    "and left out: " + "; ".join(f"positions[{r.index}] ({r.reason})"
                                                 for r in rejected))

@@ -51,9 +51,9 @@ consistent positions, or inliers that are degenerate, raise
 :class:`~rasc.errors.DegenerateDataError`: no number is returned that the data do not
 support.
 
-:func:`rasc.handeye.robust_calibrate.closed_form` is what ``rasc calibrate`` uses: RASC,
-or ``rasc-robust`` when the consistency checks of :mod:`rasc.handeye.advice` flag the RASC
-solution.
+:func:`rasc.handeye.robust_calibrate.closed_form` is the outlier policy ``rasc calibrate``
+and ``rasc handeye`` both use: RASC, or ``rasc-robust`` when the consistency checks of
+:mod:`rasc.handeye.advice` flag the RASC solution.
 """
 
 from __future__ import annotations
@@ -152,6 +152,12 @@ class RobustHandEyeResult(HandEyeResult):
         Minimal-sample hypotheses scored.
     seed : int
         Their draw's seed.
+    replaces : str
+        The method the user asked for that this result was chosen instead of, when
+        :func:`rasc.handeye.robust_calibrate.closed_form` switched (its note names the
+        rejected positions), else "".
+    flagged : tuple of str
+        What flagged that method's solution (:func:`rasc.handeye.robust_calibrate.contamination`).
     """
 
     inliers: tuple[int, ...] = ()
@@ -163,6 +169,8 @@ class RobustHandEyeResult(HandEyeResult):
     n_hypotheses: int = 0
     seed: int = 0
     limit_sigmas: float = math.nan
+    replaces: str = ""
+    flagged: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """RASC's result document with a ``robust`` block: the inliers and each rejected
@@ -189,6 +197,8 @@ def robust_summary(result: RobustHandEyeResult) -> dict[str, Any]:
                            f"{len(result.inliers)} inliers)"),
         "n_hypotheses": result.n_hypotheses,
         "seed": result.seed,
+        **({"chosen_instead_of": result.replaces,
+            "because": "; ".join(result.flagged)} if result.replaces else {}),
     }
 
 

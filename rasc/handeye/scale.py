@@ -13,7 +13,12 @@ linear least squares. The unit's own translations ``t_gp^k`` fix the scale: for 
 that does not translate (a pan-tilt head, eq. 3) the right-hand side is zero, s and the
 translations are only known up to one common factor, and :func:`solve_rasc_scaled`
 raises :class:`~rasc.errors.DegenerateDataError` (RASC's ``t_X`` is then simply in the
-camera translations' own unit). The result's translation is in the unit's length unit.
+camera translations' own unit). It raises too, each with its own reason
+(:func:`scale_undetermined`), when every camera translation is zero (nothing to scale),
+when (S)'s columns are nearly dependent, or when s comes out known to worse than
+:data:`MAX_SCALE_RSD` of itself. The result's translation is in the unit's length unit.
+``--refine`` (:func:`rasc.handeye.robust_refine.refine_handeye`) refines s jointly with
+X and gives its standard deviation from the covariance.
 
 :func:`scale_fit` compares the translations' fit of (S) with s free against s = 1; the
 advice (:func:`rasc.handeye.advice.translation_warnings`) names an unknown scale when the
@@ -53,18 +58,23 @@ class ScaledHandEyeResult(HandEyeResult):
 
     scale : s, the factor that brings the camera translations to the unit's length unit.
     residual_rms : RMS of (S)'s residuals at the solution (the unit's length unit).
+    std_scale : s's standard error from (S)'s residuals (R_X held: the rotation's error
+        is not in it; ``--refine`` gives one with it).
     """
 
     scale: float = math.nan
     residual_rms: float = math.nan
+    std_scale: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """The result document with a ``scale`` block: the estimated scale of the camera
         translations."""
         out = super().to_dict()
-        out["scale"] = {"s": self.scale, "residual_rms": self.residual_rms,
+        out["scale"] = {"s": self.scale, "std": self.std_scale,
+                        "residual_rms": self.residual_rms,
                         "meaning": "t_cam_from_world (true) = s * t_cam_from_world (given); "
-                                   "T_cam_from_gaze's translation is in the unit's length unit"}
+                                   "T_cam_from_gaze's translation is in the unit's length "
+                                   "unit; std from (S)'s residuals with R_cam_from_gaze held"}
         return out
 
 
@@ -76,6 +86,7 @@ class ScaleFit:
     rms_scaled: float
     rms_unscaled: float
     t_cam_from_gaze: np.ndarray
+    std_scale: float = math.nan
 
 
 def _system(R_X: np.ndarray, T_cw: np.ndarray, T_gp: np.ndarray):
@@ -88,31 +99,63 @@ def _system(R_X: np.ndarray, T_cw: np.ndarray, T_gp: np.ndarray):
     return A, b
 
 
-def scale_fit(R_X: np.ndarray, T_cam_from_world: np.ndarray,
-              T_gaze_from_ptu: np.ndarray) -> ScaleFit | None:
-    """(S) with s free and with s = 1; None when s is not determined: a unit that does
-    not translate (right-hand side zero), cond above :data:`MAX_COND`, or a relative
-    standard error above :data:`MAX_SCALE_RSD`."""
+def _scale_fit(R_X: np.ndarray, T_cam_from_world: np.ndarray,
+               T_gaze_from_ptu: np.ndarray) -> ScaleFit | str:
+    """(S) with s free and with s = 1, or the reason s is not determined (one clause)."""
     T_cw = np.asarray(T_cam_from_world, dtype=float)
     T_gp = np.asarray(T_gaze_from_ptu, dtype=float)
     A, b = _system(np.asarray(R_X, dtype=float), T_cw, T_gp)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        return "the poses are not finite numbers"
+    if not np.any(b):
+        return ("the unit's motions do not translate (a unit that only turns, such as a "
+                "pan-tilt head), so they do not fix the scale; the hand-eye translation "
+                "is then known in the camera translations' own unit: use --method rasc")
+    if not np.any(A[:, 6]):
+        return ("every camera translation (T_cam_from_world's) is zero, so there is "
+                "nothing to scale, though the unit translates: a target seen from a "
+                "moving camera moves in it; give each T_cam_from_world with its "
+                "translation (the target's position in the camera)")
     norms = np.linalg.norm(A, axis=0)
-    if not (np.all(np.isfinite(A)) and np.all(norms > 0)):
-        return None
     sv = np.linalg.svd(A / norms, compute_uv=False)
-    if not np.any(b) or not sv[-1] > 0 or sv[0] / sv[-1] > MAX_COND:
-        return None
+    cond = sv[0] / sv[-1] if sv[-1] > 0 else math.inf
+    if not cond <= MAX_COND:
+        return (f"the translations do not separate the scale from the hand-eye "
+                f"translation (cond {cond:.3g} > {MAX_COND:g} of (S)'s columns): the "
+                "unit's translations are too small against its rotations, or the camera "
+                "translations barely change between positions; add positions that "
+                "translate the unit further")
     x = np.linalg.lstsq(A, b, rcond=None)[0]
     # s's standard error from the residuals; a scale known to worse than MAX_SCALE_RSD
     # of itself is not a number to return
     dof = max(A.shape[0] - A.shape[1], 1)
     var = float(np.sum((A @ x - b) ** 2)) / dof * np.linalg.inv(A.T @ A)[6, 6]
-    if not math.sqrt(max(var, 0.0)) <= MAX_SCALE_RSD * abs(x[6]):
-        return None
+    std = math.sqrt(max(var, 0.0))
+    if not std <= MAX_SCALE_RSD * abs(x[6]):
+        return (f"the scale comes out as {x[6]:.3g} ± {std:.2g}, known to worse than "
+                f"{MAX_SCALE_RSD:.0%} of itself: the translations are too noisy for the "
+                "unit's motions; add positions that translate the unit further")
     x1 = np.linalg.lstsq(A[:, :6], b - A[:, 6], rcond=None)[0]
     rms = float(np.sqrt(np.mean((A @ x - b) ** 2)))
     rms1 = float(np.sqrt(np.mean((A[:, :6] @ x1 - (b - A[:, 6])) ** 2)))
-    return ScaleFit(float(x[6]), rms, rms1, x[:3])
+    return ScaleFit(float(x[6]), rms, rms1, x[:3], std)
+
+
+def scale_fit(R_X: np.ndarray, T_cam_from_world: np.ndarray,
+              T_gaze_from_ptu: np.ndarray) -> ScaleFit | None:
+    """(S) with s free and with s = 1; None when s is not determined
+    (:func:`scale_undetermined` says why): a unit that does not translate (right-hand
+    side zero), camera translations all zero, cond above :data:`MAX_COND`, or a
+    relative standard error above :data:`MAX_SCALE_RSD`."""
+    fit = _scale_fit(R_X, T_cam_from_world, T_gaze_from_ptu)
+    return None if isinstance(fit, str) else fit
+
+
+def scale_undetermined(R_X: np.ndarray, T_cam_from_world: np.ndarray,
+                       T_gaze_from_ptu: np.ndarray) -> str | None:
+    """Why (S) does not determine s (one clause, with what to do), or None when it does."""
+    fit = _scale_fit(R_X, T_cam_from_world, T_gaze_from_ptu)
+    return fit if isinstance(fit, str) else None
 
 
 def scale_warning(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
@@ -157,13 +200,10 @@ def solve_rasc_scaled(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     T_cw = np.asarray(T_cam_from_world, dtype=float)
     T_gp = np.asarray(T_gaze_from_ptu, dtype=float)
     R_X = np.asarray(rasc.T_cam_from_gaze)[:3, :3]
-    fit = scale_fit(R_X, T_cw, T_gp)
-    if fit is None:
-        raise DegenerateDataError(
-            "rasc-scale: the unit's translations do not fix the scale of the camera "
-            "translations (a unit that only turns, such as a pan-tilt head, leaves it "
-            "free); the hand-eye translation is then known in the camera translations' "
-            "own unit: use --method rasc")
+    fit = _scale_fit(R_X, T_cw, T_gp)
+    if isinstance(fit, str):
+        raise DegenerateDataError(f"{NAME}: cannot estimate the scale of the camera "
+                                  f"translations: {fit}")
     if not fit.scale > 0:
         raise SolverFailure(f"rasc-scale: the data give a scale of {fit.scale:.3g} (not "
                             "positive): the camera poses and the unit's motions are "
@@ -173,4 +213,4 @@ def solve_rasc_scaled(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     T[:3, 3] = fit.t_cam_from_gaze
     return ScaledHandEyeResult(T_cam_from_gaze=T, quality=rasc.quality, method=NAME,
                                diagnostics=rasc.diagnostics, scale=fit.scale,
-                               residual_rms=fit.rms_scaled)
+                               residual_rms=fit.rms_scaled, std_scale=fit.std_scale)

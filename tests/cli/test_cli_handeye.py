@@ -179,7 +179,11 @@ def test_output_is_deterministic(tmp_path, capsys):
 def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     """Camera rotations that are the inverses of the unit's: every relative rotation turns
     as far as the unit's (so the motion check passes) but about another axis, so no X
-    fits; with ±60° motions eq. 10 is 1.10 > 1 -> warned, written, exit 0."""
+    fits all nine; with ±60° motions eq. 10 is 1.10 > 1. With RASC's rotation
+    (``--method rasc-views``, used as it is): warned, written, exit 0. With the default
+    the outlier policy (rasc calibrate's) sees the quality: rasc-robust keeps the five
+    positions that fit one X (pan or tilt zero, a consistent cross), and its note names
+    the quality as what flagged the data and the four it left out."""
     pan_tilt = [(p, t) for p in (-60.0, 0.0, 60.0) for t in (-60.0, 0.0, 60.0)]
     T_gp = T_gaze_from_ptu(*np.radians(np.array(pan_tilt)).T)
     T_cw = invert_transform(T_gp) @ make_transform(np.eye(3), [0.0, 0.0, 1.0])
@@ -188,6 +192,12 @@ def test_unusable_quality_warns_but_writes(tmp_path, capsys):
     path = write_doc(tmp_path / "random.json", {"positions": positions})
     out = tmp_path / "result.json"
     rc, stdout, stderr = run_cli([path, "--out", out], capsys)
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert rc == 0 and stdout == "" and doc["method"] == "rasc-robust"
+    assert doc["robust"]["inliers"] == [1, 3, 4, 5, 7]
+    assert stderr.splitlines()[0].startswith(
+        "rasc handeye: warning: the closed form's data look contaminated (quality 1.1 > 1")
+    rc, stdout, stderr = run_cli([path, "--method", "rasc-views", "--out", out], capsys)
     assert rc == 0 and stdout == ""
     quality = json.loads(out.read_text(encoding="utf-8"))["quality"]
     assert quality > 1.0
@@ -760,7 +770,10 @@ def test_non_finite_solver_result_is_refused(tmp_path, capsys, monkeypatch):
         def to_dict(self):
             return {"diagnostics": {}}
 
-    monkeypatch.setattr(handeye_command, "_solver", lambda method: lambda T_cw, T_gp: NaNResult())
+    from rasc.handeye.methods import Method
+
+    monkeypatch.setattr(handeye_command, "_solver", lambda method: Method(
+        method, lambda T_cw, T_gp: NaNResult(), "built-in"))
     line = assert_bad_input([EXAMPLE, "--method", "opencv-tsai"], [], tmp_path, capsys,
                             prefix=f"{EXAMPLE}: ")
     assert "method opencv-tsai returned a non-finite result" in line
