@@ -187,28 +187,34 @@ class PlanSetup:
         (estimated or held, and why) and ``noise`` (the corner noise and where it comes
         from)."""
         from rasc.geometry.kinematics import canonical_gauge
+        from rasc.head.options import CalibrationOptions
 
-        eyes = []
+        described, off = {}, []
         for eye in EYES:
             u = canonical_gauge(self.head.unit[eye], self.head.T_cam_from_gaze[eye],
                                 self.head.T_ptu_from_base[eye])[0]
             a = np.asarray(u.tilt_axis, float)
             angle = float(np.degrees(np.arctan2(a[2], a[0])))
-            eyes.append(f"{eye} axis distance {1e3 * u.tilt_point[1]:.3g} mm, axis angle "
-                        f"{angle:.4g} deg, scales {u.pan_scale:.6g} / {u.tilt_scale:.6g} "
-                        "(pan / tilt)")
-        unit = "; ".join(eyes)
+            described[eye] = (f"axis distance {1e3 * u.tilt_point[1]:.3g} mm, axis angle "
+                              f"{angle:.4g} deg, encoder scales {u.pan_scale:.6g} (pan) and "
+                              f"{u.tilt_scale:.6g} (tilt)")
+            off += [f"{eye} {n.split('_')[0]} {v:.6g}"
+                    for n, v in (("pan_scale", u.pan_scale), ("tilt_scale", u.tilt_scale))
+                    if abs(v - 1.0) > 1e-9]
+        unit = (f"both units: {described['left']}" if described["left"] == described["right"]
+                else "; ".join(f"{eye}: {described[eye]}" for eye in EYES))
         if self.sources.get("unit"):
             unit += f" ({self.sources['unit']})"
-        from rasc.head.options import CalibrationOptions
-
         mode = CalibrationOptions(scales=self.scales).scales_mode
         scales = {"estimate": "estimated (scales estimate)",
-                  "hold": "held at their value (scales hold): the prediction is the "
-                          "calibration's only if the encoders' scales are exact",
-                  "auto": "estimated (scales auto: the calibration holds them unless the "
-                          "corners reject 1, which only the data tell; the plan takes the "
-                          "worse case)"}[mode]
+                  "hold": "held at 1 (scales hold): the prediction is the calibration's only "
+                          "if the encoders are exact",
+                  "auto": "estimated (scales auto: the calibration holds them at 1 unless "
+                          "the corners reject 1, which only the data tell; the plan takes "
+                          "the worse case)"}[mode]
+        if mode == "hold" and off:
+            scales += (f"; this head's are not 1 ({', '.join(off)}): held at 1 they "
+                       "bias the calibration, which these σ do not include")
         sp, si = self.noise
         noise = self.sources.get("noise") or (
             f"corner noise {sp:.3g} px per coordinate"
