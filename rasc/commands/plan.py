@@ -90,8 +90,7 @@ FLAGS = {"distance": "--distance", "pan_range": "--pan-range", "tilt_range": "--
 def run(args: argparse.Namespace) -> int:
     with loading():
         from rasc.io import check_output, write_text_atomic
-        from rasc.plan import (PlanSetup, head_from_calibration, plan, resolve_noise,
-                               simulated_head)
+        from rasc.plan import PlanSetup, head_from_calibration, plan, resolve_noise, simulated_head
         from rasc.sim.render import format_positions
         from rasc.sim.synthetic import default_head
         from rasc.vision.board import parse_target

@@ -125,7 +125,7 @@ class PlanSetup:
             name = self._name(what, label)
             if len(r) != 2 or not all(np.isfinite(r)) or not r[0] < r[1]:
                 raise InputError(f"{name}: expected MIN,MAX with MIN < MAX, got {r!r}")
-            if not (-MAX_JOINT_DEG <= r[0] and r[1] <= MAX_JOINT_DEG):
+            if not (r[0] >= -MAX_JOINT_DEG and r[1] <= MAX_JOINT_DEG):
                 raise InputError(f"{name}: expected angles from {-MAX_JOINT_DEG:g} to "
                                  f"{MAX_JOINT_DEG:g} degrees, got {r[0]:g},{r[1]:g}")
         if not (np.isfinite(self.step_deg) and 0.1 <= self.step_deg <= 30):

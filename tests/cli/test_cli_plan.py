@@ -62,8 +62,9 @@ HOSTILE = [
      "--pan-range: expected angles from -180 to 180 degrees"),
     ("tilt-range-huge", ["--tilt-range=-1e9,1e9"],
      "--tilt-range: expected angles from -180 to 180 degrees"),
+    # 3601 x 1801 positions
     ("grid-too-fine", ["--step", "0.1", "--pan-range=-180,180", "--tilt-range=-90,90"],
-     "--step 0.1: the grid over pan -180..180 and tilt -90..90 deg has 6485401 positions"),  # 3601 x 1801
+     "--step 0.1: the grid over pan -180..180 and tilt -90..90 deg has 6485401 positions"),
     ("unit-device", ["--unit", "/dev/zero"],
      "/dev/zero: not a regular file (a device, pipe or socket); the unit parameter file"),
     ("unit-missing", ["--unit", "{ws}/missing.toml"], "missing.toml: no such file"),
