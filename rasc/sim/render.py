@@ -186,8 +186,10 @@ def read_positions(path: str | Path) -> tuple[tuple[float, float], ...]:
     What ``rasc plan`` writes and ``rasc render --poses FILE`` reads. Raises
     :class:`InputError` naming the file, line or item."""
     path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: positions file not found")
     # the one reader of input text: a device (/dev/zero), FIFO or folder is named as
-    # such before anything is read, a missing file as missing
+    # such before anything is read
     text = read_text_file(path, "positions file", MAX_POSITIONS_BYTES)
     poses: list[tuple[float, float]] = []
     if path.suffix.lower() == ".toml":

@@ -149,6 +149,8 @@ def read_unit_file(path: str | Path) -> dict[str, UnitBuild]:
     type, non-finite value) are one-line :class:`InputError`\\ s naming file and key.
     """
     path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: unit parameter file not found")
     # the one reader of input text (a device such as /dev/zero is refused unread)
     text = read_text_file(path, "unit parameter file", 1 << 20)
     try:
