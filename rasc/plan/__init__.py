@@ -10,6 +10,13 @@ every calibrated parameter and of triangulated points in a stated workspace.
 noise: the prediction assumes the model is right and the noise is independent with
 ``noise_px`` per coordinate) gives the information matrix JᵀJ; the covariance of the
 estimate is ``noise_px² (JᵀJ)⁻¹`` — exactly what the refinement reports after the fit.
+The Jacobian is taken at the head itself, its units included (each eye's axis angle and
+distance and encoder scales: :func:`simulated_head` builds the head ``rasc render --unit``
+renders), and the parameters are the refinement's under the calibration's ``scales``
+choice (:attr:`PlanSetup.scales`): estimated, the two encoder scales per eye are free in
+the information matrix; held, they are left out of it; ``auto`` is planned as estimated
+(:func:`scales_estimated`). :meth:`PlanSetup.assumptions` states the unit, the scales and
+the noise a plan assumes.
 The two kinds of view may have different noise (``intrinsics_noise_px``: a board seen
 close and tilted is often located better than one seen at the pose views' distance);
 the covariance of the same least-squares estimate is then the sandwich
@@ -140,11 +147,11 @@ class PlanSetup:
                 raise InputError(f"{name}: expected a positive number of pixels, got {v!r}")
         far = self.max_distance
         if not (np.isfinite(self.distance) and 0 < self.distance <= far):
-            raise InputError(
-                f"{self._name('distance', 'distance')}: expected more than 0 and at most "
-                f"{far:.3g} metres, got {self.distance!r} (farther, the target's "
-                f"{self.board.square_size:g} m squares would be smaller than "
-                f"{_min_square_px():g} px in the images, which the detector does not find)")
+            why = (f" (farther, the target's {self.board.square_size:g} m squares would be "
+                   f"smaller than {_min_square_px():g} px in the images, which the detector "
+                   "does not find)") if self.distance > far else ""
+            raise InputError(f"{self._name('distance', 'distance')}: expected more than 0 "
+                             f"and at most {far:.3g} metres, got {self.distance!r}{why}")
         from rasc.head.options import SCALES_MODES
 
         if self.scales is not None and self.scales not in SCALES_MODES:
