@@ -411,7 +411,8 @@ def main(argv=None) -> int:
     head = truth_head(board) if args.rendered else default_head()
     truth = {e: canonical_truth(head.unit[e], head.T_cam_from_gaze[e], head.T_ptu_from_base[e])
              for e in EYES}
-    setup = PlanSetup(head=head, board=board or DEFAULT_BOARD)
+    # the captures are calibrated with the scales held: planned and predicted so too
+    setup = PlanSetup(head=head, board=board or DEFAULT_BOARD, scales="hold")
     sets = position_sets(setup)
     for name, poses in sets.items():
         print(f"{name}: " + " ".join(f"({a:g},{b:g})" for a, b in poses), file=sys.stderr)

@@ -15,32 +15,8 @@ import time
 from pathlib import Path
 
 from rasc.commands import loading
+from rasc.commands._unit_options import add_unit_arguments, units_from_args
 from rasc.errors import InputError
-
-
-def _units(args: argparse.Namespace) -> dict | None:
-    """{eye: UnitBuild} from ``--unit FILE`` and the convenience options, or None."""
-    from rasc.io import finite_numbers
-    from rasc.sim.units import IDEAL_BUILD, MAX_SKEW_DEG, merge, read_unit_file
-
-    units = read_unit_file(args.unit) if args.unit else None
-    changes: dict = {}
-    if args.tilt_axis_offset.strip():
-        changes["tilt_axis_offset_mm"] = finite_numbers(
-            args.tilt_axis_offset, "--tilt-axis-offset", count=3, what="X,Y,Z in millimetres",
-            text=True)
-    if args.axis_skew is not None:
-        if not abs(args.axis_skew) < MAX_SKEW_DEG:
-            raise InputError(f"--axis-skew: expected a finite angle within "
-                             f"±{MAX_SKEW_DEG:g} degrees, got {args.axis_skew}")
-        changes["axis_skew_deg"] = args.axis_skew
-    if args.encoder_zero.strip():
-        changes["pan_zero_deg"], changes["tilt_zero_deg"] = finite_numbers(
-            args.encoder_zero, "--encoder-zero", count=2, what="PAN,TILT in degrees", text=True)
-    if changes:
-        units = {eye: merge((units or {}).get(eye, IDEAL_BUILD), **changes)
-                 for eye in ("left", "right")}
-    return units
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -78,21 +54,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
                    help="lens distortion applied by warping the renders (OpenCV model), "
                         "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
-    p.add_argument("--unit", metavar="FILE",
-                   help="TOML file of pan-tilt unit imperfections, tables [both], [left], "
-                        "[right] (README 'rasc render'); default: the model as written "
-                        "(ideal units)")
-    p.add_argument("--tilt-axis-offset", default="", metavar="X,Y,Z",
-                   help="both units: a point of the tilt axis in the tilt link's frame (x up, "
-                        "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit; with '=' "
-                        "when it starts with '-')")
-    p.add_argument("--axis-skew", type=float, default=None, metavar="DEG",
-                   help="both units: tilt axis turned towards the pan axis, degrees (the "
-                        "axes meet at 90 - DEG degrees; overrides --unit)")
-    p.add_argument("--encoder-zero", default="", metavar="PAN,TILT",
-                   help="both units: encoder zero offsets in degrees, joint angle = reading + "
-                        "offset (overrides --unit; --encoder-zero=-0.5,0.2 when it starts "
-                        "with '-')")
+    add_unit_arguments(p, "the model as written (ideal units)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
     return p
@@ -132,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         image_noise=args.noise, blur=args.blur,
         distortion=finite_numbers(args.distortion, FLAGS["distortion"], text=True),
     ).validate(FLAGS)
-    units = _units(args)
+    units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")
     if board is not None and args.model is not None:
         raise InputError("--target draws the target around the stock head: give --target or "

@@ -10,6 +10,13 @@ every calibrated parameter and of triangulated points in a stated workspace.
 noise: the prediction assumes the model is right and the noise is independent with
 ``noise_px`` per coordinate) gives the information matrix JᵀJ; the covariance of the
 estimate is ``noise_px² (JᵀJ)⁻¹`` — exactly what the refinement reports after the fit.
+The Jacobian is taken at the head itself, its units included (each eye's axis angle and
+distance and encoder scales: :func:`simulated_head` builds the head ``rasc render --unit``
+renders), and the parameters are the refinement's under the calibration's ``scales``
+choice (:attr:`PlanSetup.scales`): estimated, the two encoder scales per eye are free in
+the information matrix; held, they are left out of it; ``auto`` is planned as estimated
+(:func:`scales_estimated`). :meth:`PlanSetup.assumptions` states the unit, the scales and
+the noise a plan assumes.
 The two kinds of view may have different noise (``intrinsics_noise_px``: a board seen
 close and tilted is often located better than one seen at the pose views' distance);
 the covariance of the same least-squares estimate is then the sandwich
@@ -45,9 +52,13 @@ from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.frames import EYES
 from rasc.vision.board import MIN_VIEW_CORNERS
 
-#: the unit parameters planned for (the ones the refinement always determines with free
-#: mounts; the scales are held, as ``--scales auto`` does unless the data reject 1)
-PLAN_UNIT_PARAMETERS = ("tilt_axis_x", "tilt_point_y")
+#: the unit parameters planned for: the encoder scales (estimated, or held with
+#: ``scales="hold"``: then left out of the information) and the axis angle and distance,
+#: which the refinement always determines with free mounts (in the order of
+#: :data:`rasc.head.refine.UNIT_PARAMETERS`)
+PLAN_UNIT_PARAMETERS = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_point_y")
+#: the encoder scales (:data:`rasc.head.refine.SCALES`, the same names)
+SCALE_PARAMETERS = ("pan_scale", "tilt_scale")
 #: joint ranges of the simulated head (rasc/sim/models/stereo_head.xml), degrees
 DEFAULT_PAN_RANGE = (-60.0, 60.0)
 DEFAULT_TILT_RANGE = (-45.0, 30.0)
@@ -57,9 +68,44 @@ CRITERIA = ("D", "A")
 DEFAULT_NOISE_PX = 0.05
 
 
+#: the joint angles a range may reach, degrees: a reading beyond a full turn either way
+#: names no other position
+MAX_JOINT_DEG = 180.0
+#: the most candidate positions a grid may have (the default grid over the simulated
+#: head's ranges has 2318 at 2°, 9196 at 1°); their information blocks take about
+#: 25 kB each
+MAX_CANDIDATES = 10_000
+#: the most corner projections (candidates × the target's corners) a grid may need: each
+#: is a few dozen bytes in the arrays of :func:`_project_many` (about 1 GB at this limit)
+MAX_PROJECTIONS = 10_000_000
+
+
+def scales_estimated(scales: str | None) -> bool:
+    """Whether a plan under ``scales`` (:data:`rasc.head.options.SCALES_MODES`; None is
+    the calibration's default, :class:`rasc.head.options.CalibrationOptions`' ``auto``)
+    predicts with the encoder scales estimated.
+
+    ``estimate``: yes; ``hold``: no (held at their nominal value, left out of the
+    information); ``auto``: yes. The calibration's ``auto`` holds the scales unless the
+    corners reject 1, which only the data can tell; a plan cannot know it in advance, so
+    it plans for the worse case, the scales estimated (their freedom can only widen the
+    other parameters' σ)."""
+    from rasc.head.options import CalibrationOptions
+
+    mode = CalibrationOptions(scales=scales).scales_mode
+    return mode != "hold"
+
+
 @dataclass
 class PlanSetup:
-    """What a plan is made for. Angles in degrees, lengths in metres, pixels."""
+    """What a plan is made for. Angles in degrees, lengths in metres, pixels.
+
+    ``scales``: the encoder scales as ``rasc calibrate --scales`` treats them (the same
+    choices and default, :class:`rasc.head.options.CalibrationOptions`;
+    :func:`scales_estimated` says what a plan makes of each). ``sources``: where the head
+    and the noise come from, phrases for :meth:`assumptions` (``{"unit": "u.toml",
+    "noise": "..."}``). ``names``: how the caller's user writes each field, for the
+    messages (``rasc plan`` passes its flags, ``{"distance": "--distance", ...}``)."""
 
     head: Any                                    # rasc.sim.synthetic.SyntheticHead
     board: Any                                   # rasc.vision.board target
@@ -73,28 +119,127 @@ class PlanSetup:
     n_intrinsics: int = 20
     seed: int = 0
     image_size: tuple[int, int] = (1280, 960)
+    scales: str | None = None                    # None: the calibration's default (auto)
+    sources: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
+    names: dict[str, str] | None = field(default=None, repr=False, compare=False)
+
+    def _name(self, what: str, fallback: str) -> str:
+        return (self.names or {}).get(what, fallback)
 
     def __post_init__(self):
-        for name, r in (("pan range", self.pan_range), ("tilt range", self.tilt_range)):
+        for what, label, r in (("pan_range", "pan range", self.pan_range),
+                               ("tilt_range", "tilt range", self.tilt_range)):
+            name = self._name(what, label)
             if len(r) != 2 or not all(np.isfinite(r)) or not r[0] < r[1]:
                 raise InputError(f"{name}: expected MIN,MAX with MIN < MAX, got {r!r}")
+            if not (r[0] >= -MAX_JOINT_DEG and r[1] <= MAX_JOINT_DEG):
+                raise InputError(f"{name}: expected angles from {-MAX_JOINT_DEG:g} to "
+                                 f"{MAX_JOINT_DEG:g} degrees, got {r[0]:g},{r[1]:g}")
         if not (np.isfinite(self.step_deg) and 0.1 <= self.step_deg <= 30):
-            raise InputError(f"step: expected 0.1 to 30 degrees, got {self.step_deg!r}")
-        noises = [("noise", self.noise_px)]
+            raise InputError(f"{self._name('step_deg', 'step')}: expected 0.1 to 30 degrees, "
+                             f"got {self.step_deg!r}")
+        noises = [(self._name("noise_px", "noise"), self.noise_px)]
         if self.intrinsics_noise_px is not None:        # None: the pose views' noise
-            noises.append(("intrinsics noise", self.intrinsics_noise_px))
+            noises.append((self._name("intrinsics_noise_px", "intrinsics noise"),
+                           self.intrinsics_noise_px))
         for name, v in noises:
             if v is None or not (np.isfinite(v) and v > 0):
                 raise InputError(f"{name}: expected a positive number of pixels, got {v!r}")
-        if not (np.isfinite(self.distance) and self.distance > 0):
-            raise InputError(f"distance: expected a positive number of metres, got "
-                             f"{self.distance!r}")
+        far = self.max_distance
+        if not (np.isfinite(self.distance) and 0 < self.distance <= far):
+            why = (f" (farther, the target's {self.board.square_size:g} m squares would be "
+                   f"smaller than {_min_square_px():g} px in the images, which the detector "
+                   "does not find)") if self.distance > far else ""
+            raise InputError(f"{self._name('distance', 'distance')}: expected more than 0 "
+                             f"and at most {far:.3g} metres, got {self.distance!r}{why}")
+        from rasc.head.options import SCALES_MODES
+
+        if self.scales is not None and self.scales not in SCALES_MODES:
+            raise InputError(f"{self._name('scales', 'scales')}: expected one of "
+                             f"{', '.join(SCALES_MODES)}, got {self.scales!r}")
+        n_grid = len(_axis(*self.pan_range, self.step_deg)) \
+            * len(_axis(*self.tilt_range, self.step_deg))
+        n_corners = len(self.board.object_points())
+        if n_grid > MAX_CANDIDATES or n_grid * n_corners > MAX_PROJECTIONS:
+            raise InputError(
+                f"{self._name('step_deg', 'step')} {self.step_deg:g}: the grid over pan "
+                f"{self.pan_range[0]:g}..{self.pan_range[1]:g} and tilt "
+                f"{self.tilt_range[0]:g}..{self.tilt_range[1]:g} deg has {n_grid} positions "
+                f"of {n_corners} corners; expected at most {MAX_CANDIDATES} positions and "
+                f"{MAX_PROJECTIONS:.0e} corner projections: use a coarser step or narrower "
+                "ranges")
+
+    @property
+    def max_distance(self) -> float:
+        """The farthest target distance (m) planned for: the target's squares at least
+        :data:`rasc.sim.render.MIN_DETECTABLE_SQUARE_PX` pixels (the smaller focal length
+        of the two cameras), what ``rasc render`` refuses to render below."""
+        f = min(min(float(self.head.K[e][0, 0]), float(self.head.K[e][1, 1])) for e in EYES)
+        return f * float(self.board.square_size) / _min_square_px()
 
     @property
     def noise(self) -> tuple[float, float]:
         """(pose views', intrinsics views') corner noise, px per coordinate."""
         return self.noise_px, (self.noise_px if self.intrinsics_noise_px is None
                                else self.intrinsics_noise_px)
+
+    @property
+    def scales_estimated(self) -> bool:
+        """:func:`scales_estimated` of :attr:`scales`."""
+        return scales_estimated(self.scales)
+
+    def assumptions(self) -> dict[str, str]:
+        """What the prediction assumes, one phrase each: ``unit`` (each eye's axis
+        distance and angle and encoder scales, and where they come from), ``scales``
+        (estimated or held, and why) and ``noise`` (the corner noise and where it comes
+        from)."""
+        from rasc.geometry.kinematics import canonical_gauge
+        from rasc.head.options import CalibrationOptions
+
+        described, off = {}, []
+        for eye in EYES:
+            u = canonical_gauge(self.head.unit[eye], self.head.T_cam_from_gaze[eye],
+                                self.head.T_ptu_from_base[eye])[0]
+            a = np.asarray(u.tilt_axis, float)
+            angle = float(np.degrees(np.arctan2(a[2], a[0])))
+            described[eye] = (f"axis distance {1e3 * u.tilt_point[1]:.3g} mm, axis angle "
+                              f"{angle:.4g} deg, encoder scales {u.pan_scale:.6g} (pan) and "
+                              f"{u.tilt_scale:.6g} (tilt)")
+            off += [f"{eye} {n.split('_')[0]} {v:.6g}"
+                    for n, v in (("pan_scale", u.pan_scale), ("tilt_scale", u.tilt_scale))
+                    if abs(v - 1.0) > 1e-9]
+        unit = (f"both units: {described['left']}" if described["left"] == described["right"]
+                else "; ".join(f"{eye}: {described[eye]}" for eye in EYES))
+        if self.sources.get("unit"):
+            unit += f" ({self.sources['unit']})"
+        mode = CalibrationOptions(scales=self.scales).scales_mode
+        scales = {"estimate": "estimated (scales estimate)",
+                  "hold": "held at 1 (scales hold): the prediction is the calibration's only "
+                          "if the encoders are exact",
+                  "auto": "estimated (scales auto: the calibration holds them at 1 unless "
+                          "the corners reject 1, which only the data tell; the plan takes "
+                          "the worse case)"}[mode]
+        if mode == "hold" and off:
+            scales += (f"; this head's are not 1 ({', '.join(off)}): held at 1 they "
+                       "bias the calibration, which these σ do not include")
+        sp, si = self.noise
+        noise = self.sources.get("noise") or (
+            f"corner noise {sp:.3g} px per coordinate"
+            + (f" in the pose views and {si:.3g} px in the intrinsics views"
+               if si != sp else "") + ", independent")
+        return {"unit": unit, "scales": scales, "noise": noise}
+
+
+def _min_square_px() -> float:
+    from rasc.sim.render import MIN_DETECTABLE_SQUARE_PX
+
+    return MIN_DETECTABLE_SQUARE_PX
+
+
+def _axis(lo: float, hi: float, step: float) -> np.ndarray:
+    """The multiples of ``step`` from ``lo`` to ``hi`` (degrees)."""
+    k0, k1 = int(np.ceil(lo / step - 1e-9)), int(np.floor(hi / step + 1e-9))
+    return np.arange(k0, k1 + 1) * step
 
 
 @dataclass
@@ -108,25 +253,24 @@ class Plan:
     triangulation: dict[str, float] = field(default_factory=dict)
     candidates: int = 0
     seconds: float = 0.0
+    #: what the prediction assumes (:meth:`PlanSetup.assumptions`: unit, scales, noise)
+    assumptions: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The plan as ``rasc plan`` prints it in JSON: positions, criterion, predicted
-        standard deviations."""
+        standard deviations, and what they assume."""
         return {"positions_deg": [list(p) for p in self.positions],
                 "criterion": self.criterion, "candidates": self.candidates,
                 "predicted_std": self.std, "summary": self.summary,
-                "triangulation": self.triangulation, "seconds": self.seconds}
+                "triangulation": self.triangulation, "seconds": self.seconds,
+                "assumptions": self.assumptions}
 
 
 def candidate_grid(setup: PlanSetup) -> np.ndarray:
     """(M, 2) pan, tilt (degrees) on the step grid over the joint ranges, home included
     when inside them."""
-    def axis(lo, hi):
-        k0, k1 = int(np.ceil(lo / setup.step_deg - 1e-9)), int(np.floor(hi / setup.step_deg
-                                                                       + 1e-9))
-        return np.arange(k0, k1 + 1) * setup.step_deg
-
-    p, t = np.meshgrid(axis(*setup.pan_range), axis(*setup.tilt_range), indexing="ij")
+    p, t = np.meshgrid(_axis(*setup.pan_range, setup.step_deg),
+                       _axis(*setup.tilt_range, setup.step_deg), indexing="ij")
     return np.stack([p.ravel(), t.ravel()], axis=1)
 
 
@@ -368,13 +512,26 @@ class Information:
         obs = HeadObservations(board_points=P, eyes=eyes, T_ptuL_from_ptuR=T_pLpR,
                                dist_model="k1k2")
         prob = _Problem(obs, {eye: list(PLAN_UNIT_PARAMETERS) for eye in EYES})
+        _at_the_head(prob, {eye: gauge[eye][0] for eye in EYES},
+                     gauge["left"][2] @ T_bw)
         ng = prob.n_global
-        keep = list(range(ng)) + list(range(len(prob.names) - 6, len(prob.names)))
-        self.names = [prob.names[j] for j in keep]
-        self.scale = prob.scale[keep]
+        every = list(range(ng)) + list(range(len(prob.names) - 6, len(prob.names)))
+        #: the encoder scales are estimated (in :attr:`names`) or held (left out)
+        self.scales_estimated = setup.scales_estimated
+        held = () if self.scales_estimated else SCALE_PARAMETERS
+        #: indices into ``prob.names`` of the parameters :attr:`names` lists
+        self.keep = [j for j in every
+                     if not any(prob.names[j].endswith(f".unit.{n}") for n in held)]
+        self.names = [prob.names[j] for j in self.keep]
+        self.scale = prob.scale[self.keep]
         #: I0: the intrinsics views' information; A_by_eye (2, M, p, p): each candidate's
-        #: pose view per eye (left, right); A: both eyes' (what the design adds up)
-        self.I0, self.A_by_eye = (_blocks_reference if reference else _blocks)(prob, keep)
+        #: pose view per eye (left, right); A: both eyes' (what the design adds up). Held
+        #: parameters are left out: the information of the others is the rest of the
+        #: matrix
+        I0, A_by_eye = (_blocks_reference if reference else _blocks)(prob, every)
+        sub = np.array([every.index(j) for j in self.keep])
+        self.I0 = I0[np.ix_(sub, sub)]
+        self.A_by_eye = A_by_eye[..., sub[:, None], sub[None, :]]
         self.A = self.A_by_eye.sum(axis=0)
         self.prob = prob
         self.T_pLpR = T_pLpR
@@ -407,6 +564,26 @@ class Information:
         else:
             cov = H_inv @ (intrinsics_noise_px ** 2 * self.I0 + noise_px ** 2 * A) @ H_inv
         return cov * np.outer(self.scale, self.scale)
+
+
+def _at_the_head(prob, units: dict, T_ptuL_from_world: np.ndarray) -> None:
+    """Move the refinement problem's starting point to the head itself: each eye's
+    canonical unit (``units``: its scales, axis angle and distance; the refinement starts
+    from the ideal unit) and the pose views' board pose ``T_ptuL_from_world`` (the
+    refinement's first guess assumes the ideal unit too), so that the Jacobian is the one
+    at the truth (the corners' residuals there are nil)."""
+    for eye in EYES:
+        u = units[eye]
+        a = np.asarray(u.tilt_axis, float)
+        value = {"pan_scale": u.pan_scale, "tilt_scale": u.tilt_scale,
+                 "tilt_axis_x": a[0] / a[2], "tilt_point_y": u.tilt_point[1]}
+        for n in prob.unit_free[eye]:
+            prob.p0[prob.names.index(f"{eye}.unit.{n}")] = value[n]
+    j = prob.names.index("board[pose views].rotx")
+    prob.pose_R0[-1] = T_ptuL_from_world[:3, :3]
+    prob.p0[j:j + 3] = 0.0
+    prob.p0[j + 3:j + 6] = T_ptuL_from_world[:3, 3]
+    prob._memo.clear()
 
 
 def _interest(names) -> np.ndarray:
@@ -504,7 +681,8 @@ def _lazy_d(info: np.ndarray, An: np.ndarray, k: int) -> list[int]:
 def summarise(names, cov: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
     """Every parameter's σ (natural units: px, m, rad; rotations as small angles in
     degrees) and per eye the hand-eye rotation and translation σ (deg, mm: the root sum
-    of the three components') and the unit's axis distance (mm) and angle (deg)."""
+    of the three components'), the unit's axis distance (mm) and angle (deg) and, when
+    estimated, its encoder scales (dimensionless)."""
     s = np.sqrt(np.maximum(np.diag(cov), 0.0))
     std = {}
     for n, v in zip(names, s, strict=True):
@@ -517,6 +695,9 @@ def summarise(names, cov: np.ndarray) -> tuple[dict[str, float], dict[str, float
         summary[f"{eye}.handeye_translation_mm"] = 1e3 * float(np.sqrt(np.sum(np.square(tr))))
         summary[f"{eye}.axis_distance_mm"] = 1e3 * std[f"{eye}.unit.tilt_point_y"]
         summary[f"{eye}.axis_angle_deg"] = float(np.degrees(std[f"{eye}.unit.tilt_axis_x"]))
+        for n in SCALE_PARAMETERS:                 # when estimated
+            if f"{eye}.unit.{n}" in std:
+                summary[f"{eye}.{n}"] = std[f"{eye}.unit.{n}"]
     tr = [std[f"T_ptuL_from_ptuR.t{a}"] for a in "xyz"]
     summary["mounts_translation_mm"] = 1e3 * float(np.sqrt(np.sum(np.square(tr))))
     return std, summary
@@ -527,6 +708,64 @@ def summarise(names, cov: np.ndarray) -> tuple[dict[str, float], dict[str, float
 WORKSPACE_SIDE_M = 0.6
 WORKSPACE_POINTS = 7
 TRIANGULATION_SAMPLES = 200
+
+
+def check_workspace_depth(setup: PlanSetup, depth: float | None) -> None:
+    """Refuse a ``workspace_depth`` that is not a positive number of metres (a plane at
+    or behind the head); what the cameras must see of it is checked with the head
+    (:func:`workspace_views`). Raises :class:`InputError` naming the option."""
+    if depth is None:
+        return
+    name = setup._name("workspace_depth", "workspace depth")
+    if isinstance(depth, bool) or not isinstance(depth, (int, float, np.floating)) \
+            or not np.isfinite(depth) or depth <= 0:
+        raise InputError(f"{name}: expected a positive number of metres (the distance of "
+                         f"the plane ahead of the head), got {depth!r}")
+
+
+def workspace_views(head, setup: PlanSetup, depth: float):
+    """The workspace plane's points (N, 3; base frame) at ``depth``, the eyes' vergence
+    on its centre (rad; left pans by −verge, right by +verge) and each eye's pixels
+    (N, 2) through ``head`` (:class:`rasc.head.model.HeadCalibration`). Raises
+    :class:`InputError` naming the depth when a point is not in both images or the two
+    eyes' rays meet at less than :data:`rasc.geometry.triangulation.MIN_PARALLAX_DEG`
+    (the depths that work are stated: the plane in front of and inside both images, the
+    rays not parallel)."""
+    from rasc.geometry.triangulation import MIN_PARALLAX_DEG
+
+    half = float(np.linalg.norm(head.T_ptuL_from_ptuR()[:3, 3])) / 2
+    g = np.linspace(-WORKSPACE_SIDE_M / 2, WORKSPACE_SIDE_M / 2, WORKSPACE_POINTS)
+    x, z = np.meshgrid(g, g, indexing="ij")
+
+    def views(d):
+        pts = np.stack([x.ravel(), np.full(x.size, d), z.ravel()], axis=1)
+        verge = float(np.arctan2(half, d))
+        out = []
+        for eye, pan in (("left", -verge), ("right", verge)):
+            e = getattr(head, eye)
+            T = e.T_cam_from_base(pan, 0.0)
+            if np.any(pts @ T[2, :3] + T[2, 3] <= 0.05):       # at or behind the camera
+                return pts, verge, None
+            uv = e.project(pts, pan, 0.0)
+            w, h = setup.image_size
+            if not np.all(np.isfinite(uv) & (uv >= 0) & (uv <= [w - 1, h - 1])):
+                return pts, verge, None
+            out.append(uv)
+        return pts, verge, out
+
+    far = half / np.tan(np.radians(MIN_PARALLAX_DEG) / 2)
+    pts, verge, uv = views(depth)
+    if uv is None or depth > far:
+        near = next((float(d) for d in np.geomspace(0.05, far, 400)
+                     if views(d)[2] is not None), None)
+        allowed = (f"from about {near:.2g} to {far:.3g} m" if near is not None
+                   else "none for this head")
+        name = setup._name("workspace_depth", "workspace depth")
+        raise InputError(f"{name} {depth:g}: both eyes must see the whole "
+                         f"{WORKSPACE_SIDE_M:g} m plane there, verging on its centre, and "
+                         f"their rays meet at {MIN_PARALLAX_DEG:g} deg or more; depths that "
+                         f"do: {allowed}")
+    return pts, verge, uv[0], uv[1]
 
 
 def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
@@ -542,7 +781,7 @@ def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
 
     prob = info.prob
     n = len(prob.names)
-    keep_idx = list(range(prob.n_global)) + list(range(n - 6, n))
+    keep_idx = info.keep
     rng = np.random.default_rng(seed)
     cov_x = cov / np.outer(info.scale, info.scale)
     L = np.linalg.cholesky(cov_x + 1e-30 * np.eye(len(cov_x)))
@@ -562,13 +801,7 @@ def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
         return HeadCalibration(**eyes)
 
     true = head_at(np.zeros(len(keep_idx)))
-    g = np.linspace(-WORKSPACE_SIDE_M / 2, WORKSPACE_SIDE_M / 2, WORKSPACE_POINTS)
-    x, z = np.meshgrid(g, g, indexing="ij")
-    pts = np.stack([x.ravel(), np.full(x.size, depth), z.ravel()], axis=1)
-    half = float(np.linalg.norm(true.T_ptuL_from_ptuR()[:3, 3])) / 2
-    verge = float(np.arctan2(half, depth))
-    uvL = true.left.project(pts, -verge, 0.0)
-    uvR = true.right.project(pts, verge, 0.0)
+    pts, verge, uvL, uvR = workspace_views(true, setup, depth)
     errs = []
     for _ in range(TRIANGULATION_SAMPLES):
         h = head_at(L @ rng.standard_normal(len(keep_idx)))
@@ -584,6 +817,7 @@ def predict(setup: PlanSetup, positions, info: Information | None = None,
     """The prediction for given positions (degrees), each showing the target to both eyes
     (a chessboard whole, without :func:`plan`'s margin); ``info``: the information of
     a candidate set that holds them (else computed for them alone)."""
+    check_workspace_depth(setup, workspace_depth)
     positions = np.asarray(positions, float).reshape(-1, 2)
     info = info or Information(setup, positions, margin=0.0)
     idx = []
@@ -599,12 +833,14 @@ def predict(setup: PlanSetup, positions, info: Information | None = None,
     tri = {} if workspace_depth is None else triangulation_std(info, cov, setup,
                                                                workspace_depth, setup.seed)
     return Plan(positions=[tuple(map(float, p)) for p in positions], criterion="given",
-                std=std, summary=summary, triangulation=tri, candidates=len(info.feasible))
+                std=std, summary=summary, triangulation=tri, candidates=len(info.feasible),
+                assumptions=setup.assumptions())
 
 
 def plan(setup: PlanSetup, k: int, criterion: str = "D",
          workspace_depth: float | None = 1.5) -> Plan:
     """Choose ``k`` positions (module docstring) and predict their accuracy."""
+    check_workspace_depth(setup, workspace_depth)
     t0 = time.perf_counter()
     info = Information(setup, candidate_grid(setup))
     sp, si = setup.noise
@@ -619,7 +855,8 @@ def plan(setup: PlanSetup, k: int, criterion: str = "D",
                                                                workspace_depth, setup.seed)
     return Plan(positions=[tuple(map(float, info.feasible[c])) for c in chosen],
                 criterion=criterion, std=std, summary=summary, triangulation=tri,
-                candidates=len(info.feasible), seconds=seconds)
+                candidates=len(info.feasible), seconds=seconds,
+                assumptions=setup.assumptions())
 
 
 def nominal_setup(board=None, **kw) -> PlanSetup:
@@ -677,3 +914,20 @@ def head_from_calibration(path) -> Any:
         T_cam_from_gaze={e: np.asarray(getattr(h, e).T_cam_from_gaze, float) for e in EYES},
         T_ptu_from_base={e: np.asarray(getattr(h, e).T_ptu_from_base, float) for e in EYES},
         unit={e: getattr(h, e).unit for e in EYES})
+
+
+def simulated_head(units: dict | None = None) -> Any:
+    """The head ``rasc render --unit`` renders, as the planner's head model: the simulated
+    head's cameras and mounts read from its model (no image is rendered), each pan-tilt
+    unit built as ``units`` says (``{eye: rasc.sim.units.UnitBuild}``, what
+    ``rasc render --unit FILE`` and its options for both units give; None: the model as
+    written, ideal units)."""
+    from rasc.sim.scene import StereoHeadSim
+    from rasc.sim.synthetic import SyntheticHead
+
+    with StereoHeadSim(units=units) as sim:
+        return SyntheticHead(K={e: sim.K(e) for e in EYES},
+                             dist={e: np.zeros(5) for e in EYES},
+                             T_cam_from_gaze={e: sim.T_cam_from_gaze(e) for e in EYES},
+                             T_ptu_from_base={e: sim.T_ptu_from_base(e) for e in EYES},
+                             unit={e: sim.unit(e) for e in EYES})

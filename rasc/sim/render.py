@@ -35,7 +35,7 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
-from rasc.io import finite_number, finite_numbers
+from rasc.io import finite_number, finite_numbers, read_text_file
 from rasc.progress import progress
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
 
@@ -168,13 +168,15 @@ def parse_poses(text: str, where: str = "poses") -> tuple[tuple[float, float], .
     positions. ``where`` names the value in messages (``rasc render`` passes ``--poses``)."""
     if text.strip() == "paper":
         return PAPER_POSES_DEG
-    if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).is_file():
+    if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).exists():
         return read_positions(text.strip())
     return tuple(finite_numbers(item, f"{where}[{k}]", count=2, what="pan,tilt in degrees",
                                 text=True) for k, item in enumerate(text.split(";")))
 
 
 POSITIONS_HEADER = "# rasc positions: pan,tilt in degrees (encoder readings), one a line"
+#: the largest positions file read (a million positions of two numbers)
+MAX_POSITIONS_BYTES = 64 * 2**20
 
 
 def read_positions(path: str | Path) -> tuple[tuple[float, float], ...]:
@@ -184,12 +186,11 @@ def read_positions(path: str | Path) -> tuple[tuple[float, float], ...]:
     What ``rasc plan`` writes and ``rasc render --poses FILE`` reads. Raises
     :class:`InputError` naming the file, line or item."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise InputError(f"{path}: positions file not found")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read the positions file ({exc})") from None
+    # the one reader of input text: a device (/dev/zero), FIFO or folder is named as
+    # such before anything is read
+    text = read_text_file(path, "positions file", MAX_POSITIONS_BYTES)
     poses: list[tuple[float, float]] = []
     if path.suffix.lower() == ".toml":
         import tomllib

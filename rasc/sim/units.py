@@ -31,7 +31,7 @@ from pathlib import Path
 
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
-from rasc.io import finite_number
+from rasc.io import finite_number, read_text_file
 
 _VECTORS = ("tilt_axis_offset_mm", "camera_position_mm", "camera_euler_deg")
 _NUMBERS = ("axis_skew_deg", "pan_zero_deg", "tilt_zero_deg", "pan_scale", "tilt_scale")
@@ -149,12 +149,10 @@ def read_unit_file(path: str | Path) -> dict[str, UnitBuild]:
     type, non-finite value) are one-line :class:`InputError`\\ s naming file and key.
     """
     path = Path(path)
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: unit parameter file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read the unit parameter file: {exc}") from None
+    if not path.exists():
+        raise InputError(f"{path}: unit parameter file not found")
+    # the one reader of input text (a device such as /dev/zero is refused unread)
+    text = read_text_file(path, "unit parameter file", 1 << 20)
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -96,6 +96,9 @@ class RenderTask:
     #: calibration, for the study to write under its folder (on the study's machine,
     #: whichever machine the task ran on); False: the images end with the task
     keep: bool = False
+    #: the spec's ``positions_file`` the render's positions were read from ("" for the
+    #: layout's grid), for messages: a position is named by its file and index
+    positions_from: str = ""
 
 
 @dataclass(frozen=True)
@@ -140,12 +143,19 @@ def render_task(task: RenderTask) -> dict | tuple:
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
             distortion=tuple(full["distortion"]))
+        names = ({"poses_deg": f"positions_file {task.positions_from}"}
+                 if task.positions_from else RENDER_NAMES)
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
-                              units=unit_builds(r), board=target_of(full), names=RENDER_NAMES)
+                              units=unit_builds(r), board=target_of(full), names=names)
         doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
         return (doc, ds) if task.keep else doc
     except RascError as exc:     # name the cell's render parameters, not a CLI flag
-        what = ", ".join(f"{k} = {v!r}" for k, v in sorted(r.items()) if k != "model")
+        shown = r     # a positions file replaces the grid: named, the grid's keys left out
+        if task.positions_from:
+            shown = {k: v for k, v in r.items() if k not in ("layout", "positions",
+                                                             "motion_deg")}
+            shown["positions_file"] = task.positions_from
+        what = ", ".join(f"{k} = {v!r}" for k, v in sorted(shown.items()) if k != "model")
         raise type(exc)(f"{task.where}: the dataset for {what}: "
                         f"{' '.join(str(exc).split())}") from None
 

@@ -313,6 +313,17 @@ def _given_dataset(spec: Spec, dataset: dict | None) -> str | None:
     return None
 
 
+def _positions_from(spec: Spec, render: dict) -> str:
+    """The spec's ``positions_file`` whose positions a render's are ("" when they are the
+    layout's grid), for its messages."""
+    listed = render.get("positions_file")
+    if not listed:
+        return ""
+    want = [[float(v) for v in p] for p in listed]
+    return next((rel for rel, poses in spec.positions_files.items()
+                 if [[float(v) for v in p] for p in poses] == want), "")
+
+
 @dataclass
 class _Run:
     """One locked run of a study: its stages, in order — :meth:`plan` (which dataset each
@@ -387,7 +398,8 @@ class _Run:
             fn, tasks = render_task, [
                 RenderTask(k, wanted[k], spec.seed, where=str(spec.path), scratch=self.scratch,
                            model_path=(str(spec.model_path(wanted[k]["model"]))
-                                       if wanted[k].get("model") else None))
+                                       if wanted[k].get("model") else None),
+                           positions_from=_positions_from(spec, wanted[k]))
                 for k in missing]
         self.docs.update(_render(self.executor, fn, tasks, out, self.quiet, "render datasets",
                                  self.count, self.cache if fn is render_task else None,
