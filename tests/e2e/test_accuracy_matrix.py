@@ -1,0 +1,84 @@
+"""The accuracy matrix's fast subset (experiments/accuracy.py; the whole matrix is
+``benchmarks/bench_accuracy_matrix.py``, its page docs/results/accuracy_matrix.md).
+
+Three cells of the covering design, rendered with truth, calibrated through their doors,
+reported and scored: the defaults on a head whose encoder scale is off, with a ChArUco
+board seen in part, through the command line (both doors, one file); the defaults on a
+head whose tilt axis misses the pan axis, with an AprilGrid at positions ``rasc plan``
+chose; and the scales held on the scale-error head, which the calibration must not call
+usable. Each is checked for accuracy against its own σ (every quantity's d² within the χ²
+quantile of its dimension at 1e-4), honesty (the normalized errors' spread), a verdict
+that agrees, the report built, and the two doors' files equal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from experiments import accuracy as acc
+
+pytestmark = pytest.mark.slow
+
+
+def _cell(**levels) -> dict[str, str]:
+    cells = [c for c in acc.covering_cells() if all(c[k] == v for k, v in levels.items())]
+    assert cells, levels
+    return cells[0]
+
+
+def test_the_design_covers_every_pair_of_levels():
+    cells = acc.covering_cells()
+    valid = [c for c in (dict(zip(acc.FACTORS, combo, strict=True)) for combo in
+                         __import__("itertools").product(*acc.FACTORS.values()))
+             if acc._valid(c)]
+    needed = set().union(*(acc._pairs(c) for c in valid))
+    covered = set().union(*(acc._pairs(c) for c in cells))
+    assert needed <= covered
+    # the impossible pair is never asked for, and the design is far smaller than the
+    # product (5 x 4 pairs of the two largest factors bound it from below)
+    assert not any(c["target"] == "chessboard" and c["motion"] == "wide" for c in cells)
+    assert 20 <= len(cells) <= 30 < len(valid)
+    assert acc.covering_cells() == cells            # deterministic
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    cells = [_cell(head="encoder_scales", options="defaults", target="charuco", door="cli"),
+             _cell(head="offset_skew", options="defaults", target="aprilgrid",
+                   motion="planned"),
+             _cell(head="encoder_scales", options="scales_hold")]
+    return acc.run_matrix(tmp_path_factory.mktemp("matrix"), cells, seed=7, quiet=True,
+                          log=lambda s: None)
+
+
+def test_every_cell_passes_the_matrix_rule(results):
+    for r in results:
+        ok, why = acc.cell_passes(r)
+        assert ok, (acc.cell_name(r.cell), why)
+        assert r.report_pages and r.report_pages >= 4        # summary, head, parameters, ...
+    assert results[0].doors_agree is True                    # the CLI door's file = Python's
+
+
+def test_the_defaults_deliver_their_sigma(results):
+    for r in results[:2]:
+        s = r.score
+        assert s.within_bounds is True, (acc.cell_name(r.cell), s.quantities)
+        assert r.verdict == "usable", r.verdict_line
+        # the scale-error head: the default estimated the scales (F far above 10)
+        if r.cell["head"] == "encoder_scales":
+            assert r.scales["estimated"] is True and r.scales["F"] > 100
+    # honesty over the cells' compared parameters: normalized errors of unit spread (on
+    # renders the σ are somewhat optimistic: the matrix measured RMS z 1.1-1.2)
+    z = np.array([v for r in results[:2] for v in r.score.z.values()])
+    assert len(z) >= 60
+    assert np.mean(np.abs(z) <= 3.0) >= 0.95
+    assert 0.5 <= np.sqrt(np.mean(z ** 2)) <= 1.6
+
+
+def test_scales_held_on_a_scale_error_is_not_called_usable(results):
+    r = results[2]
+    assert r.cell["options"] == "scales_hold" and r.cell["head"] == "encoder_scales"
+    assert r.scales["mode"] == "hold" and r.scales["F"] > 10
+    assert r.verdict != "usable", r.verdict_line
+    assert any("--scales hold" in w for w in r.warnings)
