@@ -154,7 +154,8 @@ def report_data(head, dataset, detector: str = "saddle",
 
     # start: the board pose of the pose view showing the most corners (its own PnP),
     # carried into the base frame
-    for eye, f, ids, c, pan, tilt in sorted(pose_obs, key=lambda o: -len(o[2])):
+    T_bw = None
+    for eye, _, ids, c, pan, tilt in sorted(pose_obs, key=lambda o: -len(o[2])):
         e = getattr(head, eye)
         full = np.full((board.n_corners, 2), np.nan)
         full[ids] = c
@@ -162,11 +163,11 @@ def report_data(head, dataset, detector: str = "saddle",
             T_cw, _ = estimate_extrinsics(full, board, e.K, e.dist)
         except RascError:
             continue
+        T_bw = invert_transform(e.T_cam_from_base(pan, tilt)) @ T_cw
         break
-    else:
+    if T_bw is None:
         data.skipped.extend(f"{eye} pose {f}: no board pose fits" for eye, f, *_ in pose_obs)
         return data
-    T_bw = invert_transform(e.T_cam_from_base(pan, tilt)) @ T_cw
     x0 = np.r_[Rotation.from_matrix(T_bw[:3, :3]).as_rotvec(), T_bw[:3, 3]]
     marks = [out_of(eye, f, ids) for eye, f, ids, *_ in pose_obs]
     keep = [np.ones(len(o[2]), bool) if m is None else ~m for o, m in zip(pose_obs, marks,
