@@ -9,7 +9,8 @@
    the reason;
 4. reprojection residuals per eye — scatter (du, dv) and histogram of |r|;
 5. corner coverage of each eye's images — every view's corners and outline on the image;
-6. per-view RMS per eye, outliers marked.
+6. per-view RMS per eye, outliers marked (of the images given; without them, of the
+   calibration).
 
 Pages 4 and 5 need the images (``dataset``); without them they say so. The same
 calibration and images give the same bytes (no creation date in the PDF).
@@ -368,25 +369,27 @@ def _coverage(fig, data) -> dict[str, float]:
 
 
 def per_view_rms(doc: dict, data=None) -> dict[str, list[tuple[str, str, float, bool]]]:
-    """Per eye, (file, role, RMS px, outlier) of every view: the refinement's per-image
-    RMS when there is one (else the residuals ``data`` gives, else the intrinsics
-    per-view RMS); an outlier has rejected corners, was an intrinsics outlier, or has an
-    RMS above :data:`OUTLIER_FACTOR` times its eye's median."""
+    """Per eye, (file, role, RMS px, outlier) of every view: of the images ``data`` gives
+    when there are any (the views the other pages draw, over the corners the calibration
+    kept), else the refinement's per-image RMS, else the intrinsics per-view RMS; an
+    outlier has rejected corners (or none kept), was an intrinsics outlier, or has an RMS
+    above :data:`OUTLIER_FACTOR` times its eye's median."""
     out: dict[str, list[tuple[str, str, float, bool]]] = {e: [] for e in EYES}
     ref = doc.get("refinement") or {}
     flagged = {e: set(((doc.get("eyes") or {}).get(e) or {}).get("intrinsics_outliers") or [])
                for e in EYES}
-    if ref.get("images"):
+    if data is not None and data.views:
+        for v in data.views:
+            r = v.residuals[v.kept]
+            rms = float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else math.nan
+            out[v.eye].append((v.file, v.role, rms,
+                               not math.isfinite(rms) or not bool(v.kept.all())))
+    elif ref.get("images"):
         for im in ref["images"]:
             rms = float(im["rms"]) if im.get("rms") is not None else math.nan
             # an image whose corners were all rejected has no RMS: an outlier
             out[im["eye"]].append((im["file"], im["role"], rms,
                                    bool(im.get("rejected_corners")) or not math.isfinite(rms)))
-    elif data is not None:
-        for v in data.views:
-            r = v.residuals[v.kept]
-            rms = float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else math.nan
-            out[v.eye].append((v.file, v.role, rms, not math.isfinite(rms)))
     else:
         for e in EYES:
             for f, rms in (((doc.get("eyes") or {}).get(e) or {}).get(
@@ -404,8 +407,10 @@ def _per_view(fig, doc: dict, data) -> None:
     from matplotlib.patches import Patch
 
     rows = per_view_rms(doc, data)
-    fig.suptitle(f"RMS of each view (outliers: rejected corners, flagged as an intrinsics "
-                 f"outlier, or > {OUTLIER_FACTOR:g}x the eye's median)", fontsize=11)
+    whose = "the images given" if data is not None and data.views else "the calibration's"
+    fig.suptitle(f"RMS of each view, {whose} (outliers: rejected corners, flagged as an "
+                 f"intrinsics outlier, or > {OUTLIER_FACTOR:g}x the eye's median)",
+                 fontsize=11)
     for k, eye in enumerate(EYES):
         ax = fig.add_subplot(2, 1, k + 1)
         r = rows[eye]
