@@ -52,13 +52,22 @@ def _length(v: float | None, unit: str | None) -> str:
     return f"{v:.4g} {unit or ''}".rstrip()
 
 
-def _text_page(fig, lines: list[tuple[str, dict]], top: float = 0.95, step: float = 0.028):
-    y = top
+def _text_page(fig, lines: list[tuple[str, dict]], top: float = 0.95, step: float = 0.028,
+               bottom: float = 0.03):
+    """Lines of text down the page from ``top``; when they would run below ``bottom``
+    (many checks, long reasons), every font and the spacing shrink alike to fit."""
+    wrapped = []
     for text, style in lines:
         if "\n" not in text and style.get("fontsize", 9) <= 9 and len(text) > 150:
             text = textwrap.fill(text, 150, subsequent_indent="    ")
-        fig.text(0.05, y, text, va="top", **{"fontsize": 9, **style})
-        y -= step * style.get("fontsize", 9) / 9 * (text.count("\n") + 1)
+        wrapped.append((text, {"fontsize": 9, **style}))
+    height = sum(step * st["fontsize"] / 9 * (t.count("\n") + 1) for t, st in wrapped)
+    scale = min(1.0, (top - bottom) / height) if height > 0 else 1.0
+    y = top
+    for text, style in wrapped:
+        style = {**style, "fontsize": style["fontsize"] * scale}
+        fig.text(0.05, y, text, va="top", **style)
+        y -= step * style["fontsize"] / 9 * (text.count("\n") + 1)
     return y
 
 

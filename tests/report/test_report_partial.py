@@ -26,6 +26,59 @@ TARGETS = {
 }
 
 
+def _page_problems(fig) -> list[str]:
+    """What a reader could not read on a page: text reaching beyond the page (a line or
+    label cut off), tick labels of one axis drawn over each other. 3-D axes are left out
+    (their texts' extents are not where they are drawn), and so are ticks outside an
+    axis's limits (not drawn)."""
+    from matplotlib.text import Text
+    from mpl_toolkits.mplot3d import Axes3D
+
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    skip, problems = set(), []
+    for ax in fig.axes:
+        if isinstance(ax, Axes3D):
+            skip |= {id(t) for t in ax.findobj(Text)}
+            continue
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            shown = []
+            for tick in axis.get_major_ticks():
+                if lo - 1e-9 * (hi - lo) <= tick.get_loc() <= hi + 1e-9 * (hi - lo):
+                    if tick.label1.get_visible() and tick.label1.get_text():
+                        shown.append(tick.label1.get_window_extent(renderer))
+                else:
+                    skip |= {id(tick.label1), id(tick.label2)}
+            shown.sort(key=lambda b: (b.x0, b.y0))
+            if any(a.overlaps(b) for a, b in zip(shown, shown[1:], strict=False)):
+                problems.append(f"tick labels overlap ({ax.get_title()!r})")
+    page = fig.bbox
+    for t in fig.findobj(Text):
+        if t.get_visible() and t.get_text().strip() and id(t) not in skip:
+            b = t.get_window_extent(renderer)
+            if b.x0 < -1 or b.y0 < -1 or b.x1 > page.width + 1 or b.y1 > page.height + 1:
+                problems.append(f"text beyond the page: {t.get_text()[:50]!r}")
+    return problems
+
+
+@pytest.fixture
+def page_problems(monkeypatch) -> list[str]:
+    """Each page the report saves while a test runs is checked first
+    (:func:`_page_problems`); the list of what was found, per page."""
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    found: list[str] = []
+    save = PdfPages.savefig
+
+    def checked(self, figure=None, **kwargs):
+        found.extend(_page_problems(figure))
+        return save(self, figure, **kwargs)
+
+    monkeypatch.setattr(PdfPages, "savefig", checked)
+    return found
+
+
 def pages_whole(pdf, folder) -> None:
     """Each page rendered (pdftoppm, 50 dpi) has ink, and none within 1 % of its edges:
     nothing drawn off the page (a cropped line or axis label touches the border)."""
@@ -51,7 +104,8 @@ def pages_whole(pdf, folder) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TARGETS))
-def test_the_report_of_a_target_seen_in_part(name, rasc_render, rasc_cli, tmp_path):
+def test_the_report_of_a_target_seen_in_part(name, rasc_render, rasc_cli, tmp_path,
+                                             page_problems):
     """rasc calibrate --report and rasc report on a target seen in part: both build
     (they raised in cv2.solvePnP / least_squares on the NaN rows of the corners not seen),
     every residual is finite, the report's residuals agree with the calibration's own
@@ -92,6 +146,7 @@ def test_the_report_of_a_target_seen_in_part(name, rasc_render, rasc_cli, tmp_pa
     assert err.startswith("rasc report: USABLE") and err.count("\n") == 1
     v = write_report(doc, tmp_path / "lib.pdf", dataset=ds.load(), source=str(cal))
     assert all(c.value is None or math.isfinite(c.value) for c in v.checks)
+    assert page_problems == []
     pages_whole(again, tmp_path)
 
 
@@ -123,7 +178,7 @@ def test_a_noise_free_calibration_is_compared_with_the_floor():
     assert v.level == "check" and "the 0.05 px floor" in v.reason
 
 
-def test_another_heads_images_are_said_not_to_fit(tmp_path):
+def test_another_heads_images_are_said_not_to_fit(tmp_path, page_problems):
     """The library's report on images of another head (the camera turned 0.23 deg in its
     mount, the tilt axis 30 mm off): the pose views reproject at px, not hundredths; the
     verdict is not usable and says why."""
@@ -145,6 +200,8 @@ def test_another_heads_images_are_said_not_to_fit(tmp_path):
                      dataset=corner_dataset(other, seed=2, n_intrinsics=8))
     assert v.level == "unusable"
     assert v.reason.startswith("the images do not fit the calibration: their pose views")
+    # the failed check's two lines and the warnings still fit the summary page
+    assert page_problems == []
 
 
 @pytest.mark.slow
