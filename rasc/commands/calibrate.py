@@ -3,7 +3,9 @@
 detection → intrinsics → extrinsics → hand-eye per eye → base-to-ptu → (``--model
 general``, the default) whole-head refinement → one JSON calibration
 (``rasc-calibration/1``, :mod:`rasc.head.pipeline`); with ground truth in the dataset,
-also the errors against it. Written atomically; on any error, no file.
+also the errors against it. Written atomically; on any error, no file. ``--report``:
+the report too (:mod:`rasc.report`); a report that cannot be written after the
+calibration was is one error line (exit 2) saying so and keeping the calibration.
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ from typing import TYPE_CHECKING
 from rasc import formats
 from rasc.commands import loading
 from rasc.commands.handeye import METHOD_HELP
-from rasc.errors import InputError
+from rasc.errors import InputError, RascError
 from rasc.head import options as calopts
+from rasc.interrupt import Interrupted
 
 if TYPE_CHECKING:
     import numpy as np
@@ -134,16 +137,22 @@ def run(args: argparse.Namespace) -> int:
         write_json_atomic(args.out, doc)
     else:
         write_stdout(dumps_json(doc))
-    if args.plots and cal.refinement is not None:
-        from rasc.head.plots import residual_plots
+    # the calibration is written: from here an interrupt or a failed report keeps it
+    kept = [args.out or "the calibration (standard output)"]
+    report_failed = None
+    try:
+        if args.plots and cal.refinement is not None:
+            from rasc.head.plots import residual_plots
 
-        for path in residual_plots(cal.refinement, args.plots):
-            log(f"wrote {path}")
-    if args.report is not None:
-        from rasc.report.pdf import write_report
-
-        v = write_report(doc, args.report, dataset=dataset, source=args.out or "calibration")
-        print(f"rasc calibrate: report: {v.line()}", file=sys.stderr)
+            for path in residual_plots(cal.refinement, args.plots):
+                log(f"wrote {path}")
+                kept.append(str(path))
+        if args.report is not None:
+            report_failed = _write_report(doc, args, dataset, kept)
+    except KeyboardInterrupt:
+        raise Interrupted(f"kept {', '.join(kept)}"
+                          + (f"; the report {args.report} was not written"
+                             if args.report is not None else "")) from None
     for warning in cal.warnings:    # warnings, not progress: printed even with --quiet
         print(f"rasc calibrate: warning: {warning}", file=sys.stderr)
     if not args.quiet:
@@ -171,4 +180,26 @@ def run(args: argparse.Namespace) -> int:
                         f"{a['value']:.4f} ± {a['std']:.4f} deg")
             held = sorted({f"{x['eye']} {x['parameter']}" for x in res.not_identifiable})
             log("not identifiable (held at the gauge, not reported): " + ", ".join(held))
+    if report_failed is not None:
+        raise RascError(report_failed)
     return 0
+
+
+def _write_report(doc: dict, args: argparse.Namespace, dataset, kept: list[str]) -> str | None:
+    """``--report``: write it and print its verdict; when it cannot be written, the one
+    line to end with (exit 2), saying what was kept: the calibration stays (it is valid;
+    ``rasc report`` draws it again), only the report is missing."""
+    from rasc.report.pdf import write_report
+
+    try:
+        v = write_report(doc, args.report, dataset=dataset, source=args.out or "calibration")
+    except Exception as exc:      # the calibration is written and kept: one line, exit 2
+        why = str(exc) if isinstance(exc, RascError) else f"{type(exc).__name__}: {exc}"
+        again = (f"; rasc report {args.out} --out {args.report} tries again"
+                 if args.out is not None else "")
+        return (f"--report {args.report}: not written ({' '.join(why.split())}); kept "
+                f"{', '.join(kept)}{again}")
+    print(f"rasc calibrate: report: {v.line()}", file=sys.stderr)
+    for warning in v.warnings():
+        print(f"rasc calibrate: report: warning: {warning}", file=sys.stderr)
+    return None

@@ -35,11 +35,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     with loading():
-        from rasc.io import check_output, read_json_document
+        from rasc.io import check_outputs, read_json_document
         from rasc.report.pdf import write_report
         from rasc.vision.dataset import load_dataset
 
-    check_output(args.out, inputs=[args.calibration])
+    outputs = [("--out", args.out, "file", ())]
+    # before any work: also a folder that takes no file (/proc, read-only) is refused here
+    check_outputs(outputs, inputs=[args.calibration])
     doc = read_json_document(args.calibration, "calibration file")
     ds_path = args.dataset
     named = doc.get("dataset") if isinstance(doc, dict) else None
@@ -47,9 +49,9 @@ def run(args: argparse.Namespace) -> int:
         ds_path = named
     dataset = load_dataset(ds_path) if ds_path is not None else None
     if dataset is not None:
-        check_output(args.out, inputs=[args.calibration, dataset.manifest_path,
+        check_outputs(outputs, inputs=[args.calibration, dataset.manifest_path,
                                        *(e.path for e in dataset.images)],
-                     input_folders=[dataset.root])
+                      input_folders=[dataset.root])
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -57,5 +59,7 @@ def run(args: argparse.Namespace) -> int:
 
     v = write_report(doc, args.out, dataset=dataset, source=args.calibration, log=log)
     print(f"rasc report: {v.line()}", file=sys.stderr)
+    for warning in v.warnings():    # the other failed checks: printed even with --quiet
+        print(f"rasc report: warning: {warning}", file=sys.stderr)
     log(f"wrote {args.out}")
     return 0

@@ -9,7 +9,8 @@
    the reason;
 4. reprojection residuals per eye — scatter (du, dv) and histogram of |r|;
 5. corner coverage of each eye's images — every view's corners and outline on the image;
-6. per-view RMS per eye, outliers marked.
+6. per-view RMS per eye, outliers marked (of the images given; without them, of the
+   calibration).
 
 Pages 4 and 5 need the images (``dataset``); without them they say so. The same
 calibration and images give the same bytes (no creation date in the PDF).
@@ -17,8 +18,8 @@ calibration and images give the same bytes (no creation date in the PDF).
 
 from __future__ import annotations
 
+import math
 import os
-import tempfile
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -51,13 +52,22 @@ def _length(v: float | None, unit: str | None) -> str:
     return f"{v:.4g} {unit or ''}".rstrip()
 
 
-def _text_page(fig, lines: list[tuple[str, dict]], top: float = 0.95, step: float = 0.028):
-    y = top
+def _text_page(fig, lines: list[tuple[str, dict]], top: float = 0.95, step: float = 0.028,
+               bottom: float = 0.03):
+    """Lines of text down the page from ``top``; when they would run below ``bottom``
+    (many checks, long reasons), every font and the spacing shrink alike to fit."""
+    wrapped = []
     for text, style in lines:
         if "\n" not in text and style.get("fontsize", 9) <= 9 and len(text) > 150:
             text = textwrap.fill(text, 150, subsequent_indent="    ")
-        fig.text(0.05, y, text, va="top", **{"fontsize": 9, **style})
-        y -= step * style.get("fontsize", 9) / 9 * (text.count("\n") + 1)
+        wrapped.append((text, {"fontsize": 9, **style}))
+    height = sum(step * st["fontsize"] / 9 * (t.count("\n") + 1) for t, st in wrapped)
+    scale = min(1.0, (top - bottom) / height) if height > 0 else 1.0
+    y = top
+    for text, style in wrapped:
+        style = {**style, "fontsize": style["fontsize"] * scale}
+        fig.text(0.05, y, text, va="top", **style)
+        y -= step * style["fontsize"] / 9 * (text.count("\n") + 1)
     return y
 
 
@@ -276,23 +286,31 @@ def _no_images(fig, what: str) -> None:
 
 
 def _residuals(fig, data) -> None:
+    from matplotlib.ticker import MaxNLocator
+
     fig.suptitle("Reprojection residuals per eye (intrinsics views: own board pose; pose "
                  "views: one board through the whole head)", fontsize=11)
     for k, eye in enumerate(EYES):
         ax_s = fig.add_subplot(2, 2, 2 * k + 1)
         ax_h = fig.add_subplot(2, 2, 2 * k + 2)
         allr = []
+        n_rejected = 0
         for role in ("intrinsics", "pose"):
             views = data.of(eye, role)
             if not views:
                 continue
-            r = np.concatenate([v.residuals for v in views])
+            r = np.concatenate([v.residuals[v.kept] for v in views])
+            n_rejected += sum(int((~v.kept).sum()) for v in views)
             allr.append(r)
             ax_s.scatter(r[:, 0], r[:, 1], s=3, alpha=0.5, color=ROLE_COLOURS[role],
                          label=f"{role} ({len(views)} views)")
-        if not allr:
+        r = np.concatenate(allr) if allr else np.zeros((0, 2))
+        if not len(r):
+            for ax in (ax_s, ax_h):
+                ax.text(0.5, 0.5, f"{eye}: no view of the target", ha="center",
+                        va="center", transform=ax.transAxes)
+                ax.set_axis_off()
             continue
-        r = np.concatenate(allr)
         norm = np.linalg.norm(r, axis=1)
         rms = float(np.sqrt(np.mean(norm ** 2)))
         lim = max(float(np.percentile(np.abs(r), 99.5)) * 1.3, 1e-6)
@@ -303,9 +321,12 @@ def _residuals(fig, data) -> None:
         ax_s.axvline(0, color="0.7", lw=0.5)
         ax_s.set_xlabel("du [px]", fontsize=8)
         ax_s.set_ylabel("dv [px]", fontsize=8)
+        for axis in (ax_s.xaxis, ax_s.yaxis, ax_h.xaxis):
+            axis.set_major_locator(MaxNLocator(5))
         ax_s.tick_params(labelsize=7)
         ax_s.legend(fontsize=7, loc="upper right")
-        ax_s.set_title(f"{eye}: {len(norm)} corners, RMS {rms:.3g} px", fontsize=9)
+        rej = f"; {n_rejected} rejected, not drawn" if n_rejected else ""
+        ax_s.set_title(f"{eye}: {len(norm)} corners, RMS {rms:.3g} px{rej}", fontsize=9)
         ax_h.hist(norm, bins=40, color="0.5")
         ax_h.axvline(rms, color="k", lw=1, ls="--", label=f"RMS {rms:.3g} px")
         ax_h.set_xlabel("|residual| [px]", fontsize=8)
@@ -320,6 +341,7 @@ def _coverage(fig, data) -> dict[str, float]:
     from scipy.spatial import ConvexHull
 
     from rasc.report.data import COVERAGE_GRID, coverage
+    from rasc.vision.board import spans_plane
 
     fig.suptitle("Corner coverage of each eye's images (every view's corners and outline)",
                  fontsize=11)
@@ -332,7 +354,7 @@ def _coverage(fig, data) -> dict[str, float]:
                 c = v.corners
                 ax.scatter(c[:, 0], c[:, 1], s=1, color=ROLE_COLOURS[role],
                            label=f"{role} views" if n == 0 else None)
-                if len(c) >= 3:
+                if spans_plane(c):        # a hull needs corners off one line
                     hull = c[ConvexHull(c).vertices]
                     ax.fill(hull[:, 0], hull[:, 1], color=ROLE_COLOURS[role], alpha=0.06)
                     ax.plot(*np.r_[hull, hull[:1]].T, color=ROLE_COLOURS[role], lw=0.5)
@@ -356,60 +378,76 @@ def _coverage(fig, data) -> dict[str, float]:
 
 
 def per_view_rms(doc: dict, data=None) -> dict[str, list[tuple[str, str, float, bool]]]:
-    """Per eye, (file, role, RMS px, outlier) of every view: the refinement's per-image
-    RMS when there is one (else the residuals ``data`` gives, else the intrinsics
-    per-view RMS); an outlier has rejected corners, was an intrinsics outlier, or has an
-    RMS above :data:`OUTLIER_FACTOR` times its eye's median."""
+    """Per eye, (file, role, RMS px, outlier) of every view: of the images ``data`` gives
+    when there are any (the views the other pages draw, over the corners the calibration
+    kept), else the refinement's per-image RMS, else the intrinsics per-view RMS; an
+    outlier has rejected corners (or none kept), was an intrinsics outlier, or has an RMS
+    above :data:`OUTLIER_FACTOR` times its eye's median."""
     out: dict[str, list[tuple[str, str, float, bool]]] = {e: [] for e in EYES}
     ref = doc.get("refinement") or {}
     flagged = {e: set(((doc.get("eyes") or {}).get(e) or {}).get("intrinsics_outliers") or [])
                for e in EYES}
-    if ref.get("images"):
-        for im in ref["images"]:
-            out[im["eye"]].append((im["file"], im["role"], float(im["rms"]),
-                                   bool(im.get("rejected_corners"))))
-    elif data is not None:
+    if data is not None and data.views:
         for v in data.views:
-            rms = float(np.sqrt(np.mean(np.sum(v.residuals ** 2, axis=1))))
-            out[v.eye].append((v.file, v.role, rms, False))
+            r = v.residuals[v.kept]
+            rms = float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else math.nan
+            out[v.eye].append((v.file, v.role, rms,
+                               not math.isfinite(rms) or not bool(v.kept.all())))
+    elif ref.get("images"):
+        for im in ref["images"]:
+            rms = float(im["rms"]) if im.get("rms") is not None else math.nan
+            # an image whose corners were all rejected has no RMS: an outlier
+            out[im["eye"]].append((im["file"], im["role"], rms,
+                                   bool(im.get("rejected_corners")) or not math.isfinite(rms)))
     else:
         for e in EYES:
             for f, rms in (((doc.get("eyes") or {}).get(e) or {}).get(
                     "intrinsics_per_view_rms") or {}).items():
                 out[e].append((f, "intrinsics", float(rms), False))
     for e in EYES:
-        med = float(np.median([r for _, _, r, _ in out[e]])) if out[e] else 0.0
+        finite = [r for _, _, r, _ in out[e] if math.isfinite(r)]
+        med = float(np.median(finite)) if finite else 0.0
         out[e] = [(f, role, r, bad or f in flagged[e] or (med > 0 and r > OUTLIER_FACTOR * med))
                   for f, role, r, bad in out[e]]
     return out
 
 
 def _per_view(fig, doc: dict, data) -> None:
+    from matplotlib.patches import Patch
+
     rows = per_view_rms(doc, data)
-    fig.suptitle(f"RMS of each view (outliers: rejected corners, flagged as an intrinsics "
-                 f"outlier, or > {OUTLIER_FACTOR:g}x the eye's median)", fontsize=11)
+    whose = "the images given" if data is not None and data.views else "the calibration's"
+    fig.suptitle(f"RMS of each view, {whose} (outliers: rejected corners, flagged as an "
+                 f"intrinsics outlier, or > {OUTLIER_FACTOR:g}x the eye's median)",
+                 fontsize=11)
     for k, eye in enumerate(EYES):
         ax = fig.add_subplot(2, 1, k + 1)
         r = rows[eye]
         if not r:
+            ax.text(0.5, 0.5, f"{eye}: no views", ha="center", va="center",
+                    transform=ax.transAxes)
+            ax.set_axis_off()
             continue
         x = np.arange(len(r))
+        # an image without an RMS (every corner rejected) is drawn at 0, marked
+        heights = [v if math.isfinite(v) else 0.0 for _, _, v, _ in r]
         colours = [OUTLIER_COLOUR if bad else ROLE_COLOURS[role] for _, role, _, bad in r]
-        ax.bar(x, [v for _, _, v, _ in r], color=colours)
-        for i, (_, _, v, bad) in enumerate(r):
+        ax.bar(x, heights, color=colours)
+        for i, (_, _, _, bad) in enumerate(r):
             if bad:
-                ax.plot(i, v, "kx", ms=6)
-        from matplotlib.patches import Patch
-
+                ax.plot(i, heights[i], "kx", ms=6)
         ax.legend(handles=[Patch(color=ROLE_COLOURS["intrinsics"], label="intrinsics view"),
                            Patch(color=ROLE_COLOURS["pose"], label="pose view"),
                            Patch(color=OUTLIER_COLOUR, label="outlier (x)")],
-                  fontsize=7, loc="upper left")
+                  fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0))
         ax.set_xticks(x)
-        ax.set_xticklabels([Path(f).stem for f, _, _, _ in r], rotation=90, fontsize=6)
+        ax.set_xticklabels([str(Path(f).with_suffix("")) for f, _, _, _ in r], rotation=90,
+                           fontsize=6 if len(r) <= 60 else 4)
+        ax.set_xlim(-0.6, len(r) - 0.4)
         ax.set_ylabel("RMS [px]", fontsize=8)
         ax.tick_params(axis="y", labelsize=7)
-        med = float(np.median([v for _, _, v, _ in r]))
+        finite = [v for _, _, v, _ in r if math.isfinite(v)]
+        med = float(np.median(finite)) if finite else 0.0
         ax.axhline(med, color="k", lw=0.8, ls="--")
         n_bad = sum(b for *_, b in r)
         ax.set_title(f"{eye}: {len(r)} views, median {med:.3g} px (dashed), "
@@ -421,9 +459,12 @@ def _per_view(fig, doc: dict, data) -> None:
 
 def write_report(doc: dict[str, Any], out: str | os.PathLike, *, dataset=None,
                  source: str = "calibration", log=lambda s: None) -> Verdict:
-    """Write the report of the calibration document ``doc`` to ``out`` (PDF, atomically);
-    ``dataset`` (a :class:`rasc.vision.dataset.Dataset`, optional) for the residual and
-    coverage pages. Returns the verdict."""
+    """Write the report of the calibration document ``doc`` to ``out`` (PDF, atomically:
+    :func:`rasc.io.write_bytes_atomic`, after every page is drawn); ``dataset`` (a
+    :class:`rasc.vision.dataset.Dataset`, optional) for the residual and coverage pages
+    and the verdict's checks of the images. Returns the verdict."""
+    import io
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -431,42 +472,45 @@ def write_report(doc: dict[str, Any], out: str | os.PathLike, *, dataset=None,
     from matplotlib.backends.backend_pdf import PdfPages
 
     from rasc.head.use import calibration_from_document
-    from rasc.report.data import coverage, report_data
+    from rasc.io import write_bytes_atomic
+    from rasc.report.data import coverage, rejected_corners, report_data
 
     head = calibration_from_document(doc, source).head
     data = None
     cov = None
+    fit = None
     if dataset is not None:
         log("detecting corners and computing residuals")
-        data = report_data(head, dataset, (doc.get("options") or {}).get("detector", "saddle"))
+        options = doc.get("options") or {}
+        min_corners = options.get("min_corners")
+        data = report_data(head, dataset, options.get("detector", "saddle"),
+                           **({"min_corners": int(min_corners)}
+                              if isinstance(min_corners, int) else {}),
+                           rejected=rejected_corners(doc))
+        for line in data.skipped:
+            log(f"left out of the residual pages: {line}")
         cov = {e: coverage([v.corners for v in data.of(e, "intrinsics")], data.image_size[e])
                for e in EYES}
-    v = verdict(doc, cov)
-    out = Path(out)
-    parent = out.parent if str(out.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent)
-    os.close(fd)
-    try:
-        with plt.rc_context({"font.size": 8}), \
-                PdfPages(tmp, metadata={"CreationDate": None, "Creator": "rasc report"}) as pdf:
-            pages = [lambda f: _summary(f, doc, v, source,
-                                        None if dataset is None else str(dataset.root)),
-                     lambda f: _head(f, head, doc.get("length_unit")),
-                     lambda f: _parameters(f, doc),
-                     (lambda f: _residuals(f, data)) if data is not None
-                     else (lambda f: _no_images(f, "Reprojection residuals")),
-                     (lambda f: _coverage(f, data)) if data is not None
-                     else (lambda f: _no_images(f, "Corner coverage")),
-                     lambda f: _per_view(f, doc, data)]
-            for draw in pages:
-                fig = plt.figure(figsize=PAGE_SIZE)
-                try:
-                    draw(fig)
-                    pdf.savefig(fig)
-                finally:
-                    plt.close(fig)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        fit = data.rms_by_role()
+    v = verdict(doc, cov, fit)
+    buffer = io.BytesIO()
+    with plt.rc_context({"font.size": 8}), \
+            PdfPages(buffer, metadata={"CreationDate": None, "Creator": "rasc report"}) as pdf:
+        pages = [lambda f: _summary(f, doc, v, source,
+                                    None if dataset is None else str(dataset.root)),
+                 lambda f: _head(f, head, doc.get("length_unit")),
+                 lambda f: _parameters(f, doc),
+                 (lambda f: _residuals(f, data)) if data is not None
+                 else (lambda f: _no_images(f, "Reprojection residuals")),
+                 (lambda f: _coverage(f, data)) if data is not None
+                 else (lambda f: _no_images(f, "Corner coverage")),
+                 lambda f: _per_view(f, doc, data)]
+        for draw in pages:
+            fig = plt.figure(figsize=PAGE_SIZE)
+            try:
+                draw(fig)
+                pdf.savefig(fig)
+            finally:
+                plt.close(fig)
+    write_bytes_atomic(out, buffer.getvalue())
     return v

@@ -2,9 +2,10 @@
 
 :func:`verdict` reads a calibration document (``rasc-calibration/1``, what ``rasc
 calibrate`` writes) and, when the images were at hand, the corner coverage of each eye
-(:func:`rasc.report.data.coverage`). Each rule below is a :class:`Check`; the verdict is
-the worst level among the checks that fail, and its reason the first such check's
-message. The thresholds:
+(:func:`rasc.report.data.coverage`) and how well the images fit the calibration. Each
+rule below is a :class:`Check`; the verdict is the worst level among the checks that
+fail, and its reason the first such check's message (:meth:`Verdict.warnings`: the
+other failed checks' messages). The thresholds:
 
 * :data:`UNUSABLE_RMS_PX` (1 px): the reprojection RMS over every corner (the whole-head
   refinement's; the closed form's intrinsics RMS for ``--model paper``). Chessboard
@@ -29,6 +30,13 @@ message. The thresholds:
   choice) — the positions do not turn about two different axes enough.
 * :data:`CHECK_COVERAGE` (50 %): the fraction of an 8×6 grid of image cells the
   intrinsics corners touch; less leaves the lens's edges extrapolated.
+* :data:`CHECK_IMAGES_RATIO` (3): with images, the reprojection RMS of their views of
+  one role (:meth:`rasc.report.data.ReportData.rms_by_role`) against the calibration's
+  own for that role (the refinement's ``rms_by_role_px``; for ``--model paper`` the worse
+  eye's intrinsics RMS and model-fit RMS), taken at least :data:`IMAGES_FLOOR_PX`: above
+  this ratio the images do not fit the calibration (another head's images, or the head
+  changed since). ``check``; ``unusable`` when their RMS is also above
+  :data:`UNUSABLE_RMS_PX`.
 * non-finite numbers or standard deviations anywhere in the parameters: unusable.
 """
 
@@ -45,6 +53,11 @@ CHECK_MISFIT_F = 5.0
 CHECK_REJECTED_FRACTION = 0.05
 CHECK_FOCAL_REL_STD = 0.01
 CHECK_COVERAGE = 0.5
+CHECK_IMAGES_RATIO = 3.0
+#: the least calibration RMS the images' RMS is compared with (px): corners found again
+#: by the same detector differ by a few hundredths of a pixel, so against a noise-free
+#: render's 0.01 px a ratio would flag nothing but that
+IMAGES_FLOOR_PX = 0.05
 #: unit parameters a good set of positions determines (rasc.head.refine.UNIT_PARAMETERS,
 #: the always-gauge ones and the held scales left out)
 UNIT_PARAMETERS_NEEDED = ("tilt_axis_x", "tilt_point_y")
@@ -76,6 +89,12 @@ class Verdict:
         """The verdict as printed: ``LEVEL: reason``."""
         return f"{self.level.upper()}: {self.reason}"
 
+    def warnings(self) -> list[str]:
+        """The messages of the failed checks other than the one the verdict gives as its
+        reason (each worth a line of its own), worst level first."""
+        failed = [c for c in self.checks if not c.passed and c.message != self.reason]
+        return [c.message for c in sorted(failed, key=lambda c: -LEVELS.index(c.level))]
+
 
 def _num(x) -> float | None:
     return float(x) if isinstance(x, (int, float)) and not isinstance(x, bool) else None
@@ -91,9 +110,26 @@ def _finite_parameters(ref: dict) -> str | None:
     return None
 
 
-def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None) -> Verdict:
+def _own_rms(doc: dict, ref: dict | None) -> dict[str, float]:
+    """The calibration's own reprojection RMS per role (px), as far as it says."""
+    if ref is not None:
+        by_role = ref.get("rms_by_role_px") or {}
+        out = {r: _num(by_role.get(r)) for r in ("intrinsics", "pose")}
+    else:
+        eyes = [e for e in (doc.get("eyes") or {}).values() if isinstance(e, dict)]
+        fits = [f for f in (doc.get("paper_model_fit") or {}).values() if isinstance(f, dict)]
+        vals = {"intrinsics": [_num(e.get("intrinsics_rms")) for e in eyes],
+                "pose": [_num(f.get("rms_model_px")) for f in fits]}
+        out = {r: max((x for x in v if x is not None), default=None) for r, v in vals.items()}
+    return {r: v for r, v in out.items() if v is not None and math.isfinite(v)}
+
+
+def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None,
+            images_rms: dict[str, float] | None = None) -> Verdict:
     """The verdict on a calibration document (module docstring). ``coverage``: per eye
-    the fraction of image cells its intrinsics corners touch (None: not judged)."""
+    the fraction of image cells its intrinsics corners touch (None: not judged);
+    ``images_rms``: per role (``intrinsics``, ``pose``) the reprojection RMS (px) of the
+    images the report was given, under this calibration (None: not judged)."""
     checks: list[Check] = []
     ref = doc.get("refinement") if isinstance(doc.get("refinement"), dict) else None
     model = (doc.get("options") or {}).get("model", "paper" if ref is None else "general")
@@ -117,6 +153,21 @@ def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None) -> Ve
                             "does not explain the corners (board size, blur, angles?)"))
         checks.append(Check("rms_check", rms, CHECK_RMS_PX, "check", rms <= CHECK_RMS_PX,
                             f"{what} {rms:.3g} px is above {CHECK_RMS_PX:g} px"))
+    own = _own_rms(doc, ref)
+    for role, got in (images_rms or {}).items():
+        if role not in own or got is None:
+            continue
+        ratio = got / max(own[role], IMAGES_FLOOR_PX)
+        level = "unusable" if got > UNUSABLE_RMS_PX else "check"
+        checks.append(Check(f"images.{role}", ratio, CHECK_IMAGES_RATIO, level,
+                            math.isfinite(ratio) and ratio <= CHECK_IMAGES_RATIO,
+                            f"the images do not fit the calibration: their {role} views "
+                            f"reproject at {got:.3g} px against its own {own[role]:.3g} px "
+                            f"({ratio:.3g} times "
+                            + ("that" if own[role] >= IMAGES_FLOOR_PX else
+                               f"the {IMAGES_FLOOR_PX:g} px floor")
+                            + "; another head's images, or the head changed since it was "
+                            "calibrated?)"))
     if ref is not None:
         by_role = ref.get("rms_by_role_px") or {}
         pi, pp = _num(by_role.get("intrinsics")), _num(by_role.get("pose"))

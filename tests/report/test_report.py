@@ -100,7 +100,7 @@ def calibrated(rasc_render):
 
 
 @pytest.mark.slow
-def test_report_pdf_pages(calibrated, tmp_path):
+def test_report_pdf_pages(calibrated, tmp_path, page_problems):
     ds, doc = calibrated
     out = tmp_path / "report.pdf"
     v = write_report(doc, out, dataset=ds, source="cal.json")
@@ -108,6 +108,7 @@ def test_report_pdf_pages(calibrated, tmp_path):
     assert v.level == "usable", v.line()
     data = out.read_bytes()
     assert data.startswith(b"%PDF") and pdf_pages(data) == PAGES
+    assert page_problems == []
     # the same calibration and images: the same bytes
     write_report(doc, tmp_path / "again.pdf", dataset=ds, source="cal.json")
     assert (tmp_path / "again.pdf").read_bytes() == data
@@ -128,7 +129,7 @@ def test_report_pdf_pages(calibrated, tmp_path):
 
 
 @pytest.mark.slow
-def test_report_without_images_still_has_every_page(calibrated, tmp_path):
+def test_report_without_images_still_has_every_page(calibrated, tmp_path, page_problems):
     _, doc = calibrated
     out = tmp_path / "r.pdf"
     v = write_report(doc, out)
@@ -140,6 +141,7 @@ def test_report_without_images_still_has_every_page(calibrated, tmp_path):
     paper["options"]["model"] = "paper"
     write_report(paper, tmp_path / "p.pdf")
     assert pdf_pages((tmp_path / "p.pdf").read_bytes()) == PAGES
+    assert page_problems == []
 
 
 def test_cli_refuses_a_missing_calibration(tmp_path, rasc_cli):
