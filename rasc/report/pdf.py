@@ -214,6 +214,8 @@ def _head(fig, head, unit: str | None) -> None:
 
 
 def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
+    from rasc.head.refine.model import parameter_unit
+
     ref = doc.get("refinement") or {}
     unit = doc.get("length_unit")
     rows: dict[str, list[str]] = {}
@@ -225,9 +227,12 @@ def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
                 next((i for i, o in enumerate(order) if kv[0].startswith(o)), 99), kv[0])):
             if p.get("value") is None and p.get("std") is None:
                 continue
-            u = p.get("unit", "")
-            if "tilt_axis_" in name:
-                u = "1"     # the axis's (x, y, 1) components: numbers, not lengths
+            # the unit from the parameter table (a file written before rasc 0.3 may
+            # label a scale or an axis component a length); a derived figure keeps its own
+            try:
+                u = parameter_unit(name)
+            except KeyError:
+                u = p.get("unit", "")
             if u == "length":
                 val = "(in the transform)" if p.get("value") is None else \
                     _length(p["value"], unit)

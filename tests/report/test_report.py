@@ -164,3 +164,22 @@ def test_calibrate_writes_the_report_too(rasc_render, tmp_path, rasc_cli):
     assert code == 0, err
     assert "rasc calibrate: report: USABLE" in err
     assert pdf_pages(pdf.read_bytes()) == PAGES and cal.is_file()
+
+
+def test_parameter_units_come_from_the_table_not_the_file():
+    # a file written before rasc 0.3 labelled the scales and the tilt axis's components
+    # lengths (".t" in the name): the report printed "unit.tilt_scale 1000 mm"
+    from rasc.report.pdf import _parameter_rows
+
+    doc = good_doc()
+    doc["length_unit"] = "m"
+    doc["refinement"]["parameters"]["left"].update({
+        "unit.tilt_scale": {"value": 1.0004, "std": 4.4e-5, "unit": "length"},
+        "unit.tilt_axis_x": {"value": 0.0087, "std": 2e-5, "unit": "length"},
+        "unit.tilt_point_y": {"value": 0.025, "std": 1e-5, "unit": "length"},
+        "unit.axis_angle_deg": {"value": 89.5, "std": 0.001, "unit": "deg"}})
+    rows = {r.split()[0]: r for r in _parameter_rows(doc)[0]["left"]}
+    assert "mm" not in rows["unit.tilt_scale"] and "1.0004" in rows["unit.tilt_scale"]
+    assert "mm" not in rows["unit.tilt_axis_x"]
+    assert "25 mm" in rows["unit.tilt_point_y"] and "0.01 mm" in rows["unit.tilt_point_y"]
+    assert rows["unit.axis_angle_deg"].endswith("deg")
