@@ -587,10 +587,9 @@ def board_from_kalibr(d, where: str = "target") -> Target:
 
 
 def read_target_file(path: str) -> Target:
-    """A target from a file: a JSON board object, bare as a manifest's ``board`` field is
-    written (``{"type": "aprilgrid", "tags": [6, 6], ...}``), or a dataset manifest holding
-    one (an object with a ``board`` field), or a YAML file (``.yaml``/``.yml``) holding
-    Kalibr's target description."""
+    """A target from a file: a JSON board object, alone as a manifest's ``board`` field
+    is written (``{"type": "aprilgrid", "tags": [6, 6], ...}``), or a YAML file
+    (``.yaml``/``.yml``) holding Kalibr's target description."""
     from rasc.io import read_json_document, read_text_file
 
     if str(path).lower().endswith((".yaml", ".yml")):
@@ -604,10 +603,7 @@ def read_target_file(path: str) -> Target:
             at = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
             raise InputError(f"{path}: not valid YAML{at}") from None
         return board_from_kalibr(doc, str(path))
-    doc = read_json_document(path, "target")
-    if isinstance(doc, dict) and "board" in doc:                 # a dataset manifest
-        return board_from_dict(doc["board"], f"{path}: board")
-    return board_from_dict(doc, str(path))
+    return board_from_dict(read_json_document(path, "target"), str(path))
 
 
 _TARGET_FORMS = {
