@@ -85,7 +85,12 @@ def test_refusals_are_one_line(rasc_cli, tmp_path):
 
     blank = tmp_path / "blank.png"
     cv2.imwrite(str(blank), np.zeros((48, 64), np.uint8))
+    board = tmp_path / "grid.json"           # a bare board object with a wrong field
+    board.write_text('{"type": "aprilgrid", "tags": [6, 6], "tag_size": 0.088, '
+                     '"family": "tag36h11"}')
     cases = [
+        (["detect", "--board", board, "--angle-unit", "deg", "--pair", blank, blank,
+          "0,0,0,0"], f"{board}: board: unknown family 'tag36h11'"),
         (["detect"], "give a dataset folder or --pair"),
         (["detect", "--pair", blank, blank, "0,0,0,0"], "--pair needs --board"),
         (["detect", "--board", "9x6", "--angle-unit", "deg", "--pair", blank, blank, "0,0"],
