@@ -96,7 +96,7 @@ def part_c(cache: str, renders: int, noise: float) -> None:
     for seed in range(renders):
         r = render_cached(cache, intrinsics_views=3, seed=seed, image_noise=noise)
         ds = r.load()
-        gt = r.ground_truth
+        gt = r.truth
         if truth is None:
             truth = gt
         for eye in ("left", "right"):

@@ -142,7 +142,7 @@ def corner_noise(data, n_samples: int, sigmas_px: list[float]) -> None:
 
     board = data.load().board
     P = board.object_points()
-    gt = data.ground_truth
+    gt = data.truth
     sets, cams = [], []
     for eye in ("left", "right"):
         T_true, T_gp = data.pose_views(eye)

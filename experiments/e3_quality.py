@@ -289,15 +289,29 @@ def _reading(s_all: dict, s_paper: dict, ratio: list[float], lv: list[dict]) -> 
     return "\n".join(text)
 
 
+def sets_label(levels) -> str:
+    """The sets ``levels`` in words, runs of consecutive sets joined: "sets 0–8, 12, 16"."""
+    levels, runs = sorted({int(k) for k in levels}), []
+    for k in levels:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
+    parts = [f"{a}" if a == b else f"{a}, {b}" if b == a + 1 else f"{a}–{b}" for a, b in runs]
+    return f"set{'s' if len(levels) != 1 else ''} {', '.join(parts)}"
+
+
 def _markdown(a: dict, levels_rows: list[dict]) -> str:
     main = MAIN_VARIANT
+    levels = [int(r["noise_level"]) for r in levels_rows if r["noise_model"] == main]
+    label = {"paper_sets": sets_label(k for k in levels if k <= 8), "all": sets_label(levels)}
     rows = []
     for variant in VARIANTS:
         for subset in ("paper_sets", "all"):
             s = a[variant][subset]
             c = s["confusion_at_1"]
             bt = s["best_threshold"]
-            rows.append((variant, "sets 0–8" if subset == "paper_sets" else "sets 0–15",
+            rows.append((variant, label[subset],
                          s["n"], s["n_unusable"],
                          f"{c['flagged_unusable']} / {c['flagged_usable']} / "
                          f"{c['passed_unusable']} / {c['passed_usable']}",
@@ -316,8 +330,8 @@ def _markdown(a: dict, levels_rows: list[dict]) -> str:
     reading = _reading(s_all, s_paper, ratio,
                        [r for r in levels_rows if r["noise_model"] == main])
     return f"""\
-**Protocol.** Every RASC sample of E1 (sets 0–8, {a['samples']} samples per set and eye,
-seed {a['seed']}) plus extended sets {', '.join(f"{k}: ({sr:.3f} rad, {st:g} mm)"
+**Protocol.** Every RASC sample of E1 ({label['paper_sets']}, {a['samples']} samples per set
+and eye, seed {a['seed']}) plus extended sets {', '.join(f"{k}: ({sr:.3f} rad, {st:g} mm)"
 for k, sr, st in a['extended_levels'])} (same seeding scheme), both eyes, both noise
 variants. **Unusable** (our definition; the paper gives none) = rotation error
 > {MAX_ROTATION_DEG:g}° or translation error > {MAX_TRANSLATION_MM:g} mm: at the

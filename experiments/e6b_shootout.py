@@ -348,7 +348,7 @@ def _markdown(ctx, sets, n_samples, methods, by, doc) -> str:
                 "RASC and OpenCV's Park compute the same Park–Martin rotation (for a pure-"
                 "rotation unit, all ordered pairs and OpenCV's pairs i < j give the same sums) "
                 "and differ in translation only because OpenCV writes eq. 7 for the inverse "
-                "transform, which weights the residuals differently (rasc/opencv_handeye.py); "
+                "transform, which weights the residuals differently (rasc/handeye/opencv.py); "
                 "largest relative difference of the median rotation error from RASC's over the "
                 "sets: " + ", ".join(f"{m} {100 * v:.2g} %" for m, v in agree.items()) + ".")
         reading.append(

@@ -26,15 +26,22 @@ Fixtures
     simulated head, cached on disk by its parameters: rasc's one dataset class,
     :class:`rasc.vision.dataset.Dataset`, read from the cached folder, with the truth
     (``.truth``, ``.T_cam_from_gaze(eye)``, ``.pose_views(eye)``), ``.path``,
-    ``.options`` and ``.key``. Default: :class:`rasc.sim.render.RenderOptions` defaults
-    (58 images, ~4 s the first time). Parametrise indirectly with a dict of RenderOptions
+    ``.options`` and ``.key``; ``.ground_truth`` is the truth file's path
+    (:class:`GroundTruthFile`: used as the document it was in rasc 0.2.0, it warns).
+    Default: :class:`rasc.sim.render.RenderOptions` defaults (58 images, ~4 s the first
+    time). Parametrise indirectly with a dict of RenderOptions
     fields (and ``model_path``; ``units``, an imperfect head as ``rasc render --unit``
     takes it; ``target``, a chessboard or ChArUco board as ``rasc render --target``
     takes it).
 ``rasc_render``
-    The factory behind it: ``rasc_render(n_intrinsics=10, seed=3) -> Dataset``,
+    The factory behind it: ``rasc_render(intrinsics_views=10, seed=3) -> Dataset``,
     ``rasc_render(target="charuco:12x9,0.06,0.045", units={"tilt_axis_offset_mm":
     (0, 5, 0)})``.
+
+A deprecated name reaching you through the plugin (an old RenderOptions field given to
+``rasc_render`` or written in a ``rasc_dataset`` parameter, the old ``.ground_truth``
+document, ``RenderedDataset``) warns with a DeprecationWarning at your test's line (for a
+fixture's parameter, the test's first line, its ``parametrize``).
 
 Cache: the dataset service's (:mod:`rasc.datasets`): a dataset is stored under the
 one key over every render option, the model file and rasc's code digest
@@ -56,7 +63,11 @@ Assertion
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
+import sys
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -311,17 +322,127 @@ def render_cached(cache_dir: str | os.PathLike | None,
     from rasc.sim.render import RenderOptions
     from rasc.vision.dataset import load_dataset
 
-    opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
-                            tuple(v) if k in ("distortion", "dist") else v
-                            for k, v in options.items()})
+    with _warnings_at(_users_line()):     # an old option name: the caller's line, not ours
+        opts = RenderOptions(**{k: tuple(tuple(p) for p in v) if k == "poses_deg" else
+                                tuple(v) if k in ("distortion", "dist") else v
+                                for k, v in options.items()})
+        builds, board = unit_builds(units), target_board(target)
     store = CacheStore(folder=cache_dir, label="rasc.testing") if cache_dir is not None \
         else None
-    path, key = rendered(opts, model_path, store, units=unit_builds(units),
-                         board=target_board(target))
+    path, key = rendered(opts, model_path, store, units=builds, board=board)
     ds = load_dataset(path)
     ds.truth = ds.load_ground_truth()
+    if ds.ground_truth is not None:
+        ds.ground_truth = GroundTruthFile(ds.ground_truth)
     ds.options, ds.key = opts, key
     return ds
+
+
+class GroundTruthFile(type(Path())):
+    """``Dataset.ground_truth`` of a dataset from :func:`render_cached` (``rasc_render``,
+    ``rasc_dataset``): the ground-truth file's path, as for every dataset. Tests written
+    for rasc 0.2.0, when it was the document itself, keep working until rasc 0.4: used as
+    the document (``ds.ground_truth["left"]``, ``.get``, ``.keys()``, ``in``, ...), it
+    reads the file, with a DeprecationWarning at that line naming ``.truth``."""
+
+    def _document(self) -> dict:
+        warnings.warn("rasc.testing: a dataset's .ground_truth is the ground-truth file's "
+                      "path (renamed after rasc 0.2.0); the document is .truth. Using "
+                      ".ground_truth as the document goes in rasc 0.4",
+                      DeprecationWarning, stacklevel=3)
+        from rasc.io import read_json_document
+
+        return read_json_document(self, "ground truth")
+
+    def __getitem__(self, key):
+        return self._document()[key]
+
+    def __contains__(self, key) -> bool:
+        return key in self._document()
+
+    def __iter__(self):
+        return iter(self._document())
+
+    def __len__(self) -> int:
+        return len(self._document())
+
+    def __bool__(self) -> bool:        # a path is true, as before; not the length above
+        return True
+
+    def get(self, key, default=None):
+        """The document's ``get`` (deprecated: use ``.truth``)."""
+        return self._document().get(key, default)
+
+    def keys(self):
+        """The document's ``keys`` (deprecated: use ``.truth``)."""
+        return self._document().keys()
+
+    def values(self):
+        """The document's ``values`` (deprecated: use ``.truth``)."""
+        return self._document().values()
+
+    def items(self):
+        """The document's ``items`` (deprecated: use ``.truth``)."""
+        return self._document().items()
+
+
+#: where the warnings of a fixture's parameters are reported: set by a fixture to the
+#: test that wrote them (:func:`_users_line`)
+_PARAMETERS_WRITTEN_AT: contextvars.ContextVar[tuple[str, int, dict] | None] = \
+    contextvars.ContextVar("rasc_testing_parameters_written_at", default=None)
+
+
+def _users_line() -> tuple[str, int, dict] | None:
+    """(file, line, module globals) of the user's code that called into this module: the
+    test whose parameters a fixture is using, else the first frame outside this file."""
+    given = _PARAMETERS_WRITTEN_AT.get()
+    if given is not None:
+        return given
+    frame = sys._getframe(1)
+    while frame is not None and frame.f_code.co_filename == __file__:
+        frame = frame.f_back
+    return None if frame is None else (frame.f_code.co_filename, frame.f_lineno,
+                                       frame.f_globals)
+
+
+@contextlib.contextmanager
+def _warnings_at(where: tuple[str, int, dict] | None):
+    """Warnings raised inside (a deprecated option name, which the library reports where
+    this module passed it on) are reported at ``where``, the user's line
+    (:func:`_users_line`), even when the block raises: they point at what to change,
+    and Python's and pytest's filters judge them there."""
+    caught: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield
+    finally:
+        for w in caught:
+            if where is None:
+                warnings.warn(w.message, w.category, stacklevel=3)
+                continue
+            filename, lineno, globs = where
+            warnings.warn_explicit(w.message, w.category, filename, lineno,
+                                   module=globs.get("__name__"),
+                                   registry=globs.setdefault("__warningregistry__", {}),
+                                   module_globals=globs)
+
+
+@contextlib.contextmanager
+def _parameters_of(request: pytest.FixtureRequest):
+    """Within: warnings about a fixture's parameters go to the test that wrote them (its
+    first line: the ``parametrize`` decorator above it)."""
+    function = getattr(request, "function", None)
+    code = getattr(function, "__code__", None)
+    if code is None:
+        yield
+        return
+    token = _PARAMETERS_WRITTEN_AT.set((code.co_filename, code.co_firstlineno,
+                                        function.__globals__))
+    try:
+        yield
+    finally:
+        _PARAMETERS_WRITTEN_AT.reset(token)
 
 
 def __getattr__(name: str):
@@ -392,7 +513,8 @@ def rasc_dataset(request: pytest.FixtureRequest, rasc_render):
     """A rendered dataset with ground truth (a :class:`rasc.vision.dataset.Dataset`);
     parametrise indirectly with a dict of RenderOptions fields (and ``model_path``,
     ``units``, ``target``)."""
-    return rasc_render(**dict(getattr(request, "param", None) or {}))
+    with _parameters_of(request):
+        return rasc_render(**dict(getattr(request, "param", None) or {}))
 
 
 @pytest.fixture

@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, format_length
         from rasc.head.plots import PLOT_FILES
+        from rasc.head.use import dataset_reference
         from rasc.io import check_outputs, dumps_json, write_json_atomic, write_stdout
         from rasc.vision.dataset import load_dataset
 
@@ -132,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
 
     cal = calibrate_dataset(dataset, options, log=log)
     doc = cal.to_dict()
-    doc["dataset"] = str(args.dataset)
+    doc["dataset"] = dataset_reference(args.dataset, args.out)   # from cal.json's folder
     if args.out is not None:
         write_json_atomic(args.out, doc)
     else:

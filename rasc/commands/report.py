@@ -4,15 +4,15 @@ A PDF (:mod:`rasc.report.pdf`): the verdict (usable / check / unusable, with its
 reason, :mod:`rasc.report.verdict`), the head drawn, every parameter with ± σ and those
 the data could not determine, the reprojection residuals per eye, each eye's corner
 coverage, the per-view RMS with outliers marked and the model-fit test. ``--dataset``
-(default: the dataset the calibration names, if it exists) gives the residual and
-coverage pages. The verdict line is printed on stderr. Written atomically.
+(default: the dataset the calibration names, a path from its own folder, if it exists)
+gives the residual and coverage pages. The verdict line is printed on stderr. Written
+atomically.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from rasc.commands import loading
 
@@ -26,7 +26,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("calibration", metavar="CAL.json", help="the calibration (rasc calibrate)")
     p.add_argument("--dataset", metavar="DIR",
                    help="its dataset, for residuals and coverage (default: the one the "
-                        "calibration names, if it exists)")
+                        "calibration names, a path from its folder, if it exists)")
     p.add_argument("--out", required=True, metavar="FILE.pdf", help="the report")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -35,6 +35,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     with loading():
+        from rasc.head.use import named_dataset
         from rasc.io import check_outputs, read_json_document
         from rasc.report.pdf import write_report
         from rasc.vision.dataset import load_dataset
@@ -43,10 +44,8 @@ def run(args: argparse.Namespace) -> int:
     # before any work: also a folder that takes no file (/proc, read-only) is refused here
     check_outputs(outputs, inputs=[args.calibration])
     doc = read_json_document(args.calibration, "calibration file")
-    ds_path = args.dataset
-    named = doc.get("dataset") if isinstance(doc, dict) else None
-    if ds_path is None and isinstance(named, str) and Path(named, "manifest.json").is_file():
-        ds_path = named
+    ds_path = args.dataset if args.dataset is not None else \
+        named_dataset(doc, args.calibration)
     dataset = load_dataset(ds_path) if ds_path is not None else None
     if dataset is not None:
         check_outputs(outputs, inputs=[args.calibration, dataset.manifest_path,

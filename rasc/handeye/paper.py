@@ -4,7 +4,7 @@ The reference: each equation written out plainly, one ordered pair at a time, wi
 numpy and scipy's Rotation. It is what the solver means; :mod:`rasc.handeye.solver` (with
 its private kernels, :mod:`rasc.handeye._kernels`) computes the same numbers fast, and the
 tests hold the two together (tests/handeye/test_kernels_vs_paper.py). Notation as in
-docs/METHOD.md §3 and /work/shared/SPEC.md §3: at each of n positions k the camera
+docs/METHOD.md §3 (the paper's section 3.2): at each of n positions k the camera
 calibration gives the target's pose ``T_cw^k`` (``T_cam_from_world``) and the unit
 reports ``T_gp^k`` (``T_gaze_from_ptu``, eq. 3; for a robot arm ``T_gripper_from_base``).
 The unknown is ``X = T_cg`` (``T_cam_from_gaze``) in ``A_ij X = X B_ij``.

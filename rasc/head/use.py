@@ -235,6 +235,45 @@ def read_calibration(path: str | os.PathLike) -> CalibrationFile:
     return calibration_from_document(read_json_document(path), os.fspath(path))
 
 
+def dataset_reference(dataset: str | os.PathLike,
+                      calibration_file: str | os.PathLike | None) -> str:
+    """The calibration file's ``dataset`` field for the dataset folder ``dataset``: its
+    path relative to the folder of ``calibration_file`` (the file about to be written),
+    so that :func:`named_dataset` finds it whichever folder the file is later read from,
+    and the two can move together; absolute where there is no such file (written to
+    stdout) or no relative path (another drive)."""
+    folder = _in_real_folder(dataset)           # a dataset that is a link stays one
+    if calibration_file is None:
+        return folder
+    try:
+        return os.path.relpath(folder, os.path.dirname(_in_real_folder(calibration_file)))
+    except ValueError:                                   # Windows: another drive
+        return folder
+
+
+def _in_real_folder(path: str | os.PathLike) -> str:
+    """``path`` made absolute with the links of its folder resolved (so that a relative
+    path's ``..`` means what the file system means), its own name kept."""
+    path = os.path.abspath(path)
+    return os.path.join(os.path.realpath(os.path.dirname(path)), os.path.basename(path))
+
+
+def named_dataset(doc: Any, calibration_file: str | os.PathLike) -> str | None:
+    """The dataset folder a calibration document names (its ``dataset`` field), if it
+    is there (holds ``manifest.json``): an absolute path as written; a relative one taken
+    from the folder of ``calibration_file`` (:func:`dataset_reference`), else, for a file
+    written before rasc recorded it so, from the working directory (as it was given to
+    ``rasc calibrate``). None when the document names none, or none is found."""
+    named = doc.get("dataset") if isinstance(doc, dict) else None
+    if not isinstance(named, str) or not named:
+        return None
+    candidates = [named] if os.path.isabs(named) else [
+        os.path.normpath(os.path.join(os.path.dirname(_in_real_folder(calibration_file)),
+                                      named)), named]
+    return next((c for c in candidates if os.path.isfile(os.path.join(c, "manifest.json"))),
+                None)
+
+
 def load_calibration(path: str | os.PathLike) -> HeadCalibration:
     """Load the head model from a calibration file.
 

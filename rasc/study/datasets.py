@@ -26,7 +26,11 @@ from rasc.datasets.calibration import (  # noqa: F401 (the old names, re-exporte
     check_calibration_document,
     in_metres,
 )
-from rasc.datasets.keys import CACHE_LIBRARIES, code_digest  # noqa: F401 (re-exported)
+from rasc.datasets.keys import (  # noqa: F401 (re-exported)
+    CACHE_LIBRARIES,
+    code_digest,
+    content_key,
+)
 from rasc.errors import DegenerateDataError, InputError, RascError
 from rasc.geometry.frames import EYES
 from rasc.io import (
@@ -45,10 +49,16 @@ from rasc.study.spec import (
 )
 
 
-def dataset_key(render: dict[str, Any], seed: int) -> str:
-    """The cache key of a rendered dataset: its render parameters and seed."""
-    from rasc.study.spec import _digest
-    return _digest({"render": render, "seed": seed})[:20]
+def dataset_name(render: dict[str, Any], seed: int) -> str:
+    """The study's name of a dataset: the content key
+    (:func:`rasc.datasets.content_key`, 20 hex digits) of its render parameters and seed,
+    the same whatever the code. It names the dataset's file in a study folder,
+    ``datasets/<name>.json`` (the document's ``key`` field), and the tasks that make it.
+    Not a cache key: the dataset's cache entry is found under :func:`cache_key`, the
+    project's one cache key (:func:`rasc.datasets.cache_key`), which adds the code
+    digest. (Called ``dataset_key`` until rasc 0.2.0; the old name warns and goes in
+    0.4.)"""
+    return content_key({"render": render, "seed": seed})
 
 
 def unit_builds(render: dict[str, Any]) -> dict | None:
@@ -380,8 +390,8 @@ def cache_dir() -> Path | None:
 def cache_key(kind: str, task: RenderTask | PoseTask) -> str:
     """The cache key of a render (``kind`` "render") or pose-set (``kind`` "poses") task:
     the dataset service's key (:func:`rasc.datasets.cache_key`: the one code digest) of
-    the task's dataset key, render parameters (the model as its file's sha256), seed and,
-    for a pose set, its base dataset's sha256."""
+    the task's dataset name (:func:`dataset_name`), render parameters (the model as its
+    file's sha256), seed and, for a pose set, its base dataset's sha256."""
     from rasc.datasets import keys
     what = {"key": task.key, "render": task.render, "seed": task.seed}
     if kind == "poses":
@@ -481,3 +491,21 @@ def _render(executor: Executor, fn, tasks: list[dict], out: Path, quiet: bool,
 dataset_document = calibration_document
 _check_dataset_doc = check_calibration_document
 _in_metres = in_metres
+
+
+def _renamed(module: str, name: str):
+    """A module's old public name (PEP 562 ``__getattr__``): the new object, with a
+    DeprecationWarning at the line that used the old name."""
+    if name == "dataset_key":
+        import warnings
+
+        warnings.warn(f"{module}.dataset_key is now {module}.dataset_name (the study's "
+                      "name of a dataset, not a cache key: rasc.datasets.cache_key is "
+                      "the one cache key); the old name goes in rasc 0.4",
+                      DeprecationWarning, stacklevel=3)
+        return dataset_name
+    raise AttributeError(f"module {module!r} has no attribute {name!r}")
+
+
+def __getattr__(name: str):
+    return _renamed(__name__, name)

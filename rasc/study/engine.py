@@ -102,7 +102,7 @@ from rasc.study.datasets import (  # noqa: F401
     cache_key,
     dataset_digest_of,
     dataset_document,
-    dataset_key,
+    dataset_name,
     folder_task,
     pose_task,
     render_task,
@@ -347,7 +347,7 @@ class _Run:
     #: the cell files' texts by cell index (verified or just computed)
     texts: dict[int, str] = field(default_factory=dict)
     cells_done: int = 0
-    #: per cell index: (base dataset key, its render parameters); the dataset each uses
+    #: per cell index: (base dataset's name, its render parameters); the dataset each uses
     bases: dict[int, tuple[str, dict]] = field(default_factory=dict)
     keys: dict[int, str] = field(default_factory=dict)
     docs: dict[str, dict] = field(default_factory=dict)
@@ -362,10 +362,10 @@ class _Run:
             if self.given is not None:
                 return self.given, {}
             if c.params["intrinsics_from"] != "dataset":
-                return dataset_key(r, spec.seed), r
+                return dataset_name(r, spec.seed), r
             b = {k: v for k, v in r.items() if k != "intrinsics_from"}
             b.update({k: PARAMS[k].default for k in POSE_PARAMS})
-            return dataset_key(b, spec.seed), b
+            return dataset_name(b, spec.seed), b
         self.bases = {c.index: base_of(c) for c in self.cells_}
         wanted: dict[str, dict] = {}
         for k, r in self.bases.values():
@@ -419,7 +419,7 @@ class _Run:
             if same_poses(self.docs[base_key], grid):
                 self.keys[c.index] = base_key               # the base's own pose set
                 continue
-            k = dataset_key({**r, "intrinsics_of": base_key}, spec.seed)
+            k = dataset_name({**r, "intrinsics_of": base_key}, spec.seed)
             self.keys[c.index] = k
             poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, str(spec.path),
                                          model_path=(str(spec.model_path(base_r["model"]))
@@ -551,3 +551,9 @@ def _plugins(methods) -> list[str]:
 __all__ = ["run_study", "StudyResult", "summarise", "cell_task", "render_task", "PARAMS",
            "dumps_json", "dataset_document", "unit_builds", "ESTIMATE_COLUMNS",
            "SAMPLE_COLUMNS", "POSE_ERROR_COLUMNS", "pose_task", "pose_error_rms"]
+
+
+def __getattr__(name: str):
+    from rasc.study.datasets import _renamed
+
+    return _renamed(__name__, name)

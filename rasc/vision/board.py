@@ -587,8 +587,9 @@ def board_from_kalibr(d, where: str = "target") -> Target:
 
 
 def read_target_file(path: str) -> Target:
-    """A target from a file: a JSON board object (the manifest's ``board``), or a YAML
-    file (``.yaml``/``.yml``) holding Kalibr's target description."""
+    """A target from a file: a JSON board object, alone as a manifest's ``board`` field
+    is written (``{"type": "aprilgrid", "tags": [6, 6], ...}``), or a YAML file
+    (``.yaml``/``.yml``) holding Kalibr's target description."""
     from rasc.io import read_json_document, read_text_file
 
     if str(path).lower().endswith((".yaml", ".yml")):

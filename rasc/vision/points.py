@@ -25,8 +25,8 @@ import numpy as np
 from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
-from rasc.vision.board import Board
-from rasc.vision.dataset import Dataset, ImageEntry
+from rasc.vision.board import Board, board_from_dict, read_target_file
+from rasc.vision.dataset import Dataset, ImageEntry, _parse_board
 
 FORMAT = formats.PIXEL_POINTS.tag
 #: the columns, in the order ``rasc triangulate`` documents them
@@ -139,26 +139,23 @@ _BOARD = re.compile(r"^\s*(\d+)\s*[xX]\s*(\d+)\s*$")
 
 
 def parse_board(text: str) -> Board:
-    """``--board``: ``NXxNY`` inner corners (``9x6``), a JSON file holding a board
-    object (``{"inner_corners": [9, 6], "square_size": 0.05}``, or any target's, e.g.
-    ``{"type": "aprilgrid", ...}``) or a dataset manifest with one, or a Kalibr target
+    """``--board``: ``NXxNY`` inner corners (``9x6``); a JSON file holding the board
+    object alone, as a manifest's ``board`` field is written (``{"inner_corners": [9, 6],
+    "square_size": 0.05}``, or any target's, e.g. ``{"type": "aprilgrid", ...}``:
+    :func:`rasc.vision.board.read_target_file`), or a dataset manifest (its ``board``,
+    read as :func:`rasc.vision.dataset.load_dataset` reads it); or a Kalibr target
     yaml."""
     m = _BOARD.match(text)
     if m:
         return Board((int(m.group(1)), int(m.group(2))), 1.0)
     if text.lower().endswith((".yaml", ".yml")):     # Kalibr's target description
-        from rasc.vision.board import read_target_file
-
         return read_target_file(text)
     from rasc.io import read_json_document
-    from rasc.vision.dataset import _parse_board
 
     obj = read_json_document(text, "board description")
-    if isinstance(obj, dict) and "board" not in obj and "inner_corners" in obj:
-        obj = {"board": obj}
-    if not isinstance(obj, dict):
-        raise InputError(f"{text}: expected a board object or a manifest with 'board'")
-    return _parse_board(obj, text)
+    if "board" in obj:                               # a dataset manifest
+        return _parse_board(obj, text)
+    return board_from_dict(obj, text)                # the board object alone, any target
 
 
 def pairs_dataset(board: Board, pairs: list[tuple[str, str, str]], angle_unit: str) -> Dataset:

@@ -296,6 +296,22 @@ def test_e3_structure_and_threshold_exercised(runs):
     assert "](e3/e3_quality_vs_error.png)" in sec.markdown
     assert (folder / "e3_quality_vs_error.png").is_file()
     assert (folder / e3.LEVELS_CSV).is_file()
+    # the table's rows name the sets run (quick: 0, 1, 4, 8 and 32, 80)
+    levels = QUICK_LEVELS + [32, 80]
+    for variant in VARIANTS:
+        assert f"| {variant} | sets 0, 1, 4, 8 | {a[variant]['paper_sets']['n']} |" \
+            in sec.markdown
+        assert f"| {variant} | {e3.sets_label(levels)} | {a[variant]['all']['n']} |" \
+            in sec.markdown
+
+
+def test_e3_sets_label_names_the_sets():
+    """E3's row labels (before: "sets 0–15" for sets 0–8 and 12–80)."""
+    assert e3.sets_label(range(9)) == "sets 0–8"
+    assert e3.sets_label([*range(9), 12, 16, 24, 32, 48, 64, 80]) == \
+        "sets 0–8, 12, 16, 24, 32, 48, 64, 80"
+    assert e3.sets_label([0, 1, 4, 8, 32, 80]) == "sets 0, 1, 4, 8, 32, 80"
+    assert e3.sets_label([5]) == "set 5"
 
 
 def test_e3_samples_at_the_papers_sets_are_e1s(runs):

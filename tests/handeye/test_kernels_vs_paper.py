@@ -6,7 +6,7 @@ pair logs, contractions with the pair-weight matrix and one code path per batch.
 not the same bits: each sums in its own order, so they agree to round-off, amplified by
 the conditioning of the two linear steps. Measured over 400 draws (pan-tilt units with
 3–11 random positions, robot arms with 3–29, the paper's nine poses; rigid and literal
-eq. 13 noise; both pair sets; /work/notes/structure.md), in units of ε = 2.2e-16:
+eq. 13 noise; both pair sets; drawn by :func:`draw` below), in units of ε = 2.2e-16:
 
 * rotation, max |ΔR| ≤ 4.6 · cond(M) · ε   → asserted ≤ 32 · cond(M) · ε
 * translation, max |Δt| ≤ 48 · cond(CᵀC) · ε · max(1, |t_cw|) → asserted ≤ 512 · ...

@@ -33,7 +33,7 @@ from rasc.study.engine import (  # noqa: E402
     SAMPLE_COLUMNS,
     _found_datasets,
     csv_text,
-    dataset_key,
+    dataset_name,
     study_lock,
     verified_cell,
 )
@@ -372,7 +372,24 @@ def test_plugins_in_pool_workers_fail_their_samples_only(tmp_path, plugin, capfd
     assert capfd.readouterr().out == ""
 
 
-def test_dataset_keys_stay_as_before():
+def test_dataset_names_stay_as_before():
     """The study's dataset names (file names in every study folder) are unchanged by the
     dataset service: the reproduction's bytes depend on them."""
-    assert dataset_key({"blur": 1.0}, 0) == "dfc2ee4099a6685dd2bd"  # the value at 4cd7de8
+    assert dataset_name({"blur": 1.0}, 0) == "dfc2ee4099a6685dd2bd"  # the value at 4cd7de8
+
+
+def test_the_old_name_dataset_key_warns_at_the_callers_line():
+    """``dataset_key`` (renamed ``dataset_name``: a name, not a cache key) still works
+    until rasc 0.4, with a DeprecationWarning attributed to the line that used it."""
+    from rasc.study import datasets, engine
+
+    def users_line(module):
+        return module.dataset_key
+
+    for module in (datasets, engine):
+        with pytest.warns(DeprecationWarning, match="dataset_name") as caught:
+            assert users_line(module) is dataset_name
+        assert [(w.filename, w.lineno) for w in caught] == \
+            [(__file__, users_line.__code__.co_firstlineno + 1)]
+    with pytest.raises(AttributeError):
+        datasets.no_such_name  # noqa: B018

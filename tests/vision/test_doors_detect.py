@@ -85,7 +85,12 @@ def test_refusals_are_one_line(rasc_cli, tmp_path):
 
     blank = tmp_path / "blank.png"
     cv2.imwrite(str(blank), np.zeros((48, 64), np.uint8))
+    board = tmp_path / "grid.json"           # a bare board object with a wrong field
+    board.write_text('{"type": "aprilgrid", "tags": [6, 6], "tag_size": 0.088, '
+                     '"family": "tag36h11"}')
     cases = [
+        (["detect", "--board", board, "--angle-unit", "deg", "--pair", blank, blank,
+          "0,0,0,0"], f"{board}: board: unknown family 'tag36h11'"),
         (["detect"], "give a dataset folder or --pair"),
         (["detect", "--pair", blank, blank, "0,0,0,0"], "--pair needs --board"),
         (["detect", "--board", "9x6", "--angle-unit", "deg", "--pair", blank, blank, "0,0"],
@@ -102,3 +107,47 @@ def test_refusals_are_one_line(rasc_cli, tmp_path):
         assert len(said) == 1 and said[0].startswith("rasc detect: error: ") \
             and message in said[0], (argv, err)         # (progress lines aside)
     assert blank.stat().st_size > 0
+
+
+def test_board_file_holds_the_bare_board_object_of_any_target(rasc_cli, tmp_path):
+    """``--board FILE``: the board object alone, as a manifest's ``board`` field is written
+    (issue 30 item 6), for a target other than the chessboard too; a manifest holding it
+    gives the same points. Before, a bare AprilGrid or ChArUco object was refused with
+    "missing field 'board'"."""
+    import cv2
+
+    from rasc.vision.board import AprilGrid
+
+    board = AprilGrid((3, 2), 0.05, 0.3, "t36h11")
+    margin = 80
+    texture = board.texture()
+    image = np.full((texture.shape[0] + 2 * margin, texture.shape[1] + 2 * margin), 255,
+                    np.uint8)
+    image[margin:-margin, margin:-margin] = texture
+    png = tmp_path / "grid.png"
+    cv2.imwrite(str(png), image)
+    bare, manifest = tmp_path / "grid.json", tmp_path / "manifest.json"
+    bare.write_text(json.dumps(board.to_dict()))
+    manifest.write_text(json.dumps({"board": board.to_dict(), "angle_unit": "deg",
+                                    "images": []}))
+    outputs = []
+    for source in (bare, manifest):
+        out = tmp_path / f"{source.stem}.csv"
+        status, _, err = rasc_cli("detect", "--board", source, "--angle-unit", "deg",
+                                  "--quiet", "--pair", png, png, "0,0,0,0", "--out", out)
+        assert status == 0, err
+        outputs.append(out.read_text())
+    assert outputs[0] == outputs[1]
+    rows = _rows(tmp_path / "grid.csv")
+    assert len(rows) == board.n_corners
+    # the corners lie where the texture drew them: board x, y map to pixels by one scale
+    # (the texel) and a shift; the saddle detector is good to ~0.05 px on a sharp texture
+    ids = [int(r["label"].split(":")[1]) for r in rows]
+    xy = board.object_points()[ids, :2]
+    uv = np.array([[float(r["u_left"]), float(r["v_left"])] for r in rows])
+    A = np.column_stack([xy, np.ones(len(xy))])
+    fit, *_ = np.linalg.lstsq(A, uv, rcond=None)
+    assert np.max(np.abs(A @ fit - uv)) < 0.1
+    scale = fit[0, 0]                                    # pixels per metre, x and y alike
+    assert scale > 0 and abs(fit[1, 1] - scale) < 1e-3 * scale
+    assert max(abs(fit[0, 1]), abs(fit[1, 0])) < 1e-3 * scale
