@@ -2,8 +2,9 @@
 
 SOURCE is a ROS 1 bag (``.bag``), a ROS 2 bag (a folder with ``metadata.yaml``, SQLite3 or
 MCAP), or a folder of images with ``--csv ANGLES.csv``. What to read (image topics,
-joints, the target (any rasc reads: ``--target``), thresholds) comes from ``--config FILE.toml`` and/or the options (options
-win); see :mod:`rasc.recordings.config`. The library is :mod:`rasc.recordings`; this
+joints, the target (any target rasc reads: ``--target``), thresholds) comes from
+``--config FILE.toml`` and/or the options (options win); see
+:mod:`rasc.recordings.config`. The library is :mod:`rasc.recordings`; this
 module parses, calls and prints.
 """
 

@@ -211,6 +211,7 @@ def test_model_and_target_together_render_that_model_with_that_target(tmp_path, 
     from rasc.vision.board import parse_target
     from rasc.vision.camera import detect_corners
     from rasc.vision.dataset import load_dataset
+
     from rendered_views import seen_against_truth
 
     spec = "charuco:12x9,0.06,0.045"
