@@ -200,12 +200,15 @@ def parse_target_key(value, where: str, folder: Path):
     dict."""
     from rasc.vision.board import TARGET_TYPES, parse_target
 
-    text = _text(value, where)
-    kind = text.strip().partition(":")[0]
-    if kind not in TARGET_TYPES and not Path(text.strip()).is_absolute():
-        candidate = folder / text.strip()
-        if candidate.is_file():
-            text = str(candidate)
+    text = _text(value, where).strip()
+    kind, sep, _ = text.partition(":")
+    if not (sep and kind in TARGET_TYPES) and not Path(text).is_absolute():
+        if not (folder / text).is_file():
+            raise InputError(f"{where} {text!r}: no such file beside the configuration (in "
+                             f"{folder}); expected chessboard:NXxNY,SQUARE, charuco:SXxSY,"
+                             "SQUARE,MARKER[,...], aprilgrid:COLSxROWS,TAGSIZE[,...], a "
+                             "Kalibr target yaml or a JSON board file")
+        text = str(folder / text)
     return parse_target(text, where).to_dict()
 
 

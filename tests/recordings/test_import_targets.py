@@ -153,7 +153,8 @@ def test_the_configuration_names_any_target(tmp_path, monkeypatch, board_toml, s
      r"import\.toml: board: unknown field 'square_size' for a aprilgrid target$"),
     ('target = "charuco:12x9,0.06"\n', r"import\.toml: target 'charuco:12x9,0\.06': expected "
                                        r"charuco:SXxSY"),
-    ('target = "missing.yaml"\n', r"import\.toml: target 'missing\.yaml': expected"),
+    ('target = "missing.yaml"\n', r"import\.toml: target 'missing\.yaml': no such file "
+                                r"beside the configuration"),
     ('target = "charuco:12x9,0.06,0.045"\n[board]\ninner_corners = [9, 6]\n'
      'square_size = 0.05\n', r"import\.toml: \[board\] and target both name the target"),
     ('board = 3\n', r"import\.toml: \[board\] must be a table$"),
