@@ -2,8 +2,9 @@
 
 SOURCE is a ROS 1 bag (``.bag``), a ROS 2 bag (a folder with ``metadata.yaml``, SQLite3 or
 MCAP), or a folder of images with ``--csv ANGLES.csv``. What to read (image topics,
-joints, board, thresholds) comes from ``--config FILE.toml`` and/or the options (options
-win); see :mod:`rasc.recordings.config`. The library is :mod:`rasc.recordings`; this
+joints, the target (any target rasc reads: ``--target``), thresholds) comes from
+``--config FILE.toml`` and/or the options (options win); see
+:mod:`rasc.recordings.config`. The library is :mod:`rasc.recordings`; this
 module parses, calls and prints.
 """
 
@@ -37,9 +38,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                        help=f"the {eye} unit's sensor_msgs/JointState topic and joint names")
     p.add_argument("--angle-unit", choices=("deg", "rad"),
                    help="unit of the joint readings / CSV angles (default rad)")
-    p.add_argument("--board", metavar="NXxNY", help="inner corners, e.g. 9x6")
-    p.add_argument("--square-size", type=float, metavar="S", help="board square size")
-    p.add_argument("--length-unit", metavar="U", help="unit of the square size, e.g. m")
+    p.add_argument("--board", metavar="NXxNY", help="a chessboard's inner corners, e.g. 9x6 "
+                   "(with --square-size)")
+    p.add_argument("--square-size", type=float, metavar="S", help="the chessboard's square size")
+    p.add_argument("--target", metavar="SPEC",
+                   help="the calibration target, any rasc reads (as rasc render --target): "
+                        "chessboard:NXxNY,SQUARE, charuco:SXxSY,SQUARE,MARKER[,DICTIONARY]"
+                        "[,legacy], aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY], a JSON "
+                        "file of the manifest's board object, or a Kalibr target yaml")
+    p.add_argument("--length-unit", metavar="U",
+                   help="unit of the target's lengths, e.g. m")
     p.add_argument("--still-threshold", type=float, metavar="A",
                    help="max spread of each joint reading in a still moment (angle unit; "
                         "default 0.1 deg)")
@@ -56,7 +64,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _board(text: str | None, square: float | None) -> dict | None:
+def _board(text: str | None, square: float | None, target: str | None) -> dict | None:
+    """The target of ``--board``/``--square-size`` (a chessboard) or ``--target`` (any,
+    :func:`rasc.vision.board.parse_target`), as the manifest's board object."""
+    if target is not None:
+        if text is not None or square is not None:
+            raise InputError("--target names the whole target: give --target or --board "
+                             "with --square-size, not both")
+        from rasc.vision.board import parse_target
+
+        return parse_target(target, "--target").to_dict()
     if text is None and square is None:
         return None
     if text is None or square is None:
@@ -78,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         from rasc.recordings.config import merged as merge
         from rasc.recordings.config import parse_joint_source
 
-    inputs = [args.source, args.config, args.csv, args.intrinsics]
+    inputs = [args.source, args.config, args.csv, args.intrinsics, args.target]
     check_output(args.out, inputs=[i for i in inputs if i], kind="folder")
     cfg = load_config(args.config) if args.config else ImportConfig()
     topics = {e: t for e in ("left", "right")
@@ -89,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
         v = getattr(args, name)
         if v is not None and not (v > 0 or (name == "intrinsics_interval" and v == 0)):
             raise InputError(f"--{name.replace('_', '-')}: must be positive, got {v}")
-    cfg = merge(cfg, board=_board(args.board, args.square_size), length_unit=args.length_unit,
+    cfg = merge(cfg, board=_board(args.board, args.square_size, args.target),
+                length_unit=args.length_unit,
                 topics=topics or None, joints=joints or None, angle_unit=args.angle_unit,
                 threshold=args.still_threshold, min_duration_s=args.still_time,
                 tolerance_s=args.tolerance, interval_s=args.intrinsics_interval,

@@ -41,7 +41,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY] (Kalibr's "
                         "AprilGrid, tags; seen in part), a JSON file of the manifest's "
                         "board object, or a Kalibr target yaml; lengths in metres "
-                        "(default: the model's 9x6 chessboard of 50 mm squares)")
+                        "(default: the model's own target, the stock scene's 9x6 chessboard "
+                        "of 50 mm squares); with --model it replaces the model's target (a "
+                        "model of the head alone gets the stock scene around it)")
     p.add_argument("--intrinsics-views", type=int, default=20, metavar="N",
                    help="intrinsics views per eye (default 20)")
     p.add_argument("--distance", type=float, default=1.0, metavar="M",
@@ -96,9 +98,6 @@ def run(args: argparse.Namespace) -> int:
     ).validate(FLAGS)
     units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")
-    if board is not None and args.model is not None:
-        raise InputError("--target draws the target around the stock head: give --target or "
-                         "--model, not both")
     t0 = time.perf_counter()
     with folder_built_atomically(out, meanwhile=" (another render?)") as tmp:
         render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units,

@@ -308,6 +308,8 @@ def decode_image(msg, msgtype: str, where: str) -> tuple[np.ndarray | bytes, str
     to decode). Unknown encodings and short data are one line naming ``where``."""
     import cv2
 
+    from rasc.io import native_stderr_captured
+
     if msgtype == COMPRESSED:
         fmt = str(msg.format).lower()
         ext = next((e for k, e in COMPRESSED_FORMATS.items() if k in fmt.replace(";", " ")
@@ -316,7 +318,14 @@ def decode_image(msg, msgtype: str, where: str) -> tuple[np.ndarray | bytes, str
             raise InputError(f"{where}: compressed format {msg.format!r} is not read "
                              "(jpeg or png)")
         data = bytes(np.asarray(msg.data, dtype=np.uint8))
-        if cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE) is None:
+        # OpenCV's and libpng's own lines on descriptor 2 (a corrupt PNG's "IHDR chunk
+        # shall be first") are kept from the user: this line is the message
+        with native_stderr_captured():
+            try:
+                grey = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+            except cv2.error:
+                grey = None
+        if grey is None:
             raise InputError(f"{where}: the {ext[1:]} data does not decode (corrupt)")
         return data, ext
     enc = str(msg.encoding)

@@ -4,10 +4,10 @@ From a small TOML file (read with :mod:`tomllib`) and/or options (options win)::
 
     stamp = "header"                  # "header" (sensor time, default) or "bag" (receive time)
 
-    [board]
+    [board]                           # the target: a chessboard ...
     inner_corners = [9, 6]
     square_size = 0.05
-    length_unit = "m"                 # optional: the unit of square_size
+    length_unit = "m"                 # optional: the unit of the target's lengths
 
     [topics]                          # the image topics of each eye
     left = "/left/image_raw"
@@ -25,6 +25,16 @@ From a small TOML file (read with :mod:`tomllib`) and/or options (options win)::
 
     [intrinsics]
     interval_s = 1.0                  # of an intrinsics recording: one image per eye per s
+
+``[board]`` holds any target as a dataset manifest's ``board`` object names it
+(:func:`rasc.vision.board.board_from_dict`): a chessboard as above, ``type =
+"charuco"`` with ``squares``, ``square_size``, ``marker_size`` (``dictionary``,
+``legacy_pattern``), ``type = "aprilgrid"`` with ``tags``, ``tag_size`` (``tag_spacing``,
+``family``), or Kalibr's fields (``target_type = "aprilgrid"``, ``tagCols``, ...). In its
+place, ``target = "SPEC"`` (top level) takes the form ``rasc render --target`` reads
+(:func:`rasc.vision.board.parse_target`): ``charuco:12x9,0.06,0.045``,
+``aprilgrid:7x5,0.08,0.3``, or a Kalibr target yaml / JSON board file, a relative path
+read from the configuration file's folder.
 
 One topic per unit is the same table with a topic per eye (``left = {topic =
 "/left_ptu/joint_states", pan = "pan", tilt = "tilt"}``). Every problem is one
@@ -56,8 +66,8 @@ DEFAULT_INTERVAL_S = 1.0
 CLOCK_JUMP_S = 1.0
 STAMPS = ("header", "bag")
 
-_KEYS = {"": {"stamp", "board", "topics", "joints", "still", "intrinsics"},
-         "board": {"inner_corners", "square_size", "length_unit"},
+#: the keys of each table (``[board]``'s are the target's, checked by its reader)
+_KEYS = {"": {"stamp", "board", "target", "topics", "joints", "still", "intrinsics"},
          "topics": set(EYES),
          "joints": {"angle_unit", *EYES},
          "still": {"threshold", "min_duration_s", "tolerance_s"},
@@ -76,8 +86,11 @@ class JointSource:
 @dataclass(frozen=True)
 class ImportConfig:
     """What ``rasc import`` needs to know of a recording: topics, joints, thresholds, angle
-    unit and board (options or a TOML file)."""
-    board: dict[str, Any] | None = None          # {"inner_corners": [nx, ny], "square_size"}
+    unit and target (options or a TOML file). ``board``: the target, as the manifest's
+    ``board`` object names it (any target :func:`rasc.vision.board.board_from_dict`
+    reads, e.g. ``{"inner_corners": [9, 6], "square_size": 0.05}`` or ``{"type":
+    "charuco", ...}``), or a target object (:class:`rasc.vision.board.CharucoBoard`, ...)."""
+    board: Any = None                            # a board object (dict) or a target
     length_unit: str | None = None
     topics: dict[str, str] = field(default_factory=dict)
     joints: dict[str, JointSource] = field(default_factory=dict)
@@ -100,9 +113,7 @@ class ImportConfig:
     def require(self, *, joints: bool) -> None:
         """Refuse a configuration that lacks what the import needs (one line)."""
         where = self.source
-        if self.board is None:
-            raise InputError(f"{where}: no board: give [board] inner_corners and square_size "
-                             "(or --board NXxNY --square-size S)")
+        self.target()
         for eye in EYES:
             if eye not in self.topics:
                 raise InputError(f"{where}: no image topic for the {eye} eye ([topics] {eye} "
@@ -111,6 +122,20 @@ class ImportConfig:
                 raise InputError(f"{where}: no pan/tilt readings for the {eye} eye ([joints] "
                                  f"{eye} = {{topic, pan, tilt}} or --{eye}-joints "
                                  "TOPIC:PAN,TILT)")
+
+    def target(self):
+        """The target (:data:`rasc.vision.board.Target`) of :attr:`board`, checked by the
+        one reader of targets (:func:`rasc.vision.board.board_from_dict`); refused in one
+        line naming :attr:`source` when there is none or it is not a target."""
+        from rasc.vision.board import board_from_dict
+
+        if self.board is None:
+            raise InputError(f"{self.source}: no target: give [board] (e.g. inner_corners "
+                             "and square_size) or target = \"SPEC\" (or --board NXxNY "
+                             "--square-size S, or --target SPEC)")
+        if hasattr(self.board, "to_dict") and hasattr(self.board, "object_points"):
+            return self.board
+        return board_from_dict(self.board, f"{self.source}: board")
 
     def to_dict(self) -> dict[str, Any]:
         """For the manifest's provenance."""
@@ -161,19 +186,30 @@ def parse_joint_source(value, where: str) -> JointSource:
 
 
 def parse_board(value, where: str) -> dict[str, Any]:
-    """``{inner_corners, square_size}`` checked by :class:`rasc.vision.board.Board`."""
-    from rasc.vision.board import Board
+    """A ``[board]`` table (without ``length_unit``): any target's board object, read by
+    :func:`rasc.vision.board.board_from_dict` (the manifest's reader), as its manifest
+    dict."""
+    from rasc.vision.board import board_from_dict
 
-    ic = value.get("inner_corners")
-    if not isinstance(ic, list) or len(ic) != 2 or \
-            not all(isinstance(v, int) and not isinstance(v, bool) for v in ic):
-        raise InputError(f"{where}.inner_corners: must be two integers [nx, ny], got {ic!r}")
-    if "square_size" not in value:
-        raise InputError(f"{where}: missing key 'square_size'")
-    try:
-        return Board(tuple(ic), value["square_size"]).to_dict()
-    except InputError as exc:
-        raise InputError(f"{where}: {exc}") from None
+    return board_from_dict(value, where).to_dict()
+
+
+def parse_target_key(value, where: str, folder: Path):
+    """``target = "SPEC"``: :func:`rasc.vision.board.parse_target`'s forms, a relative
+    file path read from ``folder`` (the configuration file's); the target's manifest
+    dict."""
+    from rasc.vision.board import TARGET_TYPES, parse_target
+
+    text = _text(value, where).strip()
+    kind, sep, _ = text.partition(":")
+    if not (sep and kind in TARGET_TYPES) and not Path(text).is_absolute():
+        if not (folder / text).is_file():
+            raise InputError(f"{where} {text!r}: no such file beside the configuration (in "
+                             f"{folder}); expected chessboard:NXxNY,SQUARE, charuco:SXxSY,"
+                             "SQUARE,MARKER[,...], aprilgrid:COLSxROWS,TAGSIZE[,...], a "
+                             "Kalibr target yaml or a JSON board file")
+        text = str(folder / text)
+    return parse_target(text, where).to_dict()
 
 
 def load_config(path: str | os.PathLike) -> ImportConfig:
@@ -200,11 +236,17 @@ def load_config(path: str | os.PathLike) -> ImportConfig:
     cfg: dict[str, Any] = {"source": where}
     if "stamp" in data:
         cfg["stamp"] = data["stamp"]
+    if "board" in data and "target" in data:
+        raise InputError(f"{where}: [board] and target both name the target: give one")
     if "board" in data:
-        cfg["board"] = parse_board(data["board"], f"{where}: board")
-        if "length_unit" in data["board"]:
-            cfg["length_unit"] = _text(data["board"]["length_unit"],
-                                       f"{where}: board.length_unit")
+        if not isinstance(data["board"], dict):
+            raise InputError(f"{where}: [board] must be a table")
+        board = dict(data["board"])
+        if "length_unit" in board:
+            cfg["length_unit"] = _text(board.pop("length_unit"), f"{where}: board.length_unit")
+        cfg["board"] = parse_board(board, f"{where}: board")
+    if "target" in data:
+        cfg["board"] = parse_target_key(data["target"], f"{where}: target", path.parent)
     if "topics" in data:
         cfg["topics"] = {e: _text(v, f"{where}: topics.{e}") for e, v in data["topics"].items()}
     j = data.get("joints", {})

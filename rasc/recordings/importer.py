@@ -160,6 +160,59 @@ def _recording(sc: BagScan) -> dict:
     return {"path": str(sc.path), "format": sc.format, "size_bytes": sc.size_bytes}
 
 
+class _OneSize:
+    """The images of each eye must share one size: checked image by image as the import
+    writes them, each refusal naming the recording's message or CSV line (``where``) of
+    the image and of the first of its eye, never the temporary folder."""
+
+    def __init__(self) -> None:
+        self.first: dict[str, tuple[tuple[int, int], str]] = {}
+
+    def add(self, eye: str, file: Path, where: str,
+            pixels: np.ndarray | None = None) -> None:
+        """Check the image at ``file`` (its header; ``pixels``: its array, when at hand)."""
+        from rasc.vision.dataset import _problem
+        from rasc.vision.images import image_size
+
+        if pixels is not None:
+            size = (int(pixels.shape[1]), int(pixels.shape[0]))
+        else:
+            try:
+                size = image_size(file)
+            except InputError as exc:
+                raise InputError(f"{where}: {_problem(exc, file)}") from None
+        if eye not in self.first:
+            self.first[eye] = (size, where)
+        elif size != self.first[eye][0]:
+            (w0, h0), first = self.first[eye]
+            raise InputError(f"{where}: the {eye} image is {size[0]}x{size[1]} but the first "
+                             f"{eye} image ({first}) is {w0}x{h0}: all {eye} images must have "
+                             "one size")
+
+
+def _final_check(tmp: Path, board, images: list[dict], wheres: list[str], **manifest) -> None:
+    """Write the manifest into ``tmp`` and read the dataset back (one size per eye, every
+    image readable). A refusal names the image's source (``wheres[k]``: the bag's topic
+    and message, the CSV's line) in place of ``images[k]`` of the temporary folder's
+    manifest, which is removed with the folder."""
+    import re
+
+    from rasc.vision.dataset import load_dataset
+
+    try:
+        write_manifest(tmp, board, images, **manifest)
+        load_dataset(tmp).validate()
+    except InputError as exc:
+        msg = str(exc)
+        m = re.match(rf"{re.escape(str(tmp))}\S*: images\[(\d+)\](?: \([^)]*\))?: ", msg)
+        if m:
+            msg = f"{wheres[int(m.group(1))]}: {msg[m.end():]}"
+        msg = re.sub(r"images\[(\d+)\]", lambda g: wheres[int(g.group(1))]
+                     if int(g.group(1)) < len(wheres) else g.group(0), msg)
+        msg = msg.replace(f"{tmp}{os.sep}manifest.json", "the imported manifest")
+        raise InputError(msg.replace(str(tmp), "the imported dataset")) from None
+
+
 def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig, *,
                intrinsics: str | os.PathLike | None = None, quiet: bool = True,
                log: Callable[[str], None] = lambda s: None) -> ImportResult:
@@ -167,10 +220,10 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
     ``intrinsics`` recording as intrinsics views) into the new dataset folder ``out``."""
     from rasc import __version__
     from rasc.progress import progress
-    from rasc.vision.dataset import load_dataset
 
     t0 = time.perf_counter()
     cfg.require(joints=True)
+    board = cfg.target()
     bag = Path(bag)
     jobs: list[tuple[BagScan, str, list[tuple[str, str, int, int]], list[dict]]] = []
     warnings: list[str] = []
@@ -216,22 +269,26 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
             log(f"{path}: {len(keep['left'])} left and {len(keep['right'])} right "
                 "intrinsics images")
         jobs.append((sc, role, wanted, entries))
-    images: list[dict] = []
+    placed: list[tuple[dict, str]] = []
+    sizes = _OneSize()
     with building(out) as tmp:
         for sc, _role, wanted, entries in jobs:
             with progress(total=len(wanted), desc=f"images {sc.path.name}", quiet=quiet) as bar:
                 for i, msg, msgtype in read_images(sc.path, wanted, progress=bar.update):
-                    pixels, ext = decode_image(msg, msgtype, wanted[i][0])
+                    where = wanted[i][0]
+                    pixels, ext = decode_image(msg, msgtype, where)
                     entries[i]["file"] = _write_image(tmp, entries[i]["file"], pixels, ext)
-            images += entries
+                    sizes.add(entries[i]["eye"], tmp / entries[i]["file"], where,
+                              None if isinstance(pixels, bytes) else pixels)
+            placed += [(e, w[0]) for e, w in zip(entries, wanted, strict=True)]
         # intrinsics first, as rasc render writes them
-        images.sort(key=lambda e: (e["role"] != "intrinsics",))
+        placed.sort(key=lambda ew: (ew[0]["role"] != "intrinsics",))
+        images = [e for e, _ in placed]
         provenance = {"tool": f"rasc import (rasc {__version__})",
                       "recordings": [_recording(sc) for sc in scans],
                       **cfg.to_dict()}
-        write_manifest(tmp, cfg.board, images, angle_unit=cfg.angle_unit,
-                       length_unit=cfg.length_unit, provenance=provenance)
-        load_dataset(tmp).validate()        # one size per eye, every image readable
+        _final_check(tmp, board, images, [w for _, w in placed], angle_unit=cfg.angle_unit,
+                     length_unit=cfg.length_unit, provenance=provenance)
     n_pose = sum(e["role"] == "pose" for e in images)
     return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
                         warnings=warnings, bytes_read=sum(sc.size_bytes for sc in scans),
@@ -252,12 +309,9 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
     intrinsics view), optional ``view`` (default: the k-th pose row of each eye is view
     k) and ``role`` (default: pose when there are angles, else intrinsics)."""
     from rasc import __version__
-    from rasc.vision.dataset import load_dataset
 
     t0 = time.perf_counter()
-    if cfg.board is None:
-        raise InputError(f"{cfg.source}: no board: give [board] inner_corners and "
-                         "square_size (or --board NXxNY --square-size S)")
+    board = cfg.target()
     folder, csv_path = Path(folder), Path(csv_path)
     if not folder.is_dir():
         raise InputError(f"{folder}: no such folder")
@@ -281,7 +335,8 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
     col = {h: i for i, h in enumerate(header)}
     images: list[dict] = []
     count = {eye: 0 for eye in EYES}
-    sources = []
+    sources, wheres = [], []
+    sizes = _OneSize()
     for lineno, row in enumerate(rows[1:], start=2):
         if not any(c.strip() for c in row):
             continue
@@ -314,7 +369,9 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
         n = sum(e["eye"] == eye and e["role"] == role for e in images)
         entry["file"] = (f"{'poses' if role == 'pose' else 'intrinsics'}/{eye}_"
                          f"{n:03d}{src.suffix.lower()}")
+        sizes.add(eye, src, f"{where} ({get['file']})")
         sources.append(src)
+        wheres.append(f"{where} ({get['file']})")
         images.append(entry)
     if not images:
         raise InputError(f"{csv_path}: no rows after the header")
@@ -323,12 +380,11 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
             dst = tmp / entry["file"]
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, dst)
-        write_manifest(tmp, cfg.board, images, angle_unit=cfg.angle_unit,
-                       length_unit=cfg.length_unit,
-                       provenance={"tool": f"rasc import (rasc {__version__})",
-                                   "recordings": [{"path": str(folder), "format": "images + CSV",
-                                                   "csv": str(csv_path)}]})
-        load_dataset(tmp).validate()
+        _final_check(tmp, board, images, wheres, angle_unit=cfg.angle_unit,
+                     length_unit=cfg.length_unit,
+                     provenance={"tool": f"rasc import (rasc {__version__})",
+                                 "recordings": [{"path": str(folder), "format": "images + CSV",
+                                                 "csv": str(csv_path)}]})
     n_pose = sum(e["role"] == "pose" for e in images)
     return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
                         bytes_read=sum(s.stat().st_size for s in sources),

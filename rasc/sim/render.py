@@ -451,11 +451,13 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
     :func:`rasc.vision.dataset.write_dataset` writes of :func:`render_in_memory`'s
     dataset).
 
-    ``board`` (a :class:`rasc.vision.board.Board` or
-    :class:`~rasc.vision.board.CharucoBoard`): the target, drawn from its description
-    around the stock head (:func:`rasc.sim.scene.scene_xml`), instead of the model's; not
-    with ``model_path``. For a ChArUco target every view's ground truth also lists the
-    corners inside the image, by id (``views.<file>.corners``: ``ids``, ``uv`` in pixels).
+    ``board`` (a :class:`rasc.vision.board.Board`, :class:`~rasc.vision.board.CharucoBoard`
+    or :class:`~rasc.vision.board.AprilGrid`): the target, drawn from its description
+    (:func:`rasc.sim.scene.scene_xml`) around the stock head, or with ``model_path``
+    around that model's head in place of its own target
+    (:class:`rasc.sim.scene.StereoHeadSim`'s ``board``). For a target seen in part every
+    view's ground truth also lists the corners inside the image, by id
+    (``views.<file>.corners``: ``ids``, ``uv`` in pixels).
     ``names``: how messages name the options (:meth:`RenderOptions.validate`).
     """
     from rasc.vision.dataset import write_dataset_image, write_dataset_index
@@ -509,10 +511,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
     distance = (names or {}).get("distance", "distance")
     rng = np.random.default_rng(options.seed)
     with contextlib.ExitStack() as stack:
-        if board is not None and model_path is not None:
-            raise InputError("render_dataset: give model_path or board (the target), not both")
-        sim = stack.enter_context(StereoHeadSim(model_path, units=units) if board is None
-                                  else StereoHeadSim(board=board, units=units))
+        sim = stack.enter_context(StereoHeadSim(model_path, board=board, units=units))
         if sim.board is None:
             raise InputError(f"{sim.model_file}: the model has no calibration target "
                              "(give a scene with the board, e.g. one written by "

@@ -211,6 +211,41 @@ def T_cam_from_scene_mujoco(cam_xpos: np.ndarray, cam_xmat: np.ndarray) -> np.nd
     return make_transform(R, -R @ np.asarray(cam_xpos, dtype=float))
 
 
+#: the prefix of the target's elements while they are attached (:func:`spec_with_target`)
+_TARGET_PREFIX = "rasc_target_"
+#: the target's elements rasc reads by name (:meth:`StereoHeadSim._read_board`)
+_TARGET_NAMES = (("body", "board_link"), ("site", "board_origin"),
+                 ("numeric", "rasc_board_inner_corners"), ("numeric", "rasc_board_square_size"),
+                 ("text", "rasc_target"))
+
+
+def spec_with_target(spec, board):
+    """A model's ``mujoco.MjSpec`` with its target (the mocap body ``board_link``, the custom
+    numerics ``rasc_board_*`` and text ``rasc_target``) replaced by ``board``'s as
+    :func:`scene_xml` draws it: the target's body, with its materials, texture and custom
+    data, attached from the scene of the target alone; the model's lights, cameras, floor
+    and visual settings stay. ``spec`` is edited and returned."""
+    import re
+
+    mujoco = import_mujoco()
+    for kind, name in _TARGET_NAMES:
+        element = getattr(spec, kind)(name)
+        if element is not None and kind != "site":       # the site goes with its body
+            spec.delete(element)
+    assets = scene_assets(board)
+    alone = re.sub(r'<include file="[^"]*"/>', "", scene_xml(board), count=1)
+    target = mujoco.MjSpec.from_string(alone, assets=assets)
+    for kind, name in (("geom", "floor"), ("material", "floor"), ("camera", "overview")):
+        target.delete(getattr(target, kind)(name))
+    spec.worldbody.add_frame().attach_body(target.body("board_link"), _TARGET_PREFIX, "")
+    for kind, name in _TARGET_NAMES:
+        element = getattr(spec, kind)(_TARGET_PREFIX + name)
+        if element is not None:
+            element.name = name
+    spec.assets = {**spec.assets, **assets}
+    return spec
+
+
 class StereoHeadSim:
     """The simulated head: set pan/tilt and the target, render, read ground truth.
 
@@ -223,8 +258,12 @@ class StereoHeadSim:
         target (mocap body ``board_link``, site ``board_origin``, custom numerics
         ``rasc_board_*``) is optional.
     board : Board, optional
-        Instead of ``model_path``: generate the scene for this board (:func:`scene_xml`,
-        kept in ``self.scene_xml``) around the head model ``head_path``.
+        The target, drawn from its description (:func:`scene_xml`): without
+        ``model_path``, the generated scene (kept in ``self.scene_xml``) around the head
+        model ``head_path``; with a ``model_path`` that has no target (a head alone), the
+        same scene around that model; with a ``model_path`` that has its own target, that
+        target replaced by this one (the model's lights, cameras and settings kept,
+        :func:`spec_with_target`).
     head_path : path, optional
         Head model for ``board`` (default ``sim/models/stereo_head.xml``).
     image_size : (width, height), optional
@@ -251,9 +290,22 @@ class StereoHeadSim:
         self._renderer = None
         self.scene_xml: str | None = None
         self.units = self._check_units(units)
-        if board is not None:
-            if model_path is not None:
-                raise InputError("StereoHeadSim: give model_path or board, not both")
+        spec = None
+        if board is not None and model_path is not None:
+            if head_path is not None:
+                raise InputError("StereoHeadSim: give model_path or head_path, not both")
+            if not Path(model_path).is_file():
+                raise InputError(f"{model_path}: model file not found")
+            where = Path(model_path).resolve()
+            spec = self._load(lambda: mujoco.MjSpec.from_file(str(where)), where)
+            if spec.body("board_link") is None:     # a head alone: the scene around it
+                head_path, model_path, spec = model_path, None, None
+        if spec is not None:
+            self.model_file = where
+            edited = spec_with_target(spec, board)
+            self.model = self._load(lambda: self._compile(lambda: edited, edited.compile),
+                                    self.model_file)
+        elif board is not None:
             if head_path is not None and not Path(head_path).is_file():
                 raise InputError(f"{head_path}: head model file not found")
             self.model_file = Path(HEAD_XML if head_path is None else head_path).resolve()

@@ -9,6 +9,7 @@ holds 36 images (44 MB); the other bags carry PNG-compressed images (a few MB).
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -165,11 +166,13 @@ def test_decode_every_encoding_gives_the_grey_image_back(encoding):
 # ---------------------------------------------------------------- refusals
 
 def _tiny_bag(path, kind="ros1", encoding="mono8", jump_at=None, topics=TOPICS,
-              joints=True, still=True, zero_stamps=False):
+              joints=True, still=True, zero_stamps=False, odd_left=None):
     """A small bag (64x48 images): joints at 50 Hz resting at three positions 1 s each
     (moving between them when ``still``, else always moving), an image pair per 0.25 s.
     ``jump_at``: header stamps from that joint message on are 100 s earlier;
-    ``zero_stamps``: every header stamp 0 (a driver that does not stamp)."""
+    ``zero_stamps``: every header stamp 0 (a driver that does not stamp); ``odd_left``:
+    the left images of the last position are "taller" (64x50) or "corrupt" (PNG-compressed
+    images whose data is a PNG signature and zeros)."""
     w = _BagWriter(Path(path), kind)
     img = np.full((48, 64), 100, np.uint8)
     t0 = 1_700_000_000 * 10**9
@@ -189,7 +192,13 @@ def _tiny_bag(path, kind="ros1", encoding="mono8", jump_at=None, topics=TOPICS,
                                        stamp)))
         if k % 12 == 0:
             for eye in ("left", "right"):
-                mt, m = image_message(w, img, "mono8", 0 if zero_stamps else t, eye)
+                odd = odd_left if eye == "left" and seg == 2 else None
+                mt, m = image_message(w, np.full((50, 64), 100, np.uint8) if odd == "taller"
+                                      else img, "png" if odd_left == "corrupt" else "mono8",
+                                      0 if zero_stamps else t, eye)
+                if odd == "corrupt":
+                    m = type(m)(header=m.header, format="png", data=np.frombuffer(
+                        b"\x89PNG\r\n\x1a\n" + bytes(40), np.uint8))
                 if encoding != "mono8":
                     m = type(m)(**{**{f: getattr(m, f) for f in m.__dataclass_fields__},
                                    "encoding": encoding})
@@ -276,6 +285,33 @@ def test_truncated_bag(tmp_path, kind):
     _refused(tmp_path, bag, config(), "truncated or corrupt")
 
 
+def test_images_of_two_sizes_name_the_bag_messages(tmp_path):
+    """The one-size check names the message of the odd image and of the first image of
+    its eye (it named the temporary folder's manifest, removed with the folder)."""
+    bag = _tiny_bag(tmp_path / "b.bag", odd_left="taller")
+    msg = _refused(tmp_path, bag, config(), r"b\.bag: /left/image_raw message \d+: the left "
+                   r"image is 64x50 but the first left image \(.*b\.bag: /left/image_raw "
+                   r"message \d+\) is 64x48: all left images must have one size$")
+    assert ".ds." not in msg and ".tmp" not in msg
+
+
+def test_corrupt_png_in_a_bag_is_one_line_and_only_that(tmp_path, capfd):
+    """OpenCV's and libpng's own lines ("IHDR chunk shall be first") went to the
+    terminal before rasc's line: the command's whole output is now that one line, naming
+    the bag, the topic and the message (capfd: what reaches descriptor 2)."""
+    from running import run_rasc
+
+    bag = _tiny_bag(tmp_path / "b.bag", odd_left="corrupt")
+    cfg = tmp_path / "import.toml"
+    cfg.write_text(CONFIG_TOML)
+    status, out, err = run_rasc(["import", bag, "--config", cfg, "--out", tmp_path / "ds",
+                                 "--quiet"], capfd)
+    assert status == 2 and out == ""
+    assert re.fullmatch(r"rasc import: error: \S*b\.bag: /left/image_raw message \d+: the "
+                        r"png data does not decode \(corrupt\)\n", err), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.bag", "import.toml"]
+
+
 def test_not_a_bag(tmp_path):
     (tmp_path / "x.txt").write_text("hello")
     _refused(tmp_path, tmp_path / "x.txt", config(), "not a bag")
@@ -290,14 +326,17 @@ def test_existing_output_is_never_replaced(tmp_path):
     assert (tmp_path / "ds" / "keep.txt").read_text() == "mine"
 
 
+CONFIG_TOML = ('[board]\ninner_corners = [9, 6]\nsquare_size = 0.05\n'
+               '[topics]\nleft = "/left/image_raw"\nright = "/right/image_raw"\n'
+               '[joints]\nleft = {topic = "/joint_states", pan = "left_pan", '
+               'tilt = "left_tilt"}\n'
+               'right = {topic = "/joint_states", pan = "right_pan", tilt = "right_tilt"}\n')
+
+
 def test_cli_refusal_is_one_line_exit_2(tmp_path, rasc_cli):
     bag = _tiny_bag(tmp_path / "b.bag", still=False)
     cfg = tmp_path / "import.toml"
-    cfg.write_text('[board]\ninner_corners = [9, 6]\nsquare_size = 0.05\n'
-                   '[topics]\nleft = "/left/image_raw"\nright = "/right/image_raw"\n'
-                   '[joints]\nleft = {topic = "/joint_states", pan = "left_pan", '
-                   'tilt = "left_tilt"}\n'
-                   'right = {topic = "/joint_states", pan = "right_pan", tilt = "right_tilt"}\n')
+    cfg.write_text(CONFIG_TOML)
     code, out, err = rasc_cli("import", str(bag), "--config", str(cfg), "--out",
                               str(tmp_path / "ds"), "--quiet")
     assert code == 2
@@ -351,3 +390,56 @@ def test_image_folder_with_csv(small, tmp_path):
                                          r'got "nan"$'):
         import_image_folder(small.root, tmp_path / "bad.csv", tmp_path / "ds2", cfg)
     assert not (tmp_path / "ds2").exists()
+
+
+def _tiny_folder(tmp_path, rows, odd=None):
+    """Six 64x48 grey PNGs (left_k, right_k, k < 3) and a CSV of ``rows`` (after its
+    header ``file,eye,pan,tilt,view``); ``odd``: {file: bytes or (h, w)} replaces files."""
+    import cv2
+
+    folder = tmp_path / "imgs"
+    folder.mkdir()
+    for k in range(3):
+        for eye in ("left", "right"):
+            cv2.imwrite(str(folder / f"{eye}_{k}.png"), np.full((48, 64), 100, np.uint8))
+    for name, what in (odd or {}).items():
+        if isinstance(what, bytes):
+            (folder / name).write_bytes(what)
+        else:
+            cv2.imwrite(str(folder / name), np.full(what, 100, np.uint8))
+    (tmp_path / "angles.csv").write_text("file,eye,pan,tilt,view\n" + "\n".join(rows) + "\n")
+    return folder, tmp_path / "angles.csv"
+
+
+ROWS = [f"{eye}_{k},{eye},{k},{k},{k}".replace(f"{eye}_{k},", f"{eye}_{k}.png,")
+        for k in range(3) for eye in ("left", "right")]
+
+
+@pytest.mark.parametrize("odd, rows, match", [
+    # the one-size check: the line of the odd image and of the first of its eye
+    ({"right_1.png": (50, 64)}, ROWS,
+     r"angles\.csv: line 5 \(right_1\.png\): the right image is 64x50 but the first right "
+     r"image \(\S*angles\.csv: line 3 \(right_0\.png\)\) is 64x48: all right images must "
+     "have one size$"),
+    ({"left_2.png": b"not an image"}, ROWS,
+     r"angles\.csv: line 6 \(left_2\.png\): cannot read image \(not a format OpenCV reads, "
+     r"or corrupt"),
+    # the manifest's own checks, their images[k] named by the CSV line
+    (None, [r.replace(",1,1,1", ",1,1,0") for r in ROWS],
+     r"angles\.csv: line 4 \(left_1\.png\): a second left pose image for view '0' \(first: "
+     r"\S*angles\.csv: line 2 \(left_0\.png\)\)$"),
+    (None, [r.replace("left,2,2", "left,2000,2") for r in ROWS],
+     r"angles\.csv: line 6 \(left_2\.png\): field 'pan' = 2000(\.0)? deg is more than a full "
+     "turn"),
+], ids=["two sizes", "unreadable image", "a view twice", "more than a turn"])
+def test_image_folder_refusals_name_the_csv_line(tmp_path, odd, rows, match):
+    """Refusals of the dataset's final check named the temporary folder (``.ds.*.tmp/
+    manifest.json: images[4] (poses/right_001.png)``), a folder that no longer exists;
+    they name the CSV file, line and image file now. One line, nothing written."""
+    folder, csv_path = _tiny_folder(tmp_path, rows, odd)
+    cfg = ImportConfig(board=BOARD, angle_unit="deg")
+    with pytest.raises(InputError, match=match) as info:
+        import_image_folder(folder, csv_path, tmp_path / "ds", cfg)
+    msg = str(info.value)
+    assert "\n" not in msg and ".ds." not in msg and "manifest.json" not in msg
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["angles.csv", "imgs"]

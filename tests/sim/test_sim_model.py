@@ -381,8 +381,8 @@ def test_bad_input_is_refused(sim, tmp_path):
         Board((9, 6), 0.0)
     with pytest.raises(InputError, match="exceeds the model's offscreen buffer"):
         StereoHeadSim(image_size=(2000, 1000))
-    with pytest.raises(InputError, match="give model_path or board"):
-        StereoHeadSim(SCENE_XML, board=DEFAULT_BOARD)
+    with pytest.raises(InputError, match="give model_path or head_path"):
+        StereoHeadSim(SCENE_XML, board=DEFAULT_BOARD, head_path=HEAD_XML)
     with StereoHeadSim(HEAD_XML) as head_only:  # the head alone: no target
         assert head_only.board is None and head_only.ground_truth()["board"] is None
         with pytest.raises(InputError, match="no target"):
