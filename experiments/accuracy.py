@@ -100,6 +100,11 @@ INTRINSICS_VIEWS = 12
 #: (measured: at 1 grey level the σ of the mounts' rotation were 1.55× optimistic over
 #: the matrix, and 0.8× on projected corners with Gaussian noise)
 IMAGE_NOISE = 2.0
+#: each cell's target distance is drawn from this range (m) by its seed: the renderer's
+#: structured corner error is fixed by the placement (E8 found the same: seeds at one
+#: placement share it), so one placement for every cell would make the matrix one draw
+#: of it, and a cell's bias would repeat in every seed
+DISTANCE_RANGE_M = (1.00, 1.06)
 #: a quantity's bound: the χ² quantile of its dimension at this tail probability
 BOUND_P = 1e-4
 
@@ -139,7 +144,13 @@ def cell_name(cell: dict[str, str]) -> str:
 
 # ----------------------------------------------------------------------------- making
 
-def positions(cell: dict[str, str]) -> tuple[tuple[float, float], ...]:
+def distance(seed: int) -> float:
+    """The cell's target distance (m), drawn from :data:`DISTANCE_RANGE_M` by its seed."""
+    lo, hi = DISTANCE_RANGE_M
+    return float(lo + (hi - lo) * np.random.default_rng([seed, 30]).random())
+
+
+def positions(cell: dict[str, str], seed: int = 0) -> tuple[tuple[float, float], ...]:
     """The cell's pan-tilt readings (degrees)."""
     from rasc.geometry.kinematics import PAPER_POSES_DEG
 
@@ -152,17 +163,19 @@ def positions(cell: dict[str, str]) -> tuple[tuple[float, float], ...]:
     from rasc.vision.board import parse_target
 
     board = parse_target(TARGETS[cell["target"]])
-    setup = nominal_setup(board, pan_range=PLAN_PAN_RANGE, tilt_range=PLAN_TILT_RANGE)
+    setup = nominal_setup(board, pan_range=PLAN_PAN_RANGE, tilt_range=PLAN_TILT_RANGE,
+                          distance=distance(seed))
     planned = tuple(plan(setup, N_POSITIONS, workspace_depth=None).positions)
     if getattr(board, "partial_views", False):
         return planned
     # a plan is made for the nominal head; a chessboard must be seen whole, and on the
     # cell's own head a planned position may cut it: that view is left out, as detection
     # would leave it out of a real capture (rasc render refuses to render it)
-    return tuple(p for p in planned if _shown_whole(cell, board, p))
+    return tuple(p for p in planned if _shown_whole(cell, board, p, distance(seed)))
 
 
-def _shown_whole(cell: dict[str, str], board, position: tuple[float, float]) -> bool:
+def _shown_whole(cell: dict[str, str], board, position: tuple[float, float],
+                 at: float) -> bool:
     from rasc.errors import InputError
     from rasc.sim.render import RenderOptions, check_pose_views
     from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
@@ -170,9 +183,9 @@ def _shown_whole(cell: dict[str, str], board, position: tuple[float, float]) -> 
 
     units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
     with StereoHeadSim(board=board, units=units) as sim:
-        sim.set_target(T_base_from_world_facing(board, distance=RenderOptions().distance))
+        sim.set_target(T_base_from_world_facing(board, distance=at))
         try:
-            check_pose_views(sim, RenderOptions(poses_deg=(position,)), None)
+            check_pose_views(sim, RenderOptions(poses_deg=(position,), distance=at), None)
         except InputError:
             return False
     return True
@@ -185,8 +198,8 @@ def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
     from rasc.vision.board import parse_target
 
     units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
-    options = RenderOptions(poses_deg=positions(cell), intrinsics_views=INTRINSICS_VIEWS,
-                            seed=seed, image_noise=IMAGE_NOISE)
+    options = RenderOptions(poses_deg=positions(cell, seed), intrinsics_views=INTRINSICS_VIEWS,
+                            seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed))
     render_dataset(folder, options, units=units, board=parse_target(TARGETS[cell["target"]]),
                    quiet=True)
     return folder
