@@ -135,8 +135,9 @@ def _target(x) -> str:
     if not x:
         return x
     if x.partition(":")[0] not in TARGET_TYPES or ":" not in x:
-        raise ValueError("expected chessboard:NXxNY,SQUARE or charuco:SXxSY,SQUARE,MARKER"
-                         f"[,DICTIONARY][,legacy], got {_show(x)}")
+        raise ValueError("expected chessboard:NXxNY,SQUARE, charuco:SXxSY,SQUARE,MARKER"
+                         "[,DICTIONARY][,legacy] or aprilgrid:COLSxROWS,TAGSIZE[,SPACING]"
+                         f"[,FAMILY], got {_show(x)}")
     try:
         parse_target(x)
     except InputError as exc:
@@ -208,9 +209,10 @@ PARAMS: dict[str, Param] = {
                              "views; dataset: the base dataset's intrinsics, only the pose "
                              "views rendered (in the base's scene)"),
     "target": Param(_target, "", "render",
-                    "the calibration target, as rasc render --target: chessboard:NXxNY,SQUARE "
-                    "or charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] (metres; '' = the "
-                    "model's board)"),
+                    "the calibration target, as rasc render --target: chessboard:NXxNY,SQUARE, "
+                    "charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy] or "
+                    "aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY] (metres; '' = the "
+                    "model's board; with model, in place of its target)"),
     "positions_file": Param(_text, "", "render",
                             "a positions file (relative to the spec, as rasc plan writes and "
                             "rasc render --poses reads) replacing the layout, positions and "

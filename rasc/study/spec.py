@@ -52,8 +52,9 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   plugin method (:func:`rasc.guard.guarded`; absent: 300 s); a call past it is a failed
   sample, status ``failed: PluginTimedOut``;
 - ``target`` (render): the calibration target drawn, as ``rasc render --target`` takes it
-  (``chessboard:NXxNY,SQUARE`` or ``charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy]``,
-  metres; '' = the model's own board); not with ``model`` or ``intrinsics_from =
+  (``chessboard:NXxNY,SQUARE``, ``charuco:SXxSY,SQUARE,MARKER[,DICTIONARY][,legacy]`` or
+  ``aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY]``, metres; '' = the model's own
+  board); with ``model``, in place of that model's target; not with ``intrinsics_from =
   "dataset"``;
 - ``positions_file`` (render): a positions file (relative to the spec; what ``rasc plan``
   writes and ``rasc render --poses FILE`` reads, :func:`rasc.sim.render.read_positions`)
@@ -555,16 +556,18 @@ def _model_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
 
 
 def _check_target(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
-    """A ``target`` is drawn around the package's head: not with ``model`` or
-    ``intrinsics_from = "dataset"``."""
+    """A ``target`` is drawn in the rendered scene (the package's head's, or a ``model``'s
+    in place of its own target): not with ``intrinsics_from = "dataset"``, whose pose
+    views are rendered in the base dataset's scene."""
     targets = [t for t in axes.get("target", (fixed.get("target", ""),)) if t]
     if targets:
-        for other in ("model", "intrinsics_from"):
+        for other in ("intrinsics_from",):
             value = axes.get(other, (fixed.get(other, PARAMS[other].default),))
             if any(v and v != PARAMS[other].default for v in value):
                 table = "axes" if "target" in axes else "fixed"
-                fail(f"{table}.target", f"a target is drawn around the package's head; "
-                     f"not with {other} = {_show(next(v for v in value if v))}")
+                fail(f"{table}.target", f"a target is drawn in the rendered scene, not "
+                     f"the base dataset's; not with {other} = "
+                     f"{_show(next(v for v in value if v))}")
 
 
 def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],

@@ -19,11 +19,12 @@ POSITIONS = "pan,tilt\n0,0\n6,4\n-6,4\n6,-4\n"
 
 BAD = [
     ("[axes]\ntarget = ['charuco:8x6,0.1']\n", "axes.target[0]: expected charuco:"),
-    ("[fixed]\ntarget = 'board'\n", "fixed.target: expected chessboard:NXxNY,SQUARE or"),
+    ("[fixed]\ntarget = 'board'\n", "fixed.target: expected chessboard:NXxNY,SQUARE, charuco:"),
     ("[fixed]\ntarget = 'chessboard:9x6'\n", "fixed.target: expected chessboard:NXxNY"),
     ("[fixed]\npositions_file = 'missing.csv'\n", "fixed.positions_file: "),
     ("[fixed]\ntarget = 'charuco:8x6,0.1,0.075'\nintrinsics_from = 'dataset'\n",
-     "fixed.target: a target is drawn around the package's head; not with intrinsics_from"),
+     "fixed.target: a target is drawn in the rendered scene, not the base dataset's; not "
+     "with intrinsics_from"),
 ]
 
 
@@ -62,6 +63,21 @@ def test_defaults_leave_cell_keys_unchanged_and_the_file_gives_the_positions(tmp
     # same positions in both files: one identity per target; two targets: two identities
     assert [len(v) for v in by_target.values()] == [1, 1] and len(by_target) == 2
     assert poses_of({k: p.default for k, p in PARAMS.items()})[0] == (0.0, 0.0)
+
+
+def test_every_target_and_a_model_with_a_target_are_accepted(tmp_path):
+    """Every target rasc reads is a study's too (the AprilGrid was refused by the message
+    only, not the check), and a model takes a target in place of its own, as ``rasc
+    render --model M --target T`` does."""
+    from rasc.sim.scene import SCENE_XML
+
+    spec = load_spec(write(tmp_path, HEAD + f"[fixed]\nmodel = '{SCENE_XML}'\n[axes]\n"
+                           "target = ['aprilgrid:6x4,0.1,0.3', 'charuco:8x6,0.1,0.075']\n"))
+    cells = spec.cells()
+    assert [c.params["target"] for c in cells] == ["aprilgrid:6x4,0.1,0.3",
+                                                   "charuco:8x6,0.1,0.075"]
+    assert all(c.params["model"].startswith("sha256:") for c in cells)   # its digest
+    assert len({c.key for c in cells}) == 2
 
 
 @pytest.mark.slow
