@@ -46,7 +46,7 @@ def main(argv=None) -> int:
         print(f"{len(cells)} cells of {len(valid)} valid combinations cover all {len(pairs)} "
               "pairs of levels (a chessboard, seen whole, is never at ±30°); "
               f"{acc.INTRINSICS_VIEWS} intrinsics views per eye, image noise "
-              f"{acc.IMAGE_NOISE:g} grey levels, seed {args.seed} + cell index; a quantity's "
+              f"{acc.IMAGE_NOISE:g} grey levels, seed {args.seed} + the cell's index; a quantity's "
               f"bound is the χ² quantile of its dimension at {acc.BOUND_P:g}.")
         t0 = time.perf_counter()
         results = acc.run_matrix(None if args.out is None else Path(args.out), cells,

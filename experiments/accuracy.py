@@ -138,6 +138,16 @@ def covering_cells(factors: dict[str, tuple[str, ...]] = FACTORS) -> list[dict[s
     return cells
 
 
+def cell_seed(cell: dict[str, str], seed: int = 0) -> int:
+    """The cell's seed: ``seed`` plus its index in :func:`covering_cells` (a cell outside
+    the design: plus the index of its combination among all of them, past the design)."""
+    design = covering_cells()
+    if cell in design:
+        return seed + design.index(cell)
+    combos = [dict(zip(FACTORS, c, strict=True)) for c in itertools.product(*FACTORS.values())]
+    return seed + len(design) + combos.index(cell)
+
+
 def cell_name(cell: dict[str, str]) -> str:
     return "-".join(cell[f] for f in FACTORS)
 
@@ -367,6 +377,7 @@ def score(doc: dict, truth: dict) -> Score:
         s.errors["mounts translation (mm)"] = 1e3 * mounts["translation"]
     errors = parameter_errors(doc, truth)
     if not errors:
+        _score_jackknife(s, doc)
         return s
     cov = covariance_of_document(doc)
     idx = {n: i for i, n in enumerate(cov.names)}
@@ -399,6 +410,31 @@ def score(doc: dict, truth: dict) -> Score:
             ok &= d2 <= bound
     s.within_bounds = ok
     return s
+
+
+def _score_jackknife(s: Score, doc: dict) -> None:
+    """Without the refinement's covariance (``--model paper``): the hand-eye against its
+    jackknife standard error (rasc.handeye.methods.jackknife_uncertainty: the RMS of the
+    whole error vector, rotation as an angle, translation as a distance), taken as
+    isotropic: d² = 3 ‖e‖² / σ_j², bounded as a 3-dimensional quantity."""
+    from scipy.stats import chi2 as chi2_dist
+
+    bound = float(chi2_dist.isf(BOUND_P, 3))
+    ok = None
+    for eye in ("left", "right"):
+        hu = ((doc.get("eyes") or {}).get(eye) or {}).get("handeye_uncertainty") or {}
+        for q, key, err in (("hand-eye rotation", "rotation_deg",
+                             s.errors.get(f"{eye} hand-eye rotation (deg)")),
+                            ("hand-eye translation", "translation",
+                             None if f"{eye} hand-eye translation (mm)" not in s.errors
+                             else s.errors[f"{eye} hand-eye translation (mm)"] / 1e3)):
+            sig = hu.get(key)
+            if err is None or not sig:
+                continue
+            d2 = 3.0 * (err / sig) ** 2
+            s.quantities[f"{eye} {q} (jackknife)"] = (d2, bound, 3)
+            ok = (ok is not False) and d2 <= bound
+    s.within_bounds = ok
 
 
 # ----------------------------------------------------------------------------- a cell
@@ -498,16 +534,17 @@ def _cell_task(task: tuple[int, dict[str, str], int]) -> CellResult:
 
 def run_matrix(out: Path | None, cells: list[dict[str, str]] | None = None, seed: int = 0,
                workers: int = 1, log=print, quiet: bool = False) -> list[CellResult]:
-    """Every cell (default: :func:`covering_cells`; cell k's seed is ``seed + k``) on
-    ``workers`` processes (:func:`rasc.study.executors.make_executor`); the results in
-    cell order, and written to ``out/cells.json`` (without the timings: the same seed
-    gives the same bytes whatever the worker count)."""
+    """Every cell (default: :func:`covering_cells`) on ``workers`` processes
+    (:func:`rasc.study.executors.make_executor`); the results in cell order, and written
+    to ``out/cells.json`` (without the timings: the same seed gives the same bytes
+    whatever the worker count). A cell's seed is ``seed`` plus its index in the design
+    (:func:`cell_seed`), so a cell run alone is the same cell as in the whole matrix."""
     from rasc.io import write_json_atomic
     from rasc.progress import progress
     from rasc.study.executors import make_executor
 
     cells = covering_cells() if cells is None else cells
-    tasks = [(k, cell, seed + k) for k, cell in enumerate(cells)]
+    tasks = [(k, cell, cell_seed(cell, seed)) for k, cell in enumerate(cells)]
     results: dict[int, CellResult] = {}
     with make_executor(workers=workers) as ex, \
             progress(total=len(tasks), desc="accuracy matrix", unit="cell",
@@ -531,10 +568,13 @@ def run_matrix(out: Path | None, cells: list[dict[str, str]] | None = None, seed
 # ----------------------------------------------------------------------------- tables
 
 def pooled_z(results: list[CellResult]) -> dict[str, tuple[int, float, float]]:
-    """Over every cell: per kind of parameter (an eye's and the mounts' together), the
-    count, the RMS of the normalized errors and the largest |z|; ``"all"`` too."""
+    """Over the cells judged usable (the calibrations a user is told to trust): per kind
+    of parameter (an eye's and the mounts' together), the count, the RMS of the
+    normalized errors and the largest |z|; ``"all"`` too."""
     groups: dict[str, list[float]] = {}
     for r in results:
+        if r.verdict != "usable":
+            continue
         for name, z in r.score.z.items():
             group, _, rest = name.partition(".")
             kind = rest if group in ("left", "right") else name
@@ -572,7 +612,11 @@ def markdown_tables(results: list[CellResult]) -> str:
             f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
             f"{r.report_pages if r.report_pages is not None else '—'} | "
             f"{'ok' if ok else 'FAIL: ' + why} |")
-    lines += ["", "| parameter | n | RMS z | largest abs z |", "| --- | --- | --- | --- |"]
+    usable = [r for r in results if r.verdict == "usable" and r.score.z]
+    lines += ["", f"Normalized errors z = (estimate − truth) / σ of the {len(usable)} cells "
+              "judged usable that have the refinement's covariance (a well-kept σ gives an "
+              "RMS of 1 and |z| ≤ 3 for 99.7 %):", "",
+              "| parameter | n | RMS z | largest abs z |", "| --- | --- | --- | --- |"]
     for kind, (n, rms, mx) in pooled_z(results).items():
         lines.append(f"| {kind} | {n} | {rms:.2f} | {mx:.2f} |")
     return "\n".join(lines)
