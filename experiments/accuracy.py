@@ -36,6 +36,7 @@ few cells (``tests/e2e/test_accuracy_matrix.py``).
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import json
 import os
@@ -125,7 +126,14 @@ def covering_cells(factors: dict[str, tuple[str, ...]] = FACTORS) -> list[dict[s
     """A pairwise covering design: cells (factor → level) such that every pair of levels
     of two factors that some valid cell shows appears in at least one cell. Greedy and
     deterministic: each step takes the valid cell covering most pairs not yet covered
-    (the first in the product's order among equals)."""
+    (the first in the product's order among equals). Computed once per set of factors."""
+    key = tuple((f, tuple(levels)) for f, levels in factors.items())
+    return [dict(c) for c in _covering(key)]
+
+
+@functools.cache
+def _covering(key: tuple) -> tuple:
+    factors = dict(key)
     candidates = [dict(zip(factors, combo, strict=True))
                   for combo in itertools.product(*factors.values())]
     candidates = [c for c in candidates if _valid(c)]
@@ -135,7 +143,7 @@ def covering_cells(factors: dict[str, tuple[str, ...]] = FACTORS) -> list[dict[s
         best = max(candidates, key=lambda c: len(_pairs(c) & needed))
         cells.append(best)
         needed -= _pairs(best)
-    return cells
+    return tuple(tuple(c.items()) for c in cells)
 
 
 def cell_seed(cell: dict[str, str], seed: int = 0) -> int:
