@@ -54,6 +54,18 @@ def main(argv=None) -> int:
         wall = time.perf_counter() - t0
         print(f"{len(cells)} cells in {wall:.0f} s wall on {args.workers} worker(s).")
         print()
+        print("How to read the table. Every cell is rendered with truth and calibrated "
+              "through its door (the command line's file is compared with the Python "
+              "API's: 'doors agree'); its report is built (pages). Errors are against the "
+              "truth in the calibration's own gauge. χ²/n: eᵀΣ⁻¹e over every parameter "
+              "the refinement estimated, over their number (1 when the σ are right); "
+              "within 3σ: the share of |z| ≤ 3; worst quantity: the block (an eye's "
+              "intrinsics, hand-eye rotation or translation, unit axes, encoder scales; "
+              "the mounts' rotation or translation) farthest outside, as d² against the "
+              "χ² bound of its dimension (with --model paper: the hand-eye against its "
+              "jackknife error). A cell passes when its report builds, its doors agree, "
+              "and it is within every bound or its verdict is not 'usable'.")
+        print()
         print(acc.markdown_tables(results))
         print()
         failed = [r for r in results if not acc.cell_passes(r)[0]]

@@ -168,8 +168,11 @@ def parse_poses(text: str, where: str = "poses") -> tuple[tuple[float, float], .
     positions. ``where`` names the value in messages (``rasc render`` passes ``--poses``)."""
     if text.strip() == "paper":
         return PAPER_POSES_DEG
-    if text.strip().lower().endswith((".csv", ".toml")) or Path(text.strip()).exists():
-        return read_positions(text.strip())
+    name = text.strip()
+    # a path that exists (a device too: the reader names it), but never the empty text,
+    # whose Path is the working folder
+    if name and (name.lower().endswith((".csv", ".toml")) or Path(name).exists()):
+        return read_positions(name)
     return tuple(finite_numbers(item, f"{where}[{k}]", count=2, what="pan,tilt in degrees",
                                 text=True) for k, item in enumerate(text.split(";")))
 

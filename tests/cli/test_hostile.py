@@ -881,7 +881,7 @@ SESSION: list[tuple[str, list[str]]] = [
     ('python3 -c "import json; d = json.load(open(\'poses.json\')); d[\'positions\'][3][\'T_cam_from_world\'][2][3] *= 1000; json.dump(d, open(\'mm.json\', \'w\'))"',  # noqa: E501
      []),
     ('rasc handeye mm.json --out result.json',
-     ["rasc handeye: warning: positions[3]: the target is 965× as far from the camera as at the median position (992 against 1.03): a translation in another length unit? The solution's translation (1.66e+03) is then wrong; give every T_cam_from_world translation in one length unit, and check that each belongs to the motion beside it"]),  # noqa: E501
+     ["rasc handeye: warning: the closed form's data look contaminated (the translations contradict each other; positions[3]: the target is 965× as far from the camera as at the median position, a translation in another length unit?): rasc-robust rejected 2 of 9 positions: positions[3] (translation residual 991 (1.23e+06 σ > 4.03 σ)); positions[7] (rotation residual 0.0757° (4.3 σ > 4.03 σ)); the closed form (and any refinement) starts from the 7 others"]),  # noqa: E501
 ]
 
 
@@ -939,7 +939,11 @@ def test_a_non_finite_result_never_suggests_the_same_method(method, suggested, w
         return type("Broken", (), {"T_cam_from_gaze": T, "quality": result.quality,
                                    "to_dict": result.to_dict})()
 
-    monkeypatch.setattr(cmd, "_solver", lambda name: broken)
+    from rasc.handeye.methods import Method
+
+    # the command calls its method through rasc.handeye.methods.Method (the one policy
+    # of rasc handeye and rasc calibrate, robust_calibrate.closed_form)
+    monkeypatch.setattr(cmd, "_solver", lambda name: Method(method, broken, "built-in"))
     code, out, err = run_in_process(handeye(ws, "poses.json", "out/result.json",
                                             "--method", method), capsys)
     assert code == 2 and out == "" and os.listdir(ws / "out") == []
