@@ -126,6 +126,20 @@ def test_a_noise_free_calibration_is_compared_with_the_floor():
     assert v.level == "check" and "the 0.05 px floor" in v.reason
 
 
+def test_the_paper_model_is_compared_on_its_intrinsics_views_only():
+    """A paper-model calibration records no RMS of its pose views through the head
+    (its model-fit RMS is of a unit fitted per eye): only the intrinsics views are
+    compared (the report's own pose residuals through the paper head are larger)."""
+    paper = {"format": "rasc-calibration/1", "options": {"model": "paper"},
+             "eyes": {"left": {"intrinsics_rms": 0.2}, "right": {"intrinsics_rms": 0.3}},
+             "paper_model_fit": {"left": {"F": 1.0, "rms_model_px": 0.05}}}
+    v = verdict(paper, None, {"intrinsics": 0.31, "pose": 0.6})
+    assert v.level == "usable", v.line()
+    assert [c.name for c in v.checks if c.name.startswith("images.")] == ["images.intrinsics"]
+    v = verdict(paper, None, {"intrinsics": 1.5, "pose": 0.6})       # 5 x the worse eye
+    assert v.level == "unusable" and "intrinsics views reproject at 1.5 px" in v.reason
+
+
 def test_another_heads_images_are_said_not_to_fit(tmp_path, page_problems):
     """The library's report on images of another head (the camera turned 0.23 deg in its
     mount, the tilt axis 30 mm off): the pose views reproject at px, not hundredths; the
