@@ -100,12 +100,14 @@ def starting_helpers() -> Iterator[None]:
     own (a forkserver's imports take seconds); they are stopped by SIGTERM, which they
     keep. :mod:`multiprocessing`'s resource tracker is started first
     (:func:`resource_tracker_started_quietly`): starting it unblocks SIGINT in the
-    thread that does. In this process SIGINT and SIGTERM that arrive in the block are held (as
+    thread that does.
+
+    In this process SIGINT and SIGTERM that arrive in the block are held (as
     :func:`shielded` holds them) and raised as one KeyboardInterrupt when it ends, so the
     caller stops what it started (not half of it); also when the block failed meanwhile
     (a helper ended by a SIGTERM sent to the whole group fails the start-up: the
-    interrupt is the news, not that failure). A no-op outside the main thread or
-    where the platform has no ``pthread_sigmask``.
+    interrupt is the news, not that failure). A no-op outside the main thread or where
+    the platform has no ``pthread_sigmask``.
     """
     if threading.current_thread() is not threading.main_thread() or \
             not hasattr(signal, "pthread_sigmask"):
