@@ -211,12 +211,18 @@ def start_forkserver() -> None:
 def _ensure_forkserver(forkserver) -> None:
     """``forkserver.ensure_running()`` with ``experiments._warm.FORKSERVER_ENV`` set in
     the environment the forkserver inherits (so that it ends without a slow teardown),
-    and only there (this process's environment is restored)."""
+    and only there (this process's environment is restored). Started within
+    :func:`rasc.interrupt.starting_helpers` (from the main thread): a Ctrl-C to the
+    process group while it imports its preload modules (seconds) reaches this process
+    only, never the forkserver (it printed its own KeyboardInterrupt traceback)."""
+    from rasc.interrupt import starting_helpers
+
     key = "RASC_REPRODUCE_FORKSERVER"       # experiments._warm.FORKSERVER_ENV (not
     old = os.environ.get(key)               # imported here: it warms up on import)
     os.environ[key] = "1"
     try:
-        forkserver.ensure_running()
+        with starting_helpers():
+            forkserver.ensure_running()
     finally:
         if old is None:
             os.environ.pop(key, None)

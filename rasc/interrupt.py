@@ -87,6 +87,89 @@ def shielded(reraise: bool = True) -> Iterator[None]:
         raise KeyboardInterrupt(signal.Signals(arrived[0]).name)
 
 
+@contextlib.contextmanager
+def starting_helpers() -> Iterator[None]:
+    """Start helper processes (a pool's forkserver and resource tracker, a dask
+    LocalCluster's workers) within this block: a terminal's Ctrl-C, sent to the whole
+    process group, never reaches them, and this process answers it once they are up.
+
+    SIGINT is blocked in this thread for the block: the processes started meanwhile
+    (and the threads, which start processes in their turn: dask's event loop) inherit
+    the blocked signal through fork and exec (and those they fork, from them), so a
+    Ctrl-C never interrupts their start-up with a KeyboardInterrupt traceback of their
+    own (a forkserver's imports take seconds); they are stopped by SIGTERM, which they
+    keep. :mod:`multiprocessing`'s resource tracker is started first
+    (:func:`resource_tracker_started_quietly`): starting it unblocks SIGINT in the
+    thread that does.
+
+    In this process SIGINT and SIGTERM that arrive in the block are held (as
+    :func:`shielded` holds them) and raised as one KeyboardInterrupt when it ends, so the
+    caller stops what it started (not half of it); also when the block failed meanwhile
+    (a helper ended by a SIGTERM sent to the whole group fails the start-up: the
+    interrupt is the news, not that failure). A no-op outside the main thread or where
+    the platform has no ``pthread_sigmask``.
+    """
+    if threading.current_thread() is not threading.main_thread() or \
+            not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    # first the resource tracker, which unblocks SIGINT in the thread that starts it
+    resource_tracker_started_quietly()
+    arrived: list[int] = []
+
+    def hold(signum, frame):  # noqa: ARG001 (signal handler signature)
+        arrived.append(signum)
+        _RECEIVED.append(signum)          # received() says so at once
+
+    previous = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    for s in previous:
+        signal.signal(s, hold)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    failed: Exception | None = None
+    try:
+        yield
+    except Exception as exc:    # a helper ended by the signal (sent to the whole group)
+        failed = exc            # makes its start fail: then the signal is the news
+    finally:
+        if signal.SIGINT in signal.sigpending():    # held by the mask: count it, drop it
+            hold(signal.SIGINT, None)
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        for s, h in previous.items():
+            signal.signal(s, h)
+    if arrived:
+        raise KeyboardInterrupt(signal.Signals(arrived[0]).name) from None
+    if failed is not None:
+        raise failed
+
+
+#: the warnings filter multiprocessing's resource tracker starts with (see below)
+QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
+
+
+def resource_tracker_started_quietly() -> None:
+    """Start multiprocessing's resource tracker (once per process) without its
+    "leaked semaphore" warnings. A pool's queue semaphores are unlinked by finalizers,
+    each of which unlinks the name and then tells the tracker; a Ctrl-C that arrives
+    between the two (a finalizer run by the garbage collector at that instant) leaves a
+    name the tracker still lists, and at exit it printed two warnings after rasc's one
+    line (seen once in about six runs of the whole suite: "1 leaked semaphore objects",
+    "'/mp-…': No such file or directory", the name already gone). The tracker still
+    unlinks whatever is left; only its message is silenced, for the tracker alone (the
+    filter is in the environment it starts with, then restored)."""
+    from multiprocessing import resource_tracker
+
+    before = os.environ.get("PYTHONWARNINGS")
+    os.environ["PYTHONWARNINGS"] = ",".join(w for w in (before, QUIET_TRACKER) if w)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        if before is None:
+            os.environ.pop("PYTHONWARNINGS", None)
+        else:
+            os.environ["PYTHONWARNINGS"] = before
+
+
 def exit_process(status: int, *, teardown: bool = True) -> None:
     """End the process with an entry point's ``status`` (never returns).
 
@@ -112,12 +195,58 @@ def _multiprocessing_teardown() -> None:
     """What the interpreter's exit would do for :mod:`multiprocessing` (its ``atexit``
     function), before an ``os._exit``: end daemonic children, run the finalizers that
     unlink the pools' semaphores (else the resource tracker reports them as leaked) and
-    remove the ``pymp-*`` temporary folder. Best effort; nothing when it was not used."""
+    remove the ``pymp-*`` temporary folder; then :func:`stop_helpers`. Best effort;
+    nothing when it was not used."""
     util = sys.modules.get("multiprocessing.util")
     if util is None:
         return
     with contextlib.suppress(Exception):
         util._exit_function()          # the function multiprocessing registers at exit
+    stop_helpers()
+
+
+#: how long :func:`stop_helpers` waits for each helper process to end, s
+HELPER_GRACE_S = 2.0
+
+
+def stop_helpers(grace_s: float = HELPER_GRACE_S) -> None:
+    """End the helper processes :mod:`multiprocessing` started for this process, before
+    it ends (after an interrupt its pool's workers are already stopped): the forkserver
+    (SIGTERM; it may still be importing its preload modules, which takes seconds, and
+    would only then notice that this process is gone) and the resource tracker (its pipe
+    closed, it unlinks what is left and ends; waited for). Each is waited for at most
+    ``grace_s``, then killed. No helper outlives the command."""
+    import time
+
+    def reap(pid: int, kill_first: bool) -> None:
+        with contextlib.suppress(OSError):
+            if kill_first:
+                os.kill(pid, signal.SIGTERM)
+            deadline = time.monotonic() + grace_s
+            while os.waitpid(pid, os.WNOHANG) == (0, 0):
+                if time.monotonic() > deadline:
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+                    return
+                time.sleep(0.01)
+
+    fs = sys.modules.get("multiprocessing.forkserver")
+    server = getattr(fs, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid:
+        with contextlib.suppress(OSError, TypeError):
+            os.close(server._forkserver_alive_fd)
+        server._forkserver_pid = server._forkserver_alive_fd = None
+        server._forkserver_address = None
+        reap(pid, kill_first=True)
+    rt = sys.modules.get("multiprocessing.resource_tracker")
+    tracker = getattr(rt, "_resource_tracker", None)
+    pid = getattr(tracker, "_pid", None)
+    if pid:
+        with contextlib.suppress(OSError, TypeError):
+            os.close(tracker._fd)
+        tracker._fd = tracker._pid = None
+        reap(pid, kill_first=False)
 
 
 #: temporary folders this process made and removes itself; :func:`end_by_sigterm`

@@ -172,9 +172,24 @@ def report_data(head, dataset, detector: str = "saddle",
     marks = [out_of(eye, f, ids) for eye, f, ids, *_ in pose_obs]
     keep = [np.ones(len(o[2]), bool) if m is None else ~m for o, m in zip(pose_obs, marks,
                                                                        strict=True)]
-    sol = least_squares(lambda x: np.concatenate(
-        [(u - o[3])[k].ravel() for u, o, k in zip(predict(x), pose_obs, keep, strict=True)]),
-        x0, method="lm")
-    for uv, (eye, f, ids, c, _, _), m in zip(predict(sol.x), pose_obs, marks, strict=True):
-        data.views.append(ViewResiduals(eye, "pose", f, c, uv - c, ids, m))
+    n_kept = sum(int(k.sum()) for k in keep)
+
+    def residuals(x):
+        try:
+            uv = predict(x)
+        except RascError:      # a trial pose puts corners behind a camera: far off
+            return np.full(2 * n_kept, 1e4)
+        return np.concatenate([(u - o[3])[k].ravel()
+                               for u, o, k in zip(uv, pose_obs, keep, strict=True)])
+
+    try:
+        if 2 * n_kept < len(x0):
+            raise RascError(f"{n_kept} corners kept")
+        uv = predict(least_squares(residuals, x0, method="lm").x)
+    except RascError as exc:
+        data.skipped.extend(f"{eye} pose {f}: no board pose through the head fits ({exc})"
+                            for eye, f, *_ in pose_obs)
+        return data
+    for u, (eye, f, ids, c, _, _), m in zip(uv, pose_obs, marks, strict=True):
+        data.views.append(ViewResiduals(eye, "pose", f, c, u - c, ids, m))
     return data

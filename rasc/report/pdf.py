@@ -375,7 +375,9 @@ def _coverage(fig, data) -> dict[str, float]:
         ax.set_xlabel("u [px]", fontsize=8)
         ax.set_ylabel("v [px]", fontsize=8)
         ax.tick_params(labelsize=7)
-        ax.legend(fontsize=7, loc="lower right")
+        # below the image, not over its corners
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2,
+                  markerscale=5)
         ax.set_title(f"{eye} ({w}x{h}): intrinsics corners touch {100 * cov:.0f} % of the "
                      f"{COVERAGE_GRID[0]}x{COVERAGE_GRID[1]} cells", fontsize=9)
     fig.tight_layout(rect=(0, 0, 1, 0.94))

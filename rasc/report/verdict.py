@@ -32,8 +32,9 @@ other failed checks' messages). The thresholds:
   intrinsics corners touch; less leaves the lens's edges extrapolated.
 * :data:`CHECK_IMAGES_RATIO` (3): with images, the reprojection RMS of their views of
   one role (:meth:`rasc.report.data.ReportData.rms_by_role`) against the calibration's
-  own for that role (the refinement's ``rms_by_role_px``; for ``--model paper`` the worse
-  eye's intrinsics RMS and model-fit RMS), taken at least :data:`IMAGES_FLOOR_PX`: above
+  own for that role (the refinement's ``rms_by_role_px``; for ``--model paper``, which
+  records no RMS of its pose views through the head, the worse eye's intrinsics RMS for
+  the intrinsics views only), taken at least :data:`IMAGES_FLOOR_PX`: above
   this ratio the images do not fit the calibration (another head's images, or the head
   changed since). ``check``; ``unusable`` when their RMS is also above
   :data:`UNUSABLE_RMS_PX`.
@@ -115,12 +116,10 @@ def _own_rms(doc: dict, ref: dict | None) -> dict[str, float]:
     if ref is not None:
         by_role = ref.get("rms_by_role_px") or {}
         out = {r: _num(by_role.get(r)) for r in ("intrinsics", "pose")}
-    else:
+    else:       # the paper model records no RMS of its pose views through the head
         eyes = [e for e in (doc.get("eyes") or {}).values() if isinstance(e, dict)]
-        fits = [f for f in (doc.get("paper_model_fit") or {}).values() if isinstance(f, dict)]
-        vals = {"intrinsics": [_num(e.get("intrinsics_rms")) for e in eyes],
-                "pose": [_num(f.get("rms_model_px")) for f in fits]}
-        out = {r: max((x for x in v if x is not None), default=None) for r, v in vals.items()}
+        out = {"intrinsics": max((x for x in (_num(e.get("intrinsics_rms")) for e in eyes)
+                                  if x is not None), default=None)}
     return {r: v for r, v in out.items() if v is not None and math.isfinite(v)}
 
 

@@ -26,7 +26,6 @@ import multiprocessing
 import os
 import shutil
 import tempfile
-import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any
@@ -174,15 +173,26 @@ class ProcessExecutor(Executor):
         self._pool: ProcessPoolExecutor | None = None
 
     def submit(self, fn, task):
-        """Start ``fn(task)`` in a worker process (the pool starts on first use)."""
-        if self._pool is None:
-            _resource_tracker_started_quietly()
-            # forkserver: workers fork from a fresh server process, never from this one,
-            # which may hold an EGL context (a forked copy of one crashes the worker)
-            self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, initializer=_pool_worker_init,
-                mp_context=multiprocessing.get_context("forkserver"))
-        fut = self._pool.submit(fn, task)
+        """Start ``fn(task)`` in a worker process (the pool starts on first use: its
+        resource tracker, forkserver and first worker within
+        :func:`rasc.interrupt.starting_helpers`, so a Ctrl-C meanwhile reaches only this
+        process, which then stops them)."""
+        if self._pool is not None:
+            fut = self._pool.submit(fn, task)
+        else:
+            from rasc.interrupt import starting_helpers
+            try:
+                with starting_helpers():     # (the resource tracker first, quietly)
+                    # forkserver: workers fork from a fresh server process, never from
+                    # this one, which may hold an EGL context (a forked copy of one
+                    # crashes the worker)
+                    self._pool = ProcessPoolExecutor(
+                        max_workers=self.workers, initializer=_pool_worker_init,
+                        mp_context=multiprocessing.get_context("forkserver"))
+                    fut = self._pool.submit(fn, task)
+            except KeyboardInterrupt:
+                self.abort()
+                raise
         fut.rasc_what = getattr(fn, "__name__", "a task")
         return fut
 
@@ -219,33 +229,6 @@ class ProcessExecutor(Executor):
             pool.shutdown(wait=True, cancel_futures=True)
 
 
-#: the warnings filter the pools' resource tracker starts with (see below)
-QUIET_TRACKER = "ignore::UserWarning:multiprocessing.resource_tracker"
-
-
-def _resource_tracker_started_quietly() -> None:
-    """Start multiprocessing's resource tracker (once per process) without its
-    "leaked semaphore" warnings. A pool's queue semaphores are unlinked by finalizers,
-    each of which unlinks the name and then tells the tracker; a Ctrl-C that arrives
-    between the two (a finalizer run by the garbage collector at that instant) leaves a
-    name the tracker still lists, and at exit it printed two warnings after rasc's one
-    line (seen once in about six runs of the whole suite: "1 leaked semaphore objects",
-    "'/mp-…': No such file or directory", the name already gone). The tracker still
-    unlinks whatever is left; only its message is silenced, for the tracker alone (the
-    filter is in the environment it starts with, then restored)."""
-    from multiprocessing import resource_tracker
-
-    before = os.environ.get("PYTHONWARNINGS")
-    os.environ["PYTHONWARNINGS"] = ",".join(w for w in (before, QUIET_TRACKER) if w)
-    try:
-        resource_tracker.ensure_running()
-    finally:
-        if before is None:
-            os.environ.pop("PYTHONWARNINGS", None)
-        else:
-            os.environ["PYTHONWARNINGS"] = before
-
-
 def _drop_cancelled(pool: ProcessPoolExecutor, timeout_s: float = 1.0) -> None:
     """Let the pool's manager thread drop the futures cancelled before they reached a
     worker, before the workers are ended: Python 3.11's manager then sets an exception on
@@ -263,6 +246,12 @@ def _drop_cancelled(pool: ProcessPoolExecutor, timeout_s: float = 1.0) -> None:
             time.sleep(0.005)
 
 
+def _quiet_after_an_interrupt(record: logging.LogRecord) -> bool:
+    """A logging filter: nothing once SIGINT or SIGTERM has arrived."""
+    from rasc.interrupt import received
+    return not received()
+
+
 class DaskExecutor(Executor):
     """dask.distributed: ``address`` "local" starts a LocalCluster on loopback with
     ``workers`` single-threaded worker processes; ``tcp://host:port`` joins a cluster."""
@@ -271,20 +260,30 @@ class DaskExecutor(Executor):
                  ) -> None:
         name = option_names(names)["dask"]
         try:
-            from dask.distributed import Client, LocalCluster
+            import dask.distributed  # noqa: F401
         except ImportError:
             raise InputError(f"{name}: dask.distributed is not installed; install the "
                              "extra: pip install 'rasc[dask]'") from None
         self._cluster = None
         self._scratch = None
+        self.client = None
         worker_environment()          # inherited by the LocalCluster's worker processes
-        if address == "local":
-            import signal
+        try:
+            self._start(address, workers, name)
+        except BaseException:
+            self.close()          # what started (a cluster cut short by an interrupt too)
+            raise
 
+    def _start(self, address: str, workers: int, name: str) -> None:
+        from dask.distributed import Client
+
+        from rasc.interrupt import starting_helpers
+        if address == "local":
             # the workers' scratch space in a temporary folder (not dask-scratch-space/
             # in the working folder), removed on close; Ctrl-C is this process's to
             # handle (a terminal sends it to the whole process group): the workers start
-            # with SIGINT ignored and are stopped by close()
+            # without it (starting_helpers) and are stopped by close(); one that arrives
+            # while they start is raised once the cluster is up, and close() stops it
             import dask
             self._scratch = tempfile.mkdtemp(prefix="rasc-dask-")
             # every temporary file of the cluster there (not dask-scratch-space/ in the
@@ -292,32 +291,8 @@ class DaskExecutor(Executor):
             # interrupt is no warning of theirs: the study says what it kept)
             dask.config.set({"temporary-directory": self._scratch})
             os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
-            previous = signal.getsignal(signal.SIGINT)
-            in_main = threading.current_thread() is threading.main_thread()
-            if in_main:
-                signal.signal(signal.SIGINT, signal.SIG_IGN)
-            try:
-                self._cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                             processes=True,
-                                             # a free loopback port: the scheduler's
-                                             # HTTP server starts even without a
-                                             # dashboard, and 8787 may be taken
-                                             dashboard_address="127.0.0.1:0",
-                                             host="127.0.0.1",
-                                             local_directory=self._scratch,
-                                             # distributed's own warnings (a worker
-                                             # ended by an interrupt: "exit status was
-                                             # already read") are not the user's news
-                                             silence_logs=logging.ERROR)
-            except BaseException:
-                shutil.rmtree(self._scratch, ignore_errors=True)
-                raise
-            finally:
-                if in_main:
-                    signal.signal(signal.SIGINT, previous)
-            self.client = Client(self._cluster)
-            self.workers = workers
-            self.description = f"a dask LocalCluster of {workers} workers"
+            with starting_helpers():
+                self._start_local(workers)
         else:
             if not address.startswith(("tcp://", "tls://")):
                 raise InputError(f"{name}: expected 'local' or a scheduler address such as "
@@ -329,6 +304,31 @@ class DaskExecutor(Executor):
                                  f"{' '.join(str(exc).split())}") from None
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             self.description = f"the dask cluster at {address} ({self.workers} workers)"
+            self.client.run(worker_environment)
+            self.client.run(no_process_locks)
+
+    def _start_local(self, workers: int) -> None:
+        """The LocalCluster, its client and the workers' settings."""
+        from dask.distributed import Client, LocalCluster
+
+        self._cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                     processes=True,
+                                     # a free loopback port: the scheduler's HTTP server
+                                     # starts even without a dashboard, and 8787 may be
+                                     # taken
+                                     dashboard_address="127.0.0.1:0", host="127.0.0.1",
+                                     local_directory=self._scratch,
+                                     # distributed's own warnings (a worker ended by an
+                                     # interrupt: "exit status was already read") are not
+                                     # the user's news
+                                     silence_logs=logging.ERROR)
+        # after an interrupt, the scheduler's errors about the workers it loses (a
+        # SIGTERM to the whole process group ends them) are not the user's news
+        for handler in logging.getLogger("distributed").handlers:
+            handler.addFilter(_quiet_after_an_interrupt)
+        self.client = Client(self._cluster)
+        self.workers = workers
+        self.description = f"a dask LocalCluster of {workers} workers"
         self.client.run(worker_environment)
         self.client.run(no_process_locks)
 
@@ -354,8 +354,9 @@ class DaskExecutor(Executor):
 
     def close(self) -> None:
         """Close the dask client (and the local cluster, if this executor started one)."""
-        with contextlib.suppress(Exception):
-            self.client.close(timeout=STOP_GRACE_S)
+        if self.client is not None:
+            with contextlib.suppress(Exception):
+                self.client.close(timeout=STOP_GRACE_S)
         if self._cluster is not None:
             with contextlib.suppress(Exception):
                 self._cluster.close(timeout=STOP_GRACE_S)

@@ -114,3 +114,39 @@ def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path, short_tmp):
     time.sleep(2)
     assert marked_processes(mark) == []
     assert list(tmp.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="needs /proc")
+def test_ctrl_c_while_the_dask_cluster_starts(tmp_path, short_tmp):
+    """rasc study --dask local, Ctrl-C while its LocalCluster starts (its scratch folder
+    made, its workers being spawned: a second or more): it ignored the Ctrl-C (its
+    handler was SIG_IGN meanwhile, so that the workers inherit that), ran the study to
+    its end and exited 0. Now: one line saying what was kept, 130, the cluster stopped,
+    no worker process and no scratch folder left."""
+    pytest.importorskip("dask.distributed")
+    spec = tmp_path / "spec.toml"
+    spec.write_text("seed = 0\nsamples = 2\nmethods = ['rasc']\n[fixed]\npositions = 4\n"
+                    "intrinsics_views = 6\n[axes]\nnoise_level = [1, 2]\n")
+    tmp = short_tmp
+    mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
+    env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "RASC_CACHE_DIR": "none"}
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "rasc", "study", str(spec), "--out",
+                             str(out), "--dask", "local", "--workers", "2", "--quiet"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 120       # the executor's scratch folder: start-up
+    while not list(tmp.glob("rasc-dask-*")) and time.monotonic() < deadline \
+            and proc.poll() is None:
+        time.sleep(0.01)
+    assert list(tmp.glob("rasc-dask-*")), proc.communicate()[1]
+    os.killpg(proc.pid, signal.SIGINT)             # as a terminal's Ctrl-C does
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("rasc study: interrupted: "), err
+    time.sleep(2)
+    assert marked_processes(mark) == []
+    assert list(tmp.iterdir()) == []
+    assert not (out / "samples.csv").exists()
