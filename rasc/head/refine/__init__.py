@@ -80,6 +80,7 @@ from rasc.head.refine.model import (  # noqa: F401
     DIST_NAMES,
     DIST_PARAMS,
     GAUGE,
+    PARAMETER_UNITS,
     UNIT_DEFAULTS,
     UNIT_PARAMETERS,
     EyeObservations,
@@ -93,6 +94,7 @@ from rasc.head.refine.model import (  # noqa: F401
     _unit_motion,
     _unit_motion_of,
     observations_from_calibration,
+    parameter_unit,
     unit_from_parameters,
 )
 from rasc.head.refine.problem import _Problem  # noqa: F401
