@@ -92,9 +92,12 @@ def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path, short_tmp):
     no worker left, no render folder, no "leaked semaphore" line (a worker killed while
     it held a multiprocessing lock left one before)."""
     spec = tmp_path / "spec.toml"
+    # four datasets to render, two at a time: several seconds of work on a quiet machine
+    # (two datasets of 6 views were done within the 3 s the test waited, and the study
+    # exited 0 before its Ctrl-C)
     spec.write_text("seed = 0\nsamples = 2\nmethods = ['rasc']\n[fixed]\npositions = 4\n"
-                    "intrinsics_views = 6\n[axes]\nnoise_level = [1, 2]\n"
-                    "image_noise = [0.0, 1.0]\n")
+                    "intrinsics_views = 10\n[axes]\nnoise_level = [1, 2]\n"
+                    "image_noise = [0.0, 1.0, 2.0, 3.0]\n")
     tmp = short_tmp
     mark = f"RASC_TEST_MARK_{uuid.uuid4().hex}"
     env = {**os.environ, "TMPDIR": str(tmp), mark: "1", "RASC_CACHE_DIR": "none"}
@@ -105,7 +108,7 @@ def test_ctrl_c_of_rasc_study_while_its_workers_render(tmp_path, short_tmp):
     deadline = time.monotonic() + 120
     while not (tmp_path / "out" / "study.json").exists() and time.monotonic() < deadline:
         time.sleep(0.1)
-    time.sleep(3)                                   # the workers are rendering
+    time.sleep(1.5)                                 # the workers are rendering
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
