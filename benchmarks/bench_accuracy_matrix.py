@@ -63,7 +63,8 @@ def main(argv=None) -> int:
               "intrinsics, hand-eye rotation or translation, unit axes, encoder scales; "
               "the mounts' rotation or translation) farthest outside, as d² against the "
               "χ² bound of its dimension (with --model paper: the hand-eye against its "
-              "jackknife error). A cell passes when its report builds, its doors agree, "
+              "jackknife error, bounded by 3·F(3, n − 1), the jackknife's σ being "
+              "estimated from the n positions). A cell passes when its report builds, its doors agree, "
               "and it is within every bound or its verdict is not 'usable'.")
         print()
         print(acc.markdown_tables(results))

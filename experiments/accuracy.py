@@ -424,13 +424,19 @@ def _score_jackknife(s: Score, doc: dict) -> None:
     """Without the refinement's covariance (``--model paper``): the hand-eye against its
     jackknife standard error (rasc.handeye.methods.jackknife_uncertainty: the RMS of the
     whole error vector, rotation as an angle, translation as a distance), taken as
-    isotropic: d² = 3 ‖e‖² / σ_j², bounded as a 3-dimensional quantity."""
-    from scipy.stats import chi2 as chi2_dist
+    isotropic: d² = 3 ‖e‖² / σ_j². σ_j is itself estimated, from the n positions left out
+    one at a time, so d² / 3 is bounded by the F(3, n − 1) quantile at :data:`BOUND_P`
+    (not χ²(3), which would take σ_j as known: at n = 9 the bound is 91, not 21)."""
+    from scipy.stats import f as f_dist
 
-    bound = float(chi2_dist.isf(BOUND_P, 3))
     ok = None
     for eye in ("left", "right"):
-        hu = ((doc.get("eyes") or {}).get(eye) or {}).get("handeye_uncertainty") or {}
+        e_doc = (doc.get("eyes") or {}).get(eye) or {}
+        hu = e_doc.get("handeye_uncertainty") or {}
+        n = len(e_doc.get("pose_views") or [])
+        if n < 4:
+            continue
+        bound = float(3.0 * f_dist.isf(BOUND_P, 3, n - 1))
         for q, key, err in (("hand-eye rotation", "rotation_deg",
                              s.errors.get(f"{eye} hand-eye rotation (deg)")),
                             ("hand-eye translation", "translation",
