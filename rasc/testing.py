@@ -309,9 +309,9 @@ def render_cached(cache_dir: str | os.PathLike | None,
     head (:func:`unit_builds`: a unit file as ``rasc render --unit`` reads it, a
     :class:`rasc.sim.units.UnitBuild` or its fields for both units, or per eye); its
     ground truth is the true head, and the key covers the units. ``target``: the
-    calibration target drawn around the stock head (:func:`target_board`: the
-    descriptions ``rasc render --target`` reads, a chessboard or a ChArUco board; not
-    with ``model_path``).
+    calibration target drawn around the stock head, or in place of ``model_path``'s own
+    (:func:`target_board`: the descriptions ``rasc render --target`` reads, a chessboard,
+    a ChArUco board or an AprilGrid); the key covers it.
 
     Returns the :class:`rasc.vision.dataset.Dataset` read from the cached folder (treat
     it as read-only: it is shared), with ``truth`` (the ground truth document),
