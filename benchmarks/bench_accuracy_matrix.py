@@ -15,6 +15,7 @@ import argparse
 import itertools
 import os
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -22,6 +23,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # experiments/
 sys.path.insert(0, str(Path(__file__).resolve().parent))       # _markdown
 
 from _markdown import add_markdown_option, markdown_page  # noqa: E402
+
+LEGEND = (
+    "How to read the table. Every cell is rendered with truth and calibrated through its "
+    "door (the command line's file is compared with the Python API's: 'doors agree'); its "
+    "report is built (pages). Errors are against the truth in the calibration's own gauge. "
+    "χ²/n: eᵀΣ⁻¹e over every parameter the refinement estimated, over their number (1 "
+    "when the σ are right); within 3σ: the share of |z| ≤ 3; worst quantity: the block (an "
+    "eye's intrinsics, hand-eye rotation or translation, unit axes, encoder scales; the "
+    "mounts' rotation or translation) farthest outside, as d² against the χ² bound of its "
+    "dimension (with --model paper: the hand-eye against its jackknife error, bounded by "
+    "3·F(3, n − 1), the jackknife's σ being estimated from the n positions). A cell passes "
+    "when its report builds, its doors agree, and it is within every bound or its verdict "
+    "is not 'usable'.")
 
 
 def main(argv=None) -> int:
@@ -43,29 +57,19 @@ def main(argv=None) -> int:
         print("Factors and levels (experiments/accuracy.py):")
         for f, levels in acc.FACTORS.items():
             print(f"  {f}: {', '.join(levels)}")
-        print(f"{len(cells)} cells of {len(valid)} valid combinations cover all {len(pairs)} "
-              "pairs of levels (a chessboard, seen whole, is never at ±30°); "
-              f"{acc.INTRINSICS_VIEWS} intrinsics views per eye, image noise "
-              f"{acc.IMAGE_NOISE:g} grey levels, seed {args.seed} + the cell's index; a quantity's "
-              f"bound is the χ² quantile of its dimension at {acc.BOUND_P:g}.")
+        design = (f"{len(cells)} cells of {len(valid)} valid combinations cover all "
+                  f"{len(pairs)} pairs of levels (a chessboard, seen whole, is never at "
+                  f"±30°); {acc.INTRINSICS_VIEWS} intrinsics views per eye, image noise "
+                  f"{acc.IMAGE_NOISE:g} grey levels, seed {args.seed} + the cell's index; a "
+                  f"quantity's bound is the χ² quantile of its dimension at {acc.BOUND_P:g}.")
+        print(textwrap.fill(design, 90))
         t0 = time.perf_counter()
         results = acc.run_matrix(None if args.out is None else Path(args.out), cells,
                                  args.seed, workers=args.workers, log=lambda s: None)
         wall = time.perf_counter() - t0
         print(f"{len(cells)} cells in {wall:.0f} s wall on {args.workers} worker(s).")
         print()
-        print("How to read the table. Every cell is rendered with truth and calibrated "
-              "through its door (the command line's file is compared with the Python "
-              "API's: 'doors agree'); its report is built (pages). Errors are against the "
-              "truth in the calibration's own gauge. χ²/n: eᵀΣ⁻¹e over every parameter "
-              "the refinement estimated, over their number (1 when the σ are right); "
-              "within 3σ: the share of |z| ≤ 3; worst quantity: the block (an eye's "
-              "intrinsics, hand-eye rotation or translation, unit axes, encoder scales; "
-              "the mounts' rotation or translation) farthest outside, as d² against the "
-              "χ² bound of its dimension (with --model paper: the hand-eye against its "
-              "jackknife error, bounded by 3·F(3, n − 1), the jackknife's σ being "
-              "estimated from the n positions). A cell passes when its report builds, its doors agree, "
-              "and it is within every bound or its verdict is not 'usable'.")
+        print(textwrap.fill(LEGEND, 90))
         print()
         print(acc.markdown_tables(results))
         print()

@@ -627,9 +627,9 @@ def markdown_tables(results: list[CellResult]) -> str:
             f"{r.report_pages if r.report_pages is not None else '—'} | "
             f"{'ok' if ok else 'FAIL: ' + why} |")
     usable = [r for r in results if r.verdict == "usable" and r.score.z]
-    lines += ["", f"Normalized errors z = (estimate − truth) / σ of the {len(usable)} cells "
-              "judged usable that have the refinement's covariance (a well-kept σ gives an "
-              "RMS of 1 and |z| ≤ 3 for 99.7 %):", "",
+    lines += ["", f"Normalized errors z = (estimate − truth) / σ of the {len(usable)} cells",
+              "judged usable that have the refinement's covariance (a well-kept σ gives",
+              "an RMS of 1 and |z| ≤ 3 for 99.7 %):", "",
               "| parameter | n | RMS z | largest abs z |", "| --- | --- | --- | --- |"]
     for kind, (n, rms, mx) in pooled_z(results).items():
         lines.append(f"| {kind} | {n} | {rms:.2f} | {mx:.2f} |")
