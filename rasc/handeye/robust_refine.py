@@ -270,9 +270,9 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
         (one with a ``scale``) refines its scale jointly.
     loss : "huber" (default), "soft_l1" or "linear" (plain least squares).
     check_rigid : as :func:`~rasc.handeye.solver.solve_rasc`.
-    scale : the camera translations' scale to start from and refine (``t_true = scale ·
-        t_given``); default: the start's ``scale`` when it has one, else none (the
-        translations taken at face value).
+    scale : the camera translations' scale to start from and refine
+        (``t_true = scale · t_given``); default: the start's ``scale`` when it has one,
+        else none (the translations taken at face value).
 
     Returns
     -------
