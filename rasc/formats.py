@@ -56,7 +56,8 @@ LOOK_AT = Format("rasc-look-at", 1, "what rasc look-at writes",
                  "rasc.commands.look_at:run", "rasc.commands.look_at:run")
 RECTIFICATION = Format("rasc-rectification", 1, "what rasc rectify writes: the stereo "
                       "rectification at a pair of readings (R1, R2, P1, P2, Q)",
-                      "rasc.commands.rectify:run", "rasc.stereo.rectify:StereoRectification.to_dict")
+                      "rasc.commands.rectify:run",
+                      "rasc.stereo.rectify:StereoRectification.to_dict")
 STUDY = Format("rasc-study", 1, "a study's TOML specification (and the spec echoed in "
                "its summary.json)", "rasc.study.spec:load_spec", "rasc.study.spec:Spec.to_dict")
 DATASET_CALIBRATION = Format("rasc-study-dataset", 1, "the dataset service's calibration "

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+
 import shared_fixtures as shared
 
 # this room's fixtures of shared_fixtures
