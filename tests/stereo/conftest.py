@@ -23,10 +23,11 @@ rasc_cli = shared.rasc_cli
 #: The gazes (name, the base point both eyes fixate (x up, y forward, z left; metres),
 #: then (pan, tilt) added to each eye's fixation, degrees). Every reading is within ±30°.
 GAZES = (
-    ("converging", (0.0, 0.75, 0.0), (0.0, 0.0), (0.0, 0.0)),     # pans -11° and +11°
-    ("diverging", (0.0, 1.6, 0.0), (8.0, 0.0), (-8.0, 0.0)),      # each 8° outward
-    ("asymmetric", (0.35, 1.0, 0.3), (-2.0, 1.5), (1.0, -1.0)),   # both turned left, up
-    ("down-right", (-0.45, 1.0, -0.5), (1.5, -1.0), (-1.0, 2.0)),  # left pan near -30°
+    # (readings that result, pan and tilt per eye, degrees)
+    ("converging", (0.0, 0.75, 0.0), (0.0, 0.0), (0.0, 0.0)),     # (-11, -4), (11, -4)
+    ("diverging", (0.0, 1.6, 0.0), (8.0, 0.0), (-8.0, 0.0)),      # (4, -3), (-3, -1)
+    ("asymmetric", (0.35, 1.0, 0.3), (-2.0, 1.5), (1.0, -1.0)),   # (8, 17), (25, 14)
+    ("down-right", (-0.45, 1.0, -0.5), (1.5, -1.0), (-1.0, 2.0)),  # (-30, -25), (-21, -23)
 )
 
 
