@@ -1,6 +1,7 @@
 """Rectification at any gaze beside OpenCV's for a fixed rig, as ratios measured side by side.
 
-    .venv/bin/python benchmarks/bench_rectify.py [--repeat 60] [--markdown docs/results/rectify_speed.md]
+    .venv/bin/python benchmarks/bench_rectify.py [--repeat 60]
+        [--markdown docs/results/rectify_speed.md]
 
 The head: the simulated stock head's truth (rasc.sim.scene.StereoHeadSim, 1280×960) with
 lens distortion k1 = −0.2, k2 = 0.05 added to both eyes. The gaze: left pan −12°, tilt
@@ -70,7 +71,7 @@ def side_by_side(fns: dict, repeat: int, block: int = 5) -> dict[str, float]:
 
 
 def main(argv=None) -> int:
-    from _markdown import add_markdown_option      # for --help (run_main takes it off)
+    from _markdown import add_markdown_option  # for --help (run_main takes it off)
 
     p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     p.add_argument("--repeat", type=int, default=60,

@@ -1,8 +1,8 @@
-"""The stereo room's rig: ``rasc_cli``, the rendered default dataset's calibration
-(``default_calibration``, the paper model, and ``default_cli_run``'s ``cal.json``):
-fixtures of :mod:`shared_fixtures` (see there); and ``gaze_pairs`` (defined here): the
-simulated stock head's true calibration and a chessboard rendered by both eyes at
-:data:`GAZES`, with the board corners' truth.
+"""The stereo room's rig: ``rasc_cli``, the rendered default dataset and its in-process
+calibration (``default_calibration``, the paper model): fixtures of
+:mod:`shared_fixtures` (see there); and ``gaze_pairs`` (defined here): the simulated
+stock head's true calibration and a chessboard rendered by both eyes at :data:`GAZES`,
+with the board corners' truth.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ import shared_fixtures as shared
 
 # this room's fixtures of shared_fixtures
 default_calibration = shared.default_calibration
-default_cli_run = shared.default_cli_run
 default_dataset = shared.default_dataset
 rasc_cli = shared.rasc_cli
 
