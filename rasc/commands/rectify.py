@@ -94,7 +94,10 @@ def run(args: argparse.Namespace) -> int:
     unit = args.angle_unit
     readings = {eye: _readings(getattr(args, f"{eye}_readings"), f"--{eye}-readings", unit)
                 for eye in EYES}
-    options = RectifyOptions(alpha=args.alpha, map_type=args.map_type)
+    try:
+        options = RectifyOptions(alpha=args.alpha, map_type=args.map_type)
+    except InputError as exc:                 # "alpha: ..." is the option --alpha
+        raise InputError(f"--{exc}") from None
     cal = common.read_calibration(args.calibration)
     rect = rectify_head(cal.head, readings["left"], readings["right"], options, maps=images)
     rectified = None

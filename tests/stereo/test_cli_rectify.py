@@ -98,3 +98,16 @@ def test_bad_readings_are_refused(rasc_cli, pair_files, left, unit, message):
     assert status == 2 and len(stderr.splitlines()) == 1 and re.search(message, stderr), \
         stderr
     assert not out.exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("alpha", ["2", "nan", "-0.5"])
+def test_alpha_outside_opencvs_range_is_refused(rasc_cli, pair_files, alpha):
+    root, readings, _, _ = pair_files
+    out = root / "out"
+    status, _, stderr = rasc_cli(*_argv(root, readings, f"--alpha={alpha}", "--out",
+                                        str(out)))
+    assert status == 2 and stderr.splitlines() == [
+        f"rasc rectify: error: --alpha: expected -1 (OpenCV's default scaling) or a number "
+        f"from 0 to 1, got {float(alpha)!r}"], stderr
+    assert not out.exists()
