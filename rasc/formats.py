@@ -54,6 +54,10 @@ TRIANGULATION = Format("rasc-triangulation", 1, "what rasc triangulate writes",
                        "rasc.commands.triangulate:run", "rasc.commands.triangulate:run")
 LOOK_AT = Format("rasc-look-at", 1, "what rasc look-at writes",
                  "rasc.commands.look_at:run", "rasc.commands.look_at:run")
+RECTIFICATION = Format("rasc-rectification", 1, "what rasc rectify writes: the stereo "
+                      "rectification at a pair of readings (R1, R2, P1, P2, Q)",
+                      "rasc.commands.rectify:run",
+                      "rasc.stereo.rectify:StereoRectification.to_dict")
 STUDY = Format("rasc-study", 1, "a study's TOML specification (and the spec echoed in "
                "its summary.json)", "rasc.study.spec:load_spec", "rasc.study.spec:Spec.to_dict")
 DATASET_CALIBRATION = Format("rasc-study-dataset", 1, "the dataset service's calibration "
@@ -93,4 +97,4 @@ PIXEL_POINTS = Format("rasc-pixel-points", 1, "what rasc detect writes: the pixe
 FORMATS: dict[str, Format] = {f.tag: f for f in (
     HEAD, CALIBRATION, DATASET, HANDEYE, HANDEYE_RESULT, MOUNTS, PROJECTION, TRIANGULATION,
     LOOK_AT, STUDY, DATASET_CALIBRATION, CACHE_KEY, CACHE_ENTRY, REPRODUCE_DATASET,
-    REPRODUCE_CALIBRATION, HEAD_COVARIANCE, PIXEL_POINTS)}
+    REPRODUCE_CALIBRATION, HEAD_COVARIANCE, PIXEL_POINTS, RECTIFICATION)}

@@ -61,6 +61,9 @@ ROOMS = (
     Room("rasc/datasets/", 4, "the dataset service: the one cache key over the one code "
          "digest (`keys`), the one verified cache store (`cache`), rendered datasets "
          "through it (`render`)"),
+    Room("rasc/stereo/", 4, "stereo at any gaze: `rectify` (the rectification of a "
+         "calibrated head at a pair of pan-tilt readings: OpenCV's R1, R2, P1, P2, Q and "
+         "remap tables; `rasc rectify`)"),
     Room("rasc/study/", 4, "declarative studies in stages: `params` (every study "
          "parameter), `spec` (the TOML file, cells), `datasets`, `cells`, `summary`, "
          "`figures`, `engine` (the run), `executors` (in process, a process pool, dask)"),

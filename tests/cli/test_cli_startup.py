@@ -65,6 +65,8 @@ _ARGV = {
     "import_recording": ["import", "{ws}/rec.bag", "--out", "{ws}/ds", "--quiet"],
     "report": ["report", "{ws}/cal.json", "--out", "{ws}/report.pdf"],
     "plan": ["plan", "--out", "{ws}/positions.csv"],
+    "rectify": ["rectify", "{ws}/cal.json", "--left-readings", "0,0", "--right-readings", "0,0",
+                "--angle-unit", "deg", "--out", "{ws}/rectified"],
 }
 
 
