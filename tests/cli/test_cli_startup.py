@@ -65,6 +65,7 @@ _ARGV = {
     "import_recording": ["import", "{ws}/rec.bag", "--out", "{ws}/ds", "--quiet"],
     "report": ["report", "{ws}/cal.json", "--out", "{ws}/report.pdf"],
     "plan": ["plan", "--out", "{ws}/positions.csv"],
+    "export": ["export", "{ws}/cal.json", "--format", "urdf", "--out", "{ws}/head.urdf"],
 }
 
 
