@@ -35,7 +35,7 @@ def metres_per_unit(length_unit: str | None) -> float:
     """Metres per length unit of a calibration (``length_unit`` of its file; None, as a
     bare ``rasc-head/1`` has it, is taken as metres, the unit rasc renders in). ROS
     (REP 103) and Kalibr want metres; a unit rasc cannot convert is refused."""
-    from rasc.study.spec import LENGTH_UNITS_M     # the one table of convertible units
+    from rasc.study.spec import LENGTH_UNITS_M  # the one table of convertible units
 
     unit = "m" if length_unit is None else length_unit
     if unit not in LENGTH_UNITS_M:
