@@ -49,6 +49,8 @@ class ExportOptions:
 
     def __post_init__(self) -> None:
         from rasc.export.urdf import JOINT_VALUES
+        from rasc.head.model import MAX_ABS_ANGLE_RAD
+        from rasc.io import finite_number
 
         if self.format not in FORMATS:
             raise InputError(f"format {self.format!r}: expected one of {', '.join(FORMATS)}")
@@ -62,9 +64,12 @@ class ExportOptions:
                        "camera_info holds the intrinsics only, the same at every gaze; the "
                        "pose is the URDF's")
                 raise InputError(f"gaze: not for format {self.format}: {why}")
-            if len(self.gaze) != 4:
-                raise InputError(f"gaze: expected 4 readings (pan_left, tilt_left, "
-                                 f"pan_right, tilt_right), got {len(self.gaze)}")
+            if isinstance(self.gaze, str | bytes) or len(self.gaze) != 4:
+                raise InputError("gaze: expected 4 readings (pan_left, tilt_left, "
+                                 f"pan_right, tilt_right) in radians, got {self.gaze!r}")
+            object.__setattr__(self, "gaze", tuple(
+                finite_number(a, f"gaze[{i}] (radians)", max_abs=MAX_ABS_ANGLE_RAD)
+                for i, a in enumerate(self.gaze)))
         if self.format != "urdf" and self.joints != "readings":
             raise InputError(f"joints: only for format urdf, not {self.format}")
 
@@ -97,24 +102,32 @@ def export_calibration(calibration, options: ExportOptions) -> Export:
         A length unit rasc cannot convert to metres; readings beyond ±2π; for Kalibr a
         camera with skew or k3..k6 ≠ 0 (its pinhole-radtan model has neither).
     """
-    from rasc.export import urdf, yaml_formats
     from rasc.export._text import metres_per_unit
     from rasc.head.model import HeadCalibration
 
     head = calibration if isinstance(calibration, HeadCalibration) else calibration.head
     length_unit = None if isinstance(calibration, HeadCalibration) else calibration.length_unit
     source = None if isinstance(calibration, HeadCalibration) else calibration.source
-    metres = metres_per_unit(length_unit)
-    gaze = HOME if options.gaze is None else tuple(float(a) for a in options.gaze)
-    names = FILE_NAMES[options.format]
+    try:
+        metres = metres_per_unit(length_unit)
+        texts = _texts(head, options, metres, source)
+    except InputError as exc:                 # name the calibration file, where there is one
+        if source is None:
+            raise
+        raise InputError(f"{source}: {exc}") from None
+    return Export(options.format, dict(zip(FILE_NAMES[options.format], texts, strict=True)))
+
+
+def _texts(head, options: ExportOptions, metres: float, source: str | None) -> list[str]:
+    from rasc.export import urdf, yaml_formats
+
+    gaze = HOME if options.gaze is None else options.gaze
     if options.format == "urdf":
-        texts = [urdf.to_urdf(head, joints=options.joints, metres_per_unit=metres,
-                              robot_name=options.robot_name, source=source)]
-    elif options.format == "camera-info":
-        texts = [yaml_formats.to_camera_info(head.left, "left"),
-                 yaml_formats.to_camera_info(head.right, "right")]
-    elif options.format == "opencv":
-        texts = [yaml_formats.to_opencv(head, gaze, metres_per_unit=metres)]
-    else:
-        texts = [yaml_formats.to_kalibr(head, gaze, metres_per_unit=metres)]
-    return Export(options.format, dict(zip(names, texts, strict=True)))
+        return [urdf.to_urdf(head, joints=options.joints, metres_per_unit=metres,
+                             robot_name=options.robot_name, source=source)]
+    if options.format == "camera-info":
+        return [yaml_formats.to_camera_info(head.left, "left"),
+                yaml_formats.to_camera_info(head.right, "right")]
+    if options.format == "opencv":
+        return [yaml_formats.to_opencv(head, gaze, metres_per_unit=metres)]
+    return [yaml_formats.to_kalibr(head, gaze, metres_per_unit=metres)]

@@ -271,6 +271,24 @@ def test_options_refuse_what_a_format_has_not():
         ExportOptions("kalibr", joints="angles")
     with pytest.raises(InputError, match="format 'sdf'"):
         ExportOptions("sdf")
+    with pytest.raises(InputError, match=r"gaze\[2\] \(radians\): 10 is out of range"):
+        ExportOptions("opencv", gaze=(0.0, 0.0, 10, 0.0))
+    with pytest.raises(InputError, match="gaze: expected 4 readings"):
+        ExportOptions("kalibr", gaze=(0.0, 0.0))
+
+
+def test_a_refusal_names_the_calibration_file(rasc_cli, tmp_path):
+    """A unit rasc cannot convert to metres, and a lens Kalibr cannot hold: the file."""
+    head = make_head(dist=(-0.05, 0.02, 0.0, 0.0, 0.003)).to_dict()
+    for unit, fmt, fragment in (("furlong", "urdf", "cal.json: length_unit 'furlong'"),
+                                ("mm", "kalibr", "cal.json: left.dist: k3..k6 = 0.003")):
+        cal = tmp_path / "cal.json"
+        cal.write_text(json.dumps({"format": "rasc-calibration/1", "head": head,
+                                   "length_unit": unit}))
+        status, out, err = rasc_cli("export", str(cal), "--format", fmt,
+                                    "--out", str(tmp_path / "out"))
+        assert status == 2 and out == "" and fragment in err and len(err.splitlines()) == 1
+        assert [p.name for p in tmp_path.iterdir()] == ["cal.json"]
 
 
 # ---------------------------------------------------------------------------- command
