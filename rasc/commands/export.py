@@ -23,7 +23,10 @@ from rasc.commands import _use_common as common
 from rasc.commands import loading
 from rasc.errors import InputError
 
-_FORMATS = ("urdf", "camera-info", "opencv", "kalibr")      # rasc.export.FORMATS (a test)
+#: rasc.export.FORMATS and rasc.export.urdf.JOINT_VALUES, spelt here so that --help loads
+#: no library (tests/export/test_export.py compares them)
+_FORMATS = ("urdf", "camera-info", "opencv", "kalibr")
+_JOINTS = ("readings", "angles")
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -45,7 +48,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "0; needs --angle-unit; write --gaze=-1,0,1,0 for a leading minus)")
     p.add_argument("--angle-unit", choices=common.ANGLE_UNITS,
                    help="unit of --gaze (deg or rad)")
-    p.add_argument("--joints", choices=("readings", "angles"), default="readings",
+    p.add_argument("--joints", choices=_JOINTS, default="readings",
                    help="urdf: the joint values are the encoder readings (default; zeros in "
                         "the joint origins, scales as <mimic> multipliers) or the unit's "
                         "joint angles, which the driver computes")

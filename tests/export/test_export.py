@@ -321,7 +321,19 @@ def test_command_formats_match_the_library(rasc_cli, cal_file, tmp_path):
     assert status == 0
     assert sorted(p.name for p in (tmp_path / "info").iterdir()) == ["left.yaml",
                                                                      "right.yaml"]
-    assert set(FORMATS) == {"urdf", "camera-info", "opencv", "kalibr"}
+
+
+def test_the_command_offers_the_librarys_choices():
+    """rasc/commands/export.py spells the choices without importing the library (a bare
+    start-up for --help): they are the library's."""
+    import argparse
+
+    from rasc.commands import export as command
+    from rasc.export.urdf import JOINT_VALUES
+
+    parser = command.add_parser(argparse.ArgumentParser().add_subparsers())
+    choices = {a.dest: tuple(a.choices) for a in parser._actions if a.choices}
+    assert choices["format"] == FORMATS and choices["joints"] == JOINT_VALUES
 
 
 @pytest.mark.parametrize("argv, fragment", [
