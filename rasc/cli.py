@@ -37,7 +37,7 @@ from rasc.interrupt import Interrupted, exit_process, received, signals_as_inter
 
 #: sub-command modules, in the order ``rasc --help`` lists them
 COMMANDS = ("handeye", "render", "calibrate", "detect", "triangulate", "project", "look_at",
-            "study", "import_recording", "report", "plan", "rectify")
+            "study", "import_recording", "report", "plan", "rectify", "export")
 #: a command named otherwise than its module (``import`` is a Python keyword)
 COMMAND_NAMES = {"import_recording": "import"}
 

@@ -58,6 +58,8 @@ ROOMS = (
     Room("rasc/report/", 4, "`rasc report`: the calibration report (PDF) and its verdict"),
     Room("rasc/plan/", 4, "`rasc plan`: capture planning (greedy D-/A-optimal pan-tilt "
          "positions on the refinement's information matrix)"),
+    Room("rasc/export/", 4, "`rasc export`: a calibration as a URDF (`urdf`), ROS "
+         "camera_info, OpenCV FileStorage and Kalibr camchain YAML (`yaml_formats`)"),
     Room("rasc/datasets/", 4, "the dataset service: the one cache key over the one code "
          "digest (`keys`), the one verified cache store (`cache`), rendered datasets "
          "through it (`render`)"),

@@ -24,7 +24,7 @@ shared_fixtures):
 | e2e | default_dataset, default_calibration, quick_experiments* |
 | handeye | rasc_cli, rasc_testing_cache, my_solver_site* |
 | head | rasc_cli, detections_counted, default_dataset, default_calibration |
-| recordings, report | rasc_cli |
+| export, recordings, report | rasc_cli |
 | stereo | rasc_cli, default_dataset, default_calibration, gaze_pairs* |
 | study | default_dataset, default_calibration, short_tmp* |
 | vision | rasc_cli, detections_counted, default_dataset, default_cli_run |

@@ -67,6 +67,7 @@ _ARGV = {
     "plan": ["plan", "--out", "{ws}/positions.csv"],
     "rectify": ["rectify", "{ws}/cal.json", "--left-readings", "0,0", "--right-readings", "0,0",
                 "--angle-unit", "deg", "--out", "{ws}/rectified"],
+    "export": ["export", "{ws}/cal.json", "--format", "urdf", "--out", "{ws}/head.urdf"],
 }
 
 
