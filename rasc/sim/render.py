@@ -70,6 +70,10 @@ MAX_NOISE = 255.0
 MAX_BLUR_PX = 50.0
 #: lens distortion coefficients ``--distortion`` accepts (OpenCV order k1 k2 p1 p2 k3)
 MAX_DIST_COEFFS = 5
+#: the largest --supersample: 4 renders 1280x960 images at 5120x3840 (16 times the
+#: pixels, each render that much slower); the corner error falls little beyond 3
+#: (docs/topics/rendering.md)
+MAX_SUPERSAMPLE = 4
 
 
 #: RenderOptions' fields in rasc 0.2 (the study spec's names since): old → new
@@ -94,6 +98,7 @@ class RenderOptions:
     image_noise: float = 0.0        # grey levels
     blur: float = 0.0               # pixels
     distortion: tuple[float, ...] = ()  # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
+    supersample: int = 1            # render S times the size, averaged over S x S pixels
 
     def validate(self, names: dict[str, str] | None = None) -> RenderOptions:
         """Refuse options no render can use; returns ``self``.
@@ -129,6 +134,9 @@ class RenderOptions:
             raise InputError(f"{name('distortion')}: at most {MAX_DIST_COEFFS} coefficients "
                              f"(k1,k2,p1,p2,k3), got {len(self.distortion)}")
         finite_numbers(self.distortion, name("distortion"), what="k1,k2,p1,p2,k3")
+        if not _integer(self.supersample) or not 1 <= self.supersample <= MAX_SUPERSAMPLE:
+            raise InputError(f"{name('supersample')} must be an integer from 1 to "
+                             f"{MAX_SUPERSAMPLE}, got {self.supersample!r}")
         return self
 
 
@@ -428,12 +436,14 @@ def distortion_of(options: RenderOptions) -> tuple[np.ndarray, bool]:
 
 def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
                options: RenderOptions) -> np.ndarray:
-    """The ``eye``'s current view as ``rasc render`` writes it: rendered grey, distorted
-    (``warp[eye]``, :func:`rasc.sim.scene.distortion_warp`, when the options distort),
-    then blurred and noised (:func:`rasc.sim.scene.degrade`, drawing from ``rng``)."""
+    """The ``eye``'s current view as ``rasc render`` writes it: rendered grey (at
+    ``options.supersample`` times the size and averaged down,
+    :meth:`rasc.sim.scene.StereoHeadSim.render_camera`), distorted (``warp[eye]``,
+    :func:`rasc.sim.scene.distortion_warp`, when the options distort), then blurred and
+    noised (:func:`rasc.sim.scene.degrade`, drawing from ``rng``)."""
     from rasc.sim.scene import degrade
 
-    image = sim.render_grey(eye)
+    image = sim.render_grey(eye, supersample=options.supersample)
     if eye in warp:
         image = warp[eye](image)
     return degrade(image, rng, blur_sigma=options.blur, noise_sigma=options.image_noise)
@@ -588,5 +598,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                                 "target_distance": options.distance,
                                 "noise_sigma": options.image_noise,
                                 "blur_sigma": options.blur, "dist": dist.tolist()}
+        if options.supersample != 1:    # absent at 1: the files of before, byte for byte
+            gt["render_options"]["supersample"] = options.supersample
         gt["model_file"] = Path(gt["model_file"]).name
     return board, images, gt

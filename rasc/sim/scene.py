@@ -753,34 +753,64 @@ class StereoHeadSim:
 
     # -- rendering -----------------------------------------------------------------------
 
-    def render(self, eye: str) -> np.ndarray:
-        """Render ``eye``'s camera: RGB uint8 (H, W, 3), row 0 at the top, no distortion."""
-        return self.render_camera(f"{self._eye(eye)}_camera")
+    def render(self, eye: str, supersample: int = 1) -> np.ndarray:
+        """Render ``eye``'s camera: RGB uint8 (H, W, 3), row 0 at the top, no distortion
+        (``supersample``: :meth:`render_camera`)."""
+        return self.render_camera(f"{self._eye(eye)}_camera", supersample)
 
-    def render_grey(self, eye: str) -> np.ndarray:
+    def render_grey(self, eye: str, supersample: int = 1) -> np.ndarray:
         """Render ``eye``'s camera as an 8-bit grey image (H, W), as a grey camera gives."""
         from rasc.vision.camera import to_grey
 
-        return to_grey(self.render(eye), order="rgb")
+        return to_grey(self.render(eye, supersample), order="rgb")
 
-    def render_camera(self, name: str) -> np.ndarray:
-        """Render any named camera of the model (e.g. ``overview``) at the image size."""
+    def render_camera(self, name: str, supersample: int = 1) -> np.ndarray:
+        """Render any named camera of the model (e.g. ``overview``) at the image size.
+
+        ``supersample`` S > 1: rendered at S times the width and height and reduced by the
+        mean of each S x S block (``cv2.INTER_AREA`` at an integer factor: an exact box
+        filter). With OpenCV's convention (pixel centres at integers) output pixel u
+        averages rendered pixels S·u … S·u + S − 1, centred at S·(u + 0.5) − 0.5, and the
+        rendered camera's matrix is the output's with fx·S, fy·S, S·(cx + 0.5) − 0.5,
+        S·(cy + 0.5) − 0.5 (:meth:`K` at the larger size): the same map, so the output's
+        camera matrix is :meth:`K` exactly. The model's offscreen buffer
+        (``<visual><global offwidth offheight>``) is raised in this simulator's compiled
+        copy when S times the image size exceeds it."""
         mujoco = import_mujoco()
         if mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, name) < 0:
             raise InputError(f"{self.model_file}: no camera named {name!r}")
+        w, h = self.image_size
+        S = int(supersample)
+        if S < 1:
+            raise InputError(f"supersample must be an integer of at least 1, got {supersample!r}")
+        if self._renderer is not None and (self._renderer.width, self._renderer.height) \
+                != (S * w, S * h):
+            self.close()
         if self._renderer is None:
-            w, h = self.image_size
+            g = self.model.vis.global_
+            g.offwidth, g.offheight = max(g.offwidth, S * w), max(g.offheight, S * h)
             try:
                 with warnings.catch_warnings():
                     # MUJOCO_GL=glx without a display: GLFW warns twice before failing;
                     # the one-line error below says what happened and what fixes it
                     warnings.filterwarnings("ignore", module="glfw")
-                    self._renderer = mujoco.Renderer(self.model, height=h, width=w)
+                    self._renderer = mujoco.Renderer(self.model, height=S * h, width=S * w)
             except Exception as exc:  # GL context creation fails without a working backend
+                if S > 1:
+                    first = str(exc).strip().splitlines()[0] if str(exc).strip() else \
+                        type(exc).__name__
+                    raise RascError(f"supersample {S}: cannot render offscreen at "
+                                    f"{S * w}x{S * h} ({first}); use a smaller supersample"
+                                    ) from None
                 raise _gl_error(exc) from None
         self.forward()
         self._renderer.update_scene(self.data, camera=name)
-        return self._renderer.render().copy()
+        image = self._renderer.render()
+        if S == 1:
+            return image.copy()
+        import cv2
+
+        return cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
 
     def close(self) -> None:
         """Release the offscreen renderer (its GL context); rendering again opens a new one."""
