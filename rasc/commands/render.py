@@ -56,6 +56,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
                    help="lens distortion applied by warping the renders (OpenCV model), "
                         "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
+    p.add_argument("--supersample", type=int, default=1, metavar="S",
+                   help="render each image at S times the width and height and average "
+                        "each S x S block into one pixel: corners closer to the truth, "
+                        "renders slower (1 to 4; default 1, as before)")
     add_unit_arguments(p, "the model as written (ideal units)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -78,7 +82,7 @@ def _check_out(out: str, model: str | None) -> Path:
 #: RenderOptions' fields as this command's options name them (its messages say these)
 FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "distance": "--distance", "seed": "--seed", "image_noise": "--noise",
-         "blur": "--blur", "distortion": "--distortion"}
+         "blur": "--blur", "distortion": "--distortion", "supersample": "--supersample"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -95,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
         intrinsics_views=args.intrinsics_views, distance=args.distance, seed=args.seed,
         image_noise=args.noise, blur=args.blur,
         distortion=finite_numbers(args.distortion, FLAGS["distortion"], text=True),
+        supersample=args.supersample,
     ).validate(FLAGS)
     units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")

@@ -89,7 +89,8 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
             "unit_as_built" in truth.get(eye, {}) for eye in EYES):
         return None
     return {"render_options": {k: opts.get(k) for k in (
-                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist")},
+                "seed", "target_distance", "noise_sigma", "blur_sigma", "dist",
+                "supersample") if k != "supersample" or k in opts},
             "model_file": truth.get("model_file"),
             "generated_scene": truth.get("generated_scene", False),
             "T_base_from_world": first["T_base_from_world"],

@@ -152,7 +152,7 @@ def render_task(task: RenderTask) -> dict | tuple:
             poses_deg=poses_of(full),
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
-            distortion=tuple(full["distortion"]))
+            distortion=tuple(full["distortion"]), supersample=full["supersample"])
         names = ({"poses_deg": f"positions_file {task.positions_from}"}
                  if task.positions_from else RENDER_NAMES)
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
@@ -266,7 +266,8 @@ def pose_task(task: PoseTask) -> dict:
     options = RenderOptions(poses_deg=poses, distance=scene["target_distance"],
                             seed=scene["seed"], image_noise=scene["noise_sigma"] or 0.0,
                             blur=scene["blur_sigma"] or 0.0,
-                            distortion=tuple(scene["dist"] or ())).validate(RENDER_NAMES)
+                            distortion=tuple(scene["dist"] or ()),
+                            supersample=scene.get("supersample", 1)).validate(RENDER_NAMES)
     rng = np.random.default_rng(np.random.SeedSequence(
         [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
     images, T_true, X_sim = _render_pose_views(task, options, board, model_path, units,
@@ -291,7 +292,7 @@ def _pose_scene(task: PoseTask) -> tuple[dict, Any, Any, dict | None]:
              if p.kind == "render"}
         scene = {"seed": base["seed"], "target_distance": b["distance"],
                  "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
-                 "dist": list(b["distortion"])}
+                 "dist": list(b["distortion"]), "supersample": b["supersample"]}
         model_path, units, record = task.model_path, unit_builds(base["render"]), None
     else:
         record = base.get("scene")

@@ -85,6 +85,12 @@ def _render_bound(name: str, unit: str) -> Callable[[Any], float]:
     return check
 
 
+def _supersample(x) -> int:
+    """An integer from 1 to the renderer's ``rasc.sim.render.MAX_SUPERSAMPLE``."""
+    from rasc.sim.render import MAX_SUPERSAMPLE
+    return _int_at_least(1, MAX_SUPERSAMPLE)(x)
+
+
 def _time_limit(x) -> float:
     x = _positive(x)
     if x > 7 * 24 * 3600:
@@ -217,6 +223,9 @@ PARAMS: dict[str, Param] = {
                             "a positions file (relative to the spec, as rasc plan writes and "
                             "rasc render --poses reads) replacing the layout, positions and "
                             "motion_deg grid"),
+    "supersample": Param(_supersample, 1, "render",
+                         "render each image at S times the size, S x S pixels averaged "
+                         "into one (RenderOptions.supersample; 1 = plain renders)"),
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
@@ -232,7 +241,7 @@ UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zer
                "pan_scale", "tilt_scale")
 #: parameters that enter a cell's identity only when they differ from their default
 IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from",
-                     "target", "positions_file")
+                     "target", "positions_file", "supersample")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None,

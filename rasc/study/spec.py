@@ -59,7 +59,11 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
 - ``positions_file`` (render): a positions file (relative to the spec; what ``rasc plan``
   writes and ``rasc render --poses FILE`` reads, :func:`rasc.sim.render.read_positions`)
   whose positions replace the ``layout``/``positions``/``motion_deg`` grid; a cell's
-  identity holds the positions themselves, not the file's name.
+  identity holds the positions themselves, not the file's name;
+- ``supersample`` (render, an integer from 1 to
+  :data:`rasc.sim.render.MAX_SUPERSAMPLE`): each image rendered at S times the size and
+  averaged over S x S pixels (:attr:`rasc.sim.render.RenderOptions.supersample`; corners
+  closer to the renderer's truth, renders slower; docs/topics/rendering.md).
 
 The work a spec asks for is bounded before anything runs (:func:`check_work` and the
 parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
