@@ -36,12 +36,12 @@ this is the prediction with each kind of view's own noise, what ``rasc plan
 --calibration`` does) and with each pose view's own noise (``predicted_view``: per
 position and eye, its residuals' mean square over the captures).
 
-``--supersample S`` (an experiment; ``rasc render`` does not offer it): every image is
-rendered at S times the size and averaged over S×S pixels (``cv2.INTER_AREA``; the ground
-truth's camera matrix is the output size's, exactly: the corners' mean error stays
-0.0002 px), which cuts the render's systematic corner errors (0.017 → 0.0076 px at 2×,
-0.0057 px at 3×, pose views of the chessboard) and with them the structure that
-independent noise does not describe. Results go to ``<target>[_jitter]_ss<S>``.
+``--supersample S`` (:attr:`rasc.sim.render.RenderOptions.supersample`, ``rasc render
+--supersample``): every image is rendered at S times the size and averaged over S×S
+pixels (``cv2.INTER_AREA``; the ground truth's camera matrix is the output size's,
+exactly: the corners' mean error stays 0.0002 px), which cuts the render's systematic
+corner errors (0.017 → 0.0076 px at 2×, 0.0057 px at 3×, pose views of the chessboard)
+and with them the structure that independent noise does not describe. Results go to ``<target>[_jitter]_ss<S>``.
 
 ``--start I`` begins at capture I (seed 100 + I): two processes with their own ``--out``
 split a run, and their ``captures.jsonl`` files joined make one.
@@ -151,7 +151,8 @@ def record(cal, truth: dict, pose_files: list[str]) -> dict:
     return out
 
 
-def capture_rendered(poses, seed: int, board, truth, distance: float = 1.0) -> dict:
+def capture_rendered(poses, seed: int, board, truth, distance: float = 1.0,
+                     supersample: int = 1) -> dict:
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.render import RenderOptions, render_dataset
     from rasc.vision.dataset import load_dataset
@@ -159,7 +160,8 @@ def capture_rendered(poses, seed: int, board, truth, distance: float = 1.0) -> d
     with tempfile.TemporaryDirectory(prefix="rasc-plan-check-") as tmp:
         render_dataset(Path(tmp) / "ds", RenderOptions(seed=seed, poses_deg=tuple(poses),
                                                        image_noise=RENDER_NOISE,
-                                                       distance=distance),
+                                                       distance=distance,
+                                                       supersample=supersample),
                        quiet=True, board=board)
         ds = load_dataset(Path(tmp) / "ds")
         cal = calibrate_dataset(ds, CalibrationOptions(model="general", scales="hold"))
@@ -195,30 +197,6 @@ def position_sets(setup) -> dict[str, list[tuple[float, float]]]:
 def _se_std(n: int) -> float:
     """Relative standard error of a sample standard deviation of n normal draws."""
     return 1.0 / np.sqrt(2.0 * (n - 1)) if n > 1 else float("nan")
-
-
-def supersample_renders(factor: int) -> None:
-    """Make every :class:`rasc.sim.scene.StereoHeadSim` of this process render at
-    ``factor`` times its image size and average down to it (``--supersample``; the
-    module docstring). An experiment of this script only: it wraps the class's
-    ``render_camera`` for the process, giving it an offscreen renderer ``factor`` times
-    the size before its first image (the sim's camera matrices stay the output size's)."""
-    import cv2
-
-    from rasc.sim import scene
-
-    render = scene.StereoHeadSim.render_camera
-
-    def render_camera(self, name: str) -> np.ndarray:
-        w, h = self.image_size
-        if self._renderer is None:
-            g = self.model.vis.global_
-            g.offwidth, g.offheight = max(g.offwidth, w * factor), max(g.offheight, h * factor)
-            self._renderer = scene.import_mujoco().Renderer(self.model, height=h * factor,
-                                                            width=w * factor)
-        return cv2.resize(render(self, name), (w, h), interpolation=cv2.INTER_AREA)
-
-    scene.StereoHeadSim.render_camera = render_camera
 
 
 def residual_split(recs: list[dict]) -> dict[str, float]:
@@ -390,8 +368,9 @@ def main(argv=None) -> int:
     p.add_argument("--jitter", action="store_true",
                    help="each capture with the target at another distance (JITTER_DISTANCES)")
     p.add_argument("--supersample", type=int, default=1, metavar="S",
-                   help="render every image at S times the size and average it down (an "
-                        "experiment: the render's systematic corner errors shrink)")
+                   help="render every image at S times the size and average it down "
+                        "(RenderOptions.supersample: the render's systematic corner errors "
+                        "shrink)")
     p.add_argument("--summary-only", action="store_true",
                    help="summarise the captures recorded so far, capture nothing")
     args = p.parse_args(argv)
@@ -402,8 +381,6 @@ def main(argv=None) -> int:
 
     board = parse_target(args.target) if args.target else None
     tag = re.sub(r"[^A-Za-z0-9]+", "_", args.target or "chessboard").strip("_")
-    if args.supersample > 1:
-        supersample_renders(args.supersample)
     folder = args.out / ("plan_check_rendered" if args.rendered else "plan_check") / (
         tag + ("_jitter" if args.jitter else "")
         + (f"_ss{args.supersample}" if args.supersample > 1 else ""))
@@ -431,7 +408,8 @@ def main(argv=None) -> int:
                 t0 = time.perf_counter()
                 distance = float(np.random.default_rng([100 + s, 7]).uniform(*JITTER_RANGE)) \
                     if args.jitter else 1.0
-                rec = capture_rendered(poses, 100 + s, board, truth, distance) \
+                rec = capture_rendered(poses, 100 + s, board, truth, distance,
+                                       args.supersample) \
                     if args.rendered \
                     else capture_projected(poses, 100 + s, board, truth, head)
                 rec.update({"set": name, "seed": 100 + s, "distance": distance,
