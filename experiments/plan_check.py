@@ -41,7 +41,8 @@ position and eye, its residuals' mean square over the captures).
 pixels (``cv2.INTER_AREA``; the ground truth's camera matrix is the output size's,
 exactly: the corners' mean error stays 0.0002 px), which cuts the render's systematic
 corner errors (0.017 → 0.0076 px at 2×, 0.0057 px at 3×, pose views of the chessboard)
-and with them the structure that independent noise does not describe. Results go to ``<target>[_jitter]_ss<S>``.
+and with them the structure that independent noise does not describe. Results go to
+``<target>[_jitter]_ss<S>``.
 
 ``--start I`` begins at capture I (seed 100 + I): two processes with their own ``--out``
 split a run, and their ``captures.jsonl`` files joined make one.
