@@ -14,11 +14,12 @@ from dataclasses import asdict  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from running import run_rasc  # noqa: E402
 
 from rasc.errors import InputError  # noqa: E402
 from rasc.sim.render import MAX_SUPERSAMPLE, RenderOptions  # noqa: E402
 from rasc.vision.board import Board  # noqa: E402
+
+from running import run_rasc  # noqa: E402
 
 #: pose views of the stock 9x6 chessboard at 1 m, both eyes
 POSES = [(0, 0), (8, 8), (-8, -8), (8, -8), (-8, 8)]

@@ -1,0 +1,121 @@
+"""Supersampled renders: detected corners against the renderer's truth and the render
+time, for ``RenderOptions.supersample`` S = 1 … 4, measured side by side.
+
+    .venv/bin/python benchmarks/bench_supersample.py [--repeat 3] [--max 4]
+        [--markdown docs/results/supersample.md]
+
+The scene: the stock head and its 9×6 chessboard of 50 mm squares (1280×960 images). The
+views: the paper's nine pose views of each eye at 1 m, and six intrinsics views per eye
+(the board poses ``rasc render`` draws, seed 0). Each S has its own simulator (its own
+offscreen renderer, S times the size); every view is rendered by each in turn (the order
+rotating from view to view, ``repeat`` times), so that all see the same load. The
+corners: the pipeline's detector (``saddle``) on the grey image, against the true
+projection of the board's corners (the simulator's ``project_world_points``). Printed:
+per S and kind of view, the corners' RMS error (px), their mean error (x, y: a shift of
+every corner, which a wrong pixel-centre convention would give), the largest error, the
+median wall time of one grey image and its ratio to S = 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from rasc.geometry.kinematics import PAPER_POSES_DEG  # noqa: E402
+from rasc.geometry.transforms import invert_transform  # noqa: E402
+
+INTRINSICS_VIEWS = 6
+
+
+def main(argv=None) -> int:
+    from _markdown import add_markdown_option
+
+    p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    p.add_argument("--repeat", type=int, default=3, help="renders of each view per S "
+                                                         "(default 3)")
+    p.add_argument("--max", type=int, default=4, help="the largest S (default 4)")
+    add_markdown_option(p)
+    args = p.parse_args(argv)
+
+    from rasc.sim.render import intrinsics_board_poses
+    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
+    from rasc.vision.detect import detect_corners
+
+    factors = list(range(1, args.max + 1))
+    sims = {s: StereoHeadSim() for s in factors}
+    ref = sims[1]
+    board, size = ref.board, ref.image_size
+    P = board.object_points()
+    errors = {(s, kind): [] for s in factors for kind in ("pose", "intrinsics")}
+    times = {s: [] for s in factors}
+    n = 0
+
+    def shoot(kind: str, eye: str) -> None:
+        nonlocal n
+        order = [factors[(n + k) % len(factors)] for k in range(len(factors))]
+        n += 1
+        truth = ref.project_world_points(eye, P)
+        images = {}
+        for _ in range(args.repeat):
+            for s in order:
+                t0 = time.perf_counter()
+                images[s] = sims[s].render_grey(eye, supersample=s)
+                times[s].append(time.perf_counter() - t0)
+        for s in factors:
+            c = detect_corners(images[s], board, "saddle")
+            if c is None:
+                raise SystemExit(f"S = {s}: board not found in a {kind} view of {eye}")
+            seen = np.isfinite(c[:, 0])
+            errors[s, kind].append(c[seen] - truth[seen])
+
+    try:
+        rng = np.random.default_rng(0)
+        for eye in ("left", "right"):
+            T_base_from_cam = invert_transform(ref.T_cam_from_base(eye))
+            for T_cw in intrinsics_board_poses(rng, board, ref.K(eye), size,
+                                               INTRINSICS_VIEWS):
+                for sim in sims.values():
+                    sim.set_target(T_base_from_cam @ T_cw)
+                shoot("intrinsics", eye)
+        for sim in sims.values():
+            sim.set_target(T_base_from_world_facing(board))
+        for pan, tilt in PAPER_POSES_DEG:
+            for sim in sims.values():
+                for eye in ("left", "right"):
+                    sim.set_angles(eye, np.radians(pan), np.radians(tilt))
+            for eye in ("left", "right"):
+                shoot("pose", eye)
+    finally:
+        for sim in sims.values():
+            sim.close()
+
+    median = {s: statistics.median(times[s]) for s in factors}
+    print(f"stock head and 9x6 chessboard, {size[0]}x{size[1]}; {len(PAPER_POSES_DEG)} pose "
+          f"views and {INTRINSICS_VIEWS} intrinsics views per eye; {args.repeat} renders "
+          f"of each view per S\n")
+    print("| S | views | corners | RMS px | mean x, y px | max px | ms/image | time ratio |")
+    print("| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for s in factors:
+        for kind in ("pose", "intrinsics"):
+            e = np.concatenate(errors[s, kind])
+            r = np.linalg.norm(e, axis=1)
+            mx, my = e.mean(axis=0)
+            print(f"| {s} | {kind} | {len(e)} | {np.sqrt(np.mean(r ** 2)):.4f} | "
+                  f"{mx:+.4f}, {my:+.4f} | {r.max():.4f} | {1e3 * median[s]:.0f} | "
+                  f"{median[s] / median[1]:.2f} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    from _markdown import run_main
+
+    raise SystemExit(run_main(main, "Supersampled renders: corner error and render time",
+                              __file__))
