@@ -71,8 +71,8 @@ MAX_BLUR_PX = 50.0
 #: lens distortion coefficients ``--distortion`` accepts (OpenCV order k1 k2 p1 p2 k3)
 MAX_DIST_COEFFS = 5
 #: the largest --supersample: 4 renders 1280x960 images at 5120x3840 (16 times the
-#: pixels, each render that much slower); the corner error falls little beyond 3
-#: (docs/topics/rendering.md)
+#: pixels, measured 12.5 times slower); the corner error falls little beyond 3
+#: (docs/topics/datasets.md, benchmarks/bench_supersample.py)
 MAX_SUPERSAMPLE = 4
 
 

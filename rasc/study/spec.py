@@ -63,7 +63,7 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
 - ``supersample`` (render, an integer from 1 to
   :data:`rasc.sim.render.MAX_SUPERSAMPLE`): each image rendered at S times the size and
   averaged over S x S pixels (:attr:`rasc.sim.render.RenderOptions.supersample`; corners
-  closer to the renderer's truth, renders slower; docs/topics/rendering.md).
+  closer to the renderer's truth, renders slower; docs/topics/datasets.md).
 
 The work a spec asks for is bounded before anything runs (:func:`check_work` and the
 parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
