@@ -90,7 +90,14 @@ FLAGS = {"distance": "--distance", "pan_range": "--pan-range", "tilt_range": "--
 def run(args: argparse.Namespace) -> int:
     with loading():
         from rasc.io import check_output, write_text_atomic
-        from rasc.plan import PlanSetup, head_from_calibration, plan, resolve_noise, simulated_head
+        from rasc.plan import (
+            PlanSetup,
+            head_from_calibration,
+            image_size_of_calibration,
+            plan,
+            resolve_noise,
+            simulated_head,
+        )
         from rasc.sim.render import format_positions
         from rasc.sim.synthetic import default_head
         from rasc.vision.board import parse_target
@@ -101,8 +108,10 @@ def run(args: argparse.Namespace) -> int:
                          "its own units; give --calibration or the unit options, not both")
     out = check_output(args.out, inputs=[p for p in (args.calibration, args.unit) if p])
     board = parse_target(args.target, "--target")
+    size = {}
     if args.calibration:
         head, where = head_from_calibration(args.calibration), f"from {args.calibration}"
+        size = {"image_size": image_size_of_calibration(args.calibration)}
     elif unit_flags:
         head = simulated_head(units_from_args(args))
         where = f"the simulated head with {' '.join(unit_flags)}"
@@ -115,8 +124,10 @@ def run(args: argparse.Namespace) -> int:
                       tilt_range=_pair(args.tilt_range, "--tilt-range"),
                       step_deg=args.step, min_corners=args.min_corners, noise_px=noise,
                       intrinsics_noise_px=intrinsics_noise, seed=args.seed,
-                      scales=args.scales, sources={"unit": where, "noise": how},
-                      names=FLAGS)
+                      scales=args.scales,
+                      sources={"unit": where, "noise": how,
+                               **({"images": f"from {args.calibration}"} if size else {})},
+                      names=FLAGS, **size)
     result = plan(setup, args.positions, args.criterion, args.workspace_depth)
     print(f"plan: {len(result.positions)} of {result.candidates} usable positions "
           f"({args.step:g} deg grid), criterion {args.criterion}, "

@@ -191,8 +191,8 @@ class PlanSetup:
     def assumptions(self) -> dict[str, str]:
         """What the prediction assumes, one phrase each: ``unit`` (each eye's axis
         distance and angle and encoder scales, and where they come from), ``scales``
-        (estimated or held, and why) and ``noise`` (the corner noise and where it comes
-        from)."""
+        (estimated or held, and why), ``noise`` (the corner noise and where it comes
+        from) and ``images`` (the image size, which with K sets the field of view)."""
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.head.options import CalibrationOptions
 
@@ -227,7 +227,10 @@ class PlanSetup:
             f"corner noise {sp:.3g} px per coordinate"
             + (f" in the pose views and {si:.3g} px in the intrinsics views"
                if si != sp else "") + ", independent")
-        return {"unit": unit, "scales": scales, "noise": noise}
+        w, h = self.image_size
+        images = f"{w}x{h} pixels" + (f" ({self.sources['images']})"
+                                      if self.sources.get("images") else "")
+        return {"unit": unit, "scales": scales, "noise": noise, "images": images}
 
 
 def _min_square_px() -> float:
@@ -899,6 +902,22 @@ def resolve_noise(noise: float | None = None, intrinsics_noise: float | None = N
     elif noise is None and intrinsics_noise is None:
         how += " (the default)"
     return pose, intr, how
+
+
+def image_size_of_calibration(path) -> tuple[int, int]:
+    """The image size (width, height) of a ``rasc calibrate`` JSON's cameras, which a plan
+    for that head must use (the field of view follows from it and K). The planner models
+    one size: eyes of different sizes are refused in one line."""
+    from rasc.head.use import load_calibration
+
+    h = load_calibration(path)
+    sizes = {eye: tuple(int(v) for v in getattr(h, eye).image_size) for eye in EYES}
+    if sizes["left"] != sizes["right"]:
+        raise InputError(f"{path}: the eyes' images differ in size (left "
+                         f"{sizes['left'][0]}x{sizes['left'][1]}, right "
+                         f"{sizes['right'][0]}x{sizes['right'][1]}); the planner models "
+                         "one image size")
+    return sizes["left"]
 
 
 def head_from_calibration(path) -> Any:

@@ -120,3 +120,46 @@ def test_a_unit_file_and_the_scales_choice_are_planned_for_and_said(tmp_path, ca
     assert sigma(out_auto, "left.axis_distance_mm") > 5 * sigma(out_hold,
                                                                "left.axis_distance_mm")
     assert (tmp_path / "a.csv").is_file() and (tmp_path / "h.csv").is_file()
+
+
+@pytest.mark.slow
+def test_a_calibrations_image_size_is_planned_for(tmp_path, capsys):
+    """``--calibration``: the plan uses the calibration's image size (it planned at
+    1280x960 whatever the cameras): the same cameras with images cropped to half the
+    width and height see a ChArUco target (counted when seen in part) at fewer positions;
+    eyes of different sizes are
+    refused in one line."""
+    import json
+
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.sim.synthetic import corner_dataset, default_head
+
+    cal = calibrate_dataset(corner_dataset(default_head(), seed=0, noise_px=0.05),
+                            CalibrationOptions(scales="hold"))
+    doc = cal.to_dict()
+    full = tmp_path / "full.json"
+    full.write_text(json.dumps(doc))
+    for eye in ("left", "right"):          # the central half of each image, K's centre moved
+        doc["head"][eye]["image_size"] = [640, 480]
+        doc["head"][eye]["K"][0][2] -= 320
+        doc["head"][eye]["K"][1][2] -= 240
+    half = tmp_path / "half.json"
+    half.write_text(json.dumps(doc))
+    usable = {}
+    for name, path in (("full", full), ("half", half)):
+        code, out, err = _run(["plan", "--calibration", path, "--target",
+                               "charuco:8x6,0.04,0.03", "-k", "4", "--step", "4",
+                               "--workspace-depth", "3", "--out", tmp_path / f"{name}.csv"],
+                              capsys)
+        assert code == 0, err
+        usable[name] = int(out.split(" of ")[1].split()[0])
+        size = "640x480" if name == "half" else "1280x960"
+        assert f"{size} pixels (from {path})" in out, out
+    assert 0 < usable["half"] < usable["full"], usable
+    doc["head"]["right"]["image_size"] = [1280, 960]
+    odd = tmp_path / "odd.json"
+    odd.write_text(json.dumps(doc))
+    code, out, err = _run(["plan", "--calibration", odd, "--out", tmp_path / "o.csv"], capsys)
+    assert code == 2 and out == "" and not (tmp_path / "o.csv").exists()
+    assert err.strip() == (f"rasc plan: error: {odd}: the eyes' images differ in size (left "
+                           "640x480, right 1280x960); the planner models one image size"), err
