@@ -17,7 +17,8 @@ def add_unit_arguments(p: argparse.ArgumentParser, default: str) -> None:
     """The unit options; ``default`` says what the command does without them."""
     p.add_argument("--unit", metavar="FILE",
                    help="TOML file of pan-tilt unit imperfections, tables [both], [left], "
-                        f"[right] (README 'rasc render'); default: {default}")
+                        "[right] (the guide's 'Imperfect units', docs/guide/calibrate.md); "
+                        f"default: {default}")
     p.add_argument("--tilt-axis-offset", default="", metavar="X,Y,Z",
                    help="both units: a point of the tilt axis in the tilt link's frame (x up, "
                         "y forward, z left), millimetres, e.g. 0,30,0 (overrides --unit; with '=' "
