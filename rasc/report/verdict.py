@@ -16,8 +16,9 @@ other failed checks' messages). The thresholds:
 * :data:`CHECK_POSE_RATIO` (4, the pipeline's warning): pose views fitting this many times
   worse than intrinsics views — the pan/tilt readings may not be the images'.
 * :data:`CHECK_MISFIT_F` (5, :data:`rasc.head.fit.MISFIT_F_WARN`): with ``--model paper``,
-  an eye whose pose views the paper's unit does not explain (the general model answers
-  that misfit, so there it is shown, not judged).
+  an eye whose pose views the paper's unit does not explain (:func:`rasc.head.fit.is_misfit`:
+  F above 5 and the one-board fit's excess RMS above half the per-view RMS; the general
+  model answers that misfit, so there it is shown, not judged).
 * :data:`CHECK_REJECTED_FRACTION` (5 %): corners the refinement rejected as outliers; a
   few are glints, many mean bad detections or a moving board.
 * :data:`CHECK_FOCAL_REL_STD` (1 %): the relative standard deviation of a focal length;
@@ -209,11 +210,14 @@ def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None,
                             if missing else "the unit's parameters are determined"))
     fits = doc.get("paper_model_fit") or {}
     if model == "paper":
+        from rasc.head.fit import is_misfit
+
         for eye, fit in fits.items():
             F = _num((fit or {}).get("F"))
             if F is not None:
                 checks.append(Check(f"{eye}.misfit", F, CHECK_MISFIT_F, "check",
-                                    F <= CHECK_MISFIT_F,
+                                    not is_misfit(F, _num(fit.get("rms_model_px")),
+                                                  _num(fit.get("rms_free_px"))),
                                     f"the paper's unit does not explain the {eye} pose views "
                                     f"(F = {F:.3g}): calibrate with --model general"))
     for eye, c in (coverage or {}).items():

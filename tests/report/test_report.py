@@ -169,3 +169,18 @@ def test_parameter_units_come_from_the_table_not_the_file():
     assert "mm" not in rows["unit.tilt_axis_x"]
     assert "25 mm" in rows["unit.tilt_point_y"] and "0.01 mm" in rows["unit.tilt_point_y"]
     assert rows["unit.axis_angle_deg"].endswith("deg")
+
+
+def test_a_negligible_misfit_is_not_judged():
+    # the verdict's misfit check is the pipeline's (rasc.head.fit.is_misfit): F above 5
+    # with the one-board RMS only 5 % above the per-view RMS is usable; 3x above is not
+    doc = good_doc()
+    doc["options"] = {"model": "paper"}
+    del doc["refinement"]
+    doc["eyes"] = {eye: {"intrinsics_rms": 0.03} for eye in ("left", "right")}
+    doc["paper_model_fit"]["right"] = {"F": 5.39, "rms_model_px": 0.0329,
+                                       "rms_free_px": 0.0314}
+    assert verdict(doc).level == "usable", verdict(doc).line()
+    doc["paper_model_fit"]["right"]["rms_model_px"] = 0.1
+    v = verdict(doc)
+    assert v.level == "check" and "right pose views (F = 5.39)" in v.reason
