@@ -521,7 +521,7 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
     distortion), distortion, motion blur, Gaussian blur, vignetting, the sensor's shot and
     read noise, Gaussian pixel noise, JPEG compression; at their defaults they draw
     nothing from ``rng`` and change no byte."""
-    from rasc.sim import degrade as dg
+    import rasc.sim.degrade as dg
 
     image = sim.render_grey(eye, supersample=options.supersample)
     if options.focus_distance:
