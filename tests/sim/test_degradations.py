@@ -310,3 +310,25 @@ def test_study_parameters_are_checked_and_their_defaults_keep_the_cells(tmp_path
     with pytest.raises(InputError, match=r"bad.toml: fixed.vignetting: expected a number "
                                          r"from 0 to 0.95"):
         load_spec(bad)
+
+
+def test_rasc_testing_renders_with_a_degradation():
+    """rasc.testing's render (the rasc_dataset fixture's) takes the fields as they are;
+    the ground truth records the one not at its default, the key differs."""
+    from rasc.testing import render_cached
+
+    common = dict(intrinsics_views=3, poses_deg=((0, 0), (8, 0), (0, 8)), seed=4)
+    plain = render_cached(None, **common)
+    ds = render_cached(None, **common, vignetting=0.3)
+    assert ds.truth["render_options"]["vignetting"] == 0.3
+    assert "vignetting" not in plain.truth["render_options"] and ds.key != plain.key
+    entry = ds.select("left", "pose")[0]
+    # the same view, each lit pixel darker by 0.3 (r / r_corner)^2
+    img, ref = ds.read(entry).astype(float), plain.read(plain.select("left", "pose")[0])
+    h, w = img.shape
+    v, u = np.mgrid[0:h, 0:w]
+    r2 = ((u - (w - 1) / 2) ** 2 + (v - (h - 1) / 2) ** 2) / (((w - 1) / 2) ** 2
+                                                             + ((h - 1) / 2) ** 2)
+    lit = ref > 100
+    slope, one = np.polyfit(r2[lit], img[lit] / ref[lit], 1)
+    assert abs(slope + 0.3) < 0.02 and abs(one - 1) < 0.01, (slope, one)
