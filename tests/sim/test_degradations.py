@@ -15,8 +15,8 @@ from dataclasses import asdict  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from rasc.errors import InputError  # noqa: E402
 import rasc.sim.degrade as dg  # noqa: E402
+from rasc.errors import InputError  # noqa: E402
 from rasc.sim.render import DEGRADATIONS, RenderOptions  # noqa: E402
 from rasc.vision.board import Board  # noqa: E402
 
@@ -332,3 +332,20 @@ def test_rasc_testing_renders_with_a_degradation():
     lit = ref > 100
     slope, one = np.polyfit(r2[lit], img[lit] / ref[lit], 1)
     assert abs(slope + 0.3) < 0.02 and abs(one - 1) < 0.01, (slope, one)
+
+
+def test_scene_record_carries_the_degradations_to_re_rendered_pose_views():
+    """intrinsics_from = "dataset" re-renders pose views in a dataset's scene: its record
+    holds the degradations the dataset was rendered with, and only those."""
+    from rasc.datasets.calibration import _scene_record
+
+    view = {"T_base_from_world": np.eye(4).tolist()}
+    base = {"seed": 1, "target_distance": 1.0, "noise_sigma": 0.0, "blur_sigma": 0.0,
+            "dist": [0.0] * 5}
+    truth = {"render_options": base, "views": {"poses/left_00.png": view},
+             **{eye: {"unit_as_built": {}} for eye in ("left", "right")}}
+    plain = _scene_record(truth, ["poses/left_00.png"])["render_options"]
+    assert plain == base
+    truth["render_options"] = {**base, "full_well": 4000.0, "jpeg_quality": 50}
+    record = _scene_record(truth, ["poses/left_00.png"])["render_options"]
+    assert record == {**base, "full_well": 4000.0, "jpeg_quality": 50}
