@@ -60,6 +60,33 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="render each image at S times the width and height and average "
                         "each S x S block into one pixel: corners closer to the truth, "
                         "renders slower (1 to 4; default 1, as before)")
+    cam = p.add_argument_group(
+        "camera degradations", "what real cameras show, each off by default "
+        "(docs/topics/degradations.md)")
+    cam.add_argument("--full-well", type=float, default=0.0, metavar="E",
+                     help="sensor shot noise: electrons collected at grey level 255 (the "
+                          "datasheet's saturation capacity; Poisson noise, variance = "
+                          "signal; default 0: none)")
+    cam.add_argument("--read-noise", type=float, default=0.0, metavar="E",
+                     help="sensor read noise, electrons RMS (needs --full-well; default 0)")
+    cam.add_argument("--vignetting", type=float, default=0.0, metavar="V",
+                     help="fraction of light lost at the image corners, radial gain "
+                          "1 - V (r/r_corner)^2 (0 to 0.95; default 0)")
+    cam.add_argument("--motion-blur", type=float, default=0.0, metavar="PX",
+                     help="linear motion blur of this length, pixels (default 0)")
+    cam.add_argument("--motion-angle", type=float, default=0.0, metavar="DEG",
+                     help="the motion blur's direction in the image, degrees (0: along "
+                          "the rows, 90: along the columns; default 0)")
+    cam.add_argument("--focus-distance", type=float, default=0.0, metavar="M",
+                     help="thin-lens defocus that changes with depth, the lens focused at M "
+                          "metres (needs the depth buffer; default 0: everything sharp)")
+    cam.add_argument("--f-number", type=float, default=2.8, metavar="N",
+                     help="the lens's f-number for --focus-distance (default 2.8)")
+    cam.add_argument("--focal-length", type=float, default=8.0, metavar="MM",
+                     help="the lens's focal length in mm for --focus-distance (default 8)")
+    cam.add_argument("--jpeg-quality", type=int, default=0, metavar="Q",
+                     help="JPEG compression at quality Q, 1 to 100 (default 0: none; the "
+                          "images are still written as PNG)")
     add_unit_arguments(p, "the model as written (ideal units)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -82,7 +109,12 @@ def _check_out(out: str, model: str | None) -> Path:
 #: RenderOptions' fields as this command's options name them (its messages say these)
 FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "distance": "--distance", "seed": "--seed", "image_noise": "--noise",
-         "blur": "--blur", "distortion": "--distortion", "supersample": "--supersample"}
+         "blur": "--blur", "distortion": "--distortion", "supersample": "--supersample",
+         "full_well": "--full-well", "read_noise": "--read-noise",
+         "vignetting": "--vignetting", "motion_blur": "--motion-blur",
+         "motion_angle": "--motion-angle", "focus_distance": "--focus-distance",
+         "f_number": "--f-number", "focal_length_mm": "--focal-length",
+         "jpeg_quality": "--jpeg-quality"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,6 +132,10 @@ def run(args: argparse.Namespace) -> int:
         image_noise=args.noise, blur=args.blur,
         distortion=finite_numbers(args.distortion, FLAGS["distortion"], text=True),
         supersample=args.supersample,
+        full_well=args.full_well, read_noise=args.read_noise, vignetting=args.vignetting,
+        motion_blur=args.motion_blur, motion_angle=args.motion_angle,
+        focus_distance=args.focus_distance, f_number=args.f_number,
+        focal_length_mm=args.focal_length, jpeg_quality=args.jpeg_quality,
     ).validate(FLAGS)
     units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")

@@ -82,6 +82,8 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
     """What re-rendering a dataset's scene needs and checks, from its ground truth: the
     render options, the board's pose (at the first pose view) and each head as built;
     None for a dataset whose ground truth does not record them (not rendered by rasc)."""
+    from rasc.sim.render import DEGRADATIONS
+
     opts = truth.get("render_options")
     views = truth.get("views", {})
     first = views.get(pose_files[0]) if pose_files else None
@@ -90,7 +92,8 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
         return None
     return {"render_options": {k: opts.get(k) for k in (
                 "seed", "target_distance", "noise_sigma", "blur_sigma", "dist",
-                "supersample") if k != "supersample" or k in opts},
+                "supersample", *DEGRADATIONS) if k in opts or k not in (
+                    "supersample", *DEGRADATIONS)},
             "model_file": truth.get("model_file"),
             "generated_scene": truth.get("generated_scene", False),
             "T_base_from_world": first["T_base_from_world"],

@@ -74,6 +74,17 @@ MAX_DIST_COEFFS = 5
 #: pixels, measured 12.5 times slower); the corner error falls little beyond 3
 #: (docs/topics/datasets.md, benchmarks/bench_supersample.py)
 MAX_SUPERSAMPLE = 4
+#: bounds of the camera degradations (docs/topics/degradations.md): a sensor's full well
+#: (electrons at grey 255; 0 = no sensor noise), its read noise (electrons RMS), the light
+#: lost at the image corners, a motion blur's length (px), the lens's f-number and focal
+#: length (mm) and the focus distance (m) of depth-dependent defocus
+MAX_FULL_WELL = 1e7
+MAX_READ_NOISE = 1e4
+MAX_VIGNETTING = 0.95
+MAX_MOTION_BLUR_PX = 50.0
+F_NUMBER_RANGE = (0.5, 64.0)
+MAX_FOCAL_LENGTH_MM = 1000.0
+MAX_FOCUS_DISTANCE = 1000.0
 
 
 #: RenderOptions' fields in rasc 0.2 (the study spec's names since): old → new
@@ -99,6 +110,18 @@ class RenderOptions:
     blur: float = 0.0               # pixels
     distortion: tuple[float, ...] = ()  # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
     supersample: int = 1            # render S times the size, averaged over S x S pixels
+    # the degradations real cameras show (docs/topics/degradations.md); each off at its
+    # default, and a field at its default is left out of the ground truth's
+    # render_options and of the cache key (DEGRADATIONS): the renders of before
+    full_well: float = 0.0          # sensor electrons at grey 255 (shot noise); 0 = none
+    read_noise: float = 0.0         # sensor read noise, electrons RMS (needs full_well)
+    vignetting: float = 0.0         # fraction of light lost at the image corners
+    motion_blur: float = 0.0        # length of a linear motion blur, pixels
+    motion_angle: float = 0.0       # its direction in the image, degrees (0 = along +u)
+    focus_distance: float = 0.0     # thin-lens defocus focused here, metres; 0 = none
+    f_number: float = 2.8           # the lens's f-number (with focus_distance)
+    focal_length_mm: float = 8.0    # the lens's focal length, mm (with focus_distance)
+    jpeg_quality: int = 0           # JPEG compression quality 1-100; 0 = none
 
     def validate(self, names: dict[str, str] | None = None) -> RenderOptions:
         """Refuse options no render can use; returns ``self``.
@@ -137,7 +160,58 @@ class RenderOptions:
         if not _integer(self.supersample) or not 1 <= self.supersample <= MAX_SUPERSAMPLE:
             raise InputError(f"{name('supersample')} must be an integer from 1 to "
                              f"{MAX_SUPERSAMPLE}, got {self.supersample!r}")
+        self._validate_degradations(name)
         return self
+
+    def _validate_degradations(self, name) -> None:
+        for field, lo, top, unit in (
+                ("full_well", 0.0, MAX_FULL_WELL, "electrons at grey level 255; 0 = none"),
+                ("read_noise", 0.0, MAX_READ_NOISE, "electrons RMS"),
+                ("vignetting", 0.0, MAX_VIGNETTING, "fraction of light lost at the corners"),
+                ("motion_blur", 0.0, MAX_MOTION_BLUR_PX, "pixels"),
+                ("focus_distance", 0.0, MAX_FOCUS_DISTANCE, "metres; 0 = no defocus"),
+                ("f_number", *F_NUMBER_RANGE, "f-number"),
+                ("focal_length_mm", 0.0, MAX_FOCAL_LENGTH_MM, "millimetres")):
+            value = getattr(self, field)
+            if not lo <= finite_number(value, name(field)) <= top:
+                raise InputError(f"{name(field)} must be a number from {lo:g} to {top:g} "
+                                 f"({unit}), got {value:g}")
+        finite_number(self.motion_angle, name("motion_angle"))
+        if 0 < self.full_well < 1:
+            raise InputError(f"{name('full_well')} must be 0 (no sensor noise) or at least 1 "
+                             f"electron, got {self.full_well:g}")
+        if self.read_noise and not self.full_well:
+            raise InputError(f"{name('read_noise')} {self.read_noise:g} electrons needs the "
+                             f"sensor's {name('full_well')} (electrons at grey level 255) to "
+                             "convert electrons to grey levels")
+        if self.focal_length_mm <= 0:
+            raise InputError(f"{name('focal_length_mm')} must be a positive number of "
+                             f"millimetres, got {self.focal_length_mm:g}")
+        if self.focus_distance and self.focus_distance <= self.focal_length_mm * 1e-3:
+            raise InputError(f"{name('focus_distance')} {self.focus_distance:g} m must be "
+                             f"beyond the focal length ({name('focal_length_mm')} "
+                             f"{self.focal_length_mm:g} mm)")
+        q = self.jpeg_quality
+        if not _integer(q) or not 0 <= q <= 100:
+            raise InputError(f"{name('jpeg_quality')} must be an integer from 1 to 100 "
+                             f"(0: no JPEG), got {q!r}")
+
+
+#: the degradation fields of RenderOptions (each off at its default; left out of the
+#: ground truth's render_options and of the cache key at their defaults)
+DEGRADATIONS = ("full_well", "read_noise", "vignetting", "motion_blur", "motion_angle",
+                "focus_distance", "f_number", "focal_length_mm", "jpeg_quality")
+
+
+def degradations_of(options) -> dict:
+    """The degradation fields of ``options`` (a RenderOptions or a dict of its fields)
+    that differ from their defaults: what the ground truth records and the cache key
+    holds (empty for the renders of before)."""
+    defaults = RenderOptions.__dataclass_fields__
+    get = options.get if isinstance(options, dict) else \
+        (lambda k, d=None: getattr(options, k, d))
+    return {k: get(k) for k in DEGRADATIONS
+            if get(k, defaults[k].default) != defaults[k].default}
 
 
 def _renamed_init(init):
@@ -440,13 +514,35 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
     ``options.supersample`` times the size and averaged down,
     :meth:`rasc.sim.scene.StereoHeadSim.render_camera`), distorted (``warp[eye]``,
     :func:`rasc.sim.scene.distortion_warp`, when the options distort), then blurred and
-    noised (:func:`rasc.sim.scene.degrade`, drawing from ``rng``)."""
-    from rasc.sim.scene import degrade
+    noised (:func:`rasc.sim.scene.degrade`, drawing from ``rng``).
+
+    With the camera degradations (docs/topics/degradations.md) the order is a real
+    camera's: depth-dependent defocus (from the render's depth buffer, before the lens
+    distortion), distortion, motion blur, Gaussian blur, vignetting, the sensor's shot and
+    read noise, Gaussian pixel noise, JPEG compression; at their defaults they draw
+    nothing from ``rng`` and change no byte."""
+    import rasc.sim.degrade as dg
 
     image = sim.render_grey(eye, supersample=options.supersample)
+    if options.focus_distance:
+        depth = sim.render_depth(eye, supersample=options.supersample)
+        image = dg.defocus(image, dg.circle_of_confusion_px(
+            depth, sim.K(eye)[0, 0], options.focal_length_mm, options.f_number,
+            options.focus_distance))
     if eye in warp:
         image = warp[eye](image)
-    return degrade(image, rng, blur_sigma=options.blur, noise_sigma=options.image_noise)
+    if options.motion_blur:
+        image = dg.motion_blur(image, options.motion_blur, options.motion_angle)
+    if options.blur:
+        image = dg.blur(image, options.blur)
+    if options.vignetting:
+        image = dg.vignette(image, options.vignetting)
+    if options.full_well:
+        image = dg.sensor_noise(image, options.full_well, options.read_noise, rng)
+    image = dg.degrade(image, rng, noise_sigma=options.image_noise)
+    if options.jpeg_quality:
+        image = dg.jpeg(image, options.jpeg_quality)
+    return image
 
 
 def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
@@ -600,5 +696,6 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                                 "blur_sigma": options.blur, "dist": dist.tolist()}
         if options.supersample != 1:    # absent at 1: the files of before, byte for byte
             gt["render_options"]["supersample"] = options.supersample
+        gt["render_options"].update(degradations_of(options))  # each absent at its default
         gt["model_file"] = Path(gt["model_file"]).name
     return board, images, gt

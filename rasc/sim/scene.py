@@ -812,6 +812,24 @@ class StereoHeadSim:
 
         return cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
 
+    def render_depth(self, eye: str, supersample: int = 1) -> np.ndarray:
+        """The depth (metres along the optical axis, float (H, W)) of what ``eye``'s camera
+        sees, from MuJoCo's depth buffer, at the image size (rendered as
+        :meth:`render_camera` renders, ``supersample`` blocks averaged)."""
+        self.render_camera(f"{self._eye(eye)}_camera", supersample)  # the renderer, sized
+        self._renderer.enable_depth_rendering()
+        try:
+            self._renderer.update_scene(self.data, camera=f"{self._eye(eye)}_camera")
+            depth = self._renderer.render().astype(float)
+        finally:
+            self._renderer.disable_depth_rendering()
+        if int(supersample) == 1:
+            return depth
+        import cv2
+
+        w, h = self.image_size
+        return cv2.resize(depth, (w, h), interpolation=cv2.INTER_AREA)
+
     def close(self) -> None:
         """Release the offscreen renderer (its GL context); rendering again opens a new one."""
         if self._renderer is not None:

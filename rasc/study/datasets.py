@@ -143,7 +143,7 @@ def render_task(task: RenderTask) -> dict | tuple:
     """
     worker_environment()
     from rasc.datasets.calibration import calibrate
-    from rasc.sim.render import RenderOptions, render_in_memory
+    from rasc.sim.render import DEGRADATIONS, RenderOptions, render_in_memory
 
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
@@ -152,7 +152,8 @@ def render_task(task: RenderTask) -> dict | tuple:
             poses_deg=poses_of(full),
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
-            distortion=tuple(full["distortion"]), supersample=full["supersample"])
+            distortion=tuple(full["distortion"]), supersample=full["supersample"],
+            **{k: full[k] for k in DEGRADATIONS})
         names = ({"poses_deg": f"positions_file {task.positions_from}"}
                  if task.positions_from else RENDER_NAMES)
         ds = render_in_memory(options, model_path=task.model_path, quiet=True,
@@ -255,7 +256,7 @@ def pose_task(task: PoseTask) -> dict:
         The board is not found in a rendered pose view.
     """
     worker_environment()
-    from rasc.sim.render import RenderOptions
+    from rasc.sim.render import DEGRADATIONS, RenderOptions
     from rasc.vision.board import Board
 
     base, r = task.base, task.render
@@ -267,7 +268,9 @@ def pose_task(task: PoseTask) -> dict:
                             seed=scene["seed"], image_noise=scene["noise_sigma"] or 0.0,
                             blur=scene["blur_sigma"] or 0.0,
                             distortion=tuple(scene["dist"] or ()),
-                            supersample=scene.get("supersample", 1)).validate(RENDER_NAMES)
+                            supersample=scene.get("supersample", 1),
+                            **{k: scene[k] for k in DEGRADATIONS if k in scene}
+                            ).validate(RENDER_NAMES)
     rng = np.random.default_rng(np.random.SeedSequence(
         [task.seed, POSE_RENDER_KEY, int(task.key, 16)]))
     images, T_true, X_sim = _render_pose_views(task, options, board, model_path, units,
@@ -286,13 +289,16 @@ def pose_task(task: PoseTask) -> dict:
 def _pose_scene(task: PoseTask) -> tuple[dict, Any, Any, dict | None]:
     """:func:`pose_task`'s scene: (the render options as the ground truth records them,
     the model path, the units, the base's scene record or None)."""
+    from rasc.sim.render import DEGRADATIONS
+
     base, where = task.base, task.where
     if "render" in base:                   # rendered by this study: its own parameters
         b = {k: base["render"].get(k, p.default) for k, p in PARAMS.items()
              if p.kind == "render"}
         scene = {"seed": base["seed"], "target_distance": b["distance"],
                  "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
-                 "dist": list(b["distortion"]), "supersample": b["supersample"]}
+                 "dist": list(b["distortion"]), "supersample": b["supersample"],
+                 **{k: b[k] for k in DEGRADATIONS}}
         model_path, units, record = task.model_path, unit_builds(base["render"]), None
     else:
         record = base.get("scene")

@@ -91,6 +91,31 @@ def _supersample(x) -> int:
     return _int_at_least(1, MAX_SUPERSAMPLE)(x)
 
 
+def _jpeg_quality(x) -> int:
+    """0 (no JPEG) or a quality from 1 to 100."""
+    return _int_at_least(0, 100)(x)
+
+
+def _render_range(name: str, lo: float, unit: str) -> Callable[[Any], float]:
+    """A number from ``lo`` to the renderer's bound ``rasc.sim.render.<name>``."""
+    def check(x) -> float:
+        from rasc.sim import render
+        x, top = _number(x), getattr(render, name)
+        if not lo <= x <= top:
+            raise ValueError(f"expected a number from {lo:g} to {top:g} ({unit}), got {x:g}")
+        return x
+    return check
+
+
+def _f_number(x) -> float:
+    from rasc.sim.render import F_NUMBER_RANGE
+    x = _number(x)
+    if not F_NUMBER_RANGE[0] <= x <= F_NUMBER_RANGE[1]:
+        raise ValueError(f"expected an f-number from {F_NUMBER_RANGE[0]:g} to "
+                         f"{F_NUMBER_RANGE[1]:g}, got {x:g}")
+    return x
+
+
 def _time_limit(x) -> float:
     x = _positive(x)
     if x > 7 * 24 * 3600:
@@ -226,6 +251,25 @@ PARAMS: dict[str, Param] = {
     "supersample": Param(_supersample, 1, "render",
                          "render each image at S times the size, S x S pixels averaged "
                          "into one (RenderOptions.supersample; 1 = plain renders)"),
+    # the camera degradations (rasc.sim.render.DEGRADATIONS; docs/topics/degradations.md)
+    "full_well": Param(_render_bound("MAX_FULL_WELL", "electrons"), 0.0, "render",
+                       "sensor shot noise: electrons at grey level 255 (0 = none)"),
+    "read_noise": Param(_render_bound("MAX_READ_NOISE", "electrons"), 0.0, "render",
+                        "sensor read noise, electrons RMS (needs full_well)"),
+    "vignetting": Param(_render_bound("MAX_VIGNETTING", "fraction"), 0.0, "render",
+                        "fraction of light lost at the image corners"),
+    "motion_blur": Param(_render_bound("MAX_MOTION_BLUR_PX", "pixels"), 0.0, "render",
+                         "length of a linear motion blur, px"),
+    "motion_angle": Param(_number, 0.0, "render",
+                          "the motion blur's direction in the image, deg (0 = along rows)"),
+    "focus_distance": Param(_render_bound("MAX_FOCUS_DISTANCE", "metres"), 0.0, "render",
+                            "thin-lens defocus changing with depth, focused here, m "
+                            "(0 = everything sharp)"),
+    "f_number": Param(_f_number, 2.8, "render", "the lens's f-number (with focus_distance)"),
+    "focal_length_mm": Param(_render_range("MAX_FOCAL_LENGTH_MM", 1e-3, "mm"), 8.0, "render",
+                             "the lens's focal length, mm (with focus_distance)"),
+    "jpeg_quality": Param(_jpeg_quality, 0, "render",
+                          "JPEG compression quality 1-100 (0 = none)"),
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
@@ -241,7 +285,9 @@ UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zer
                "pan_scale", "tilt_scale")
 #: parameters that enter a cell's identity only when they differ from their default
 IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from",
-                     "target", "positions_file", "supersample")
+                     "target", "positions_file", "supersample", "full_well", "read_noise",
+                     "vignetting", "motion_blur", "motion_angle", "focus_distance",
+                     "f_number", "focal_length_mm", "jpeg_quality")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None,

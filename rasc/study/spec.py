@@ -63,7 +63,13 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
 - ``supersample`` (render, an integer from 1 to
   :data:`rasc.sim.render.MAX_SUPERSAMPLE`): each image rendered at S times the size and
   averaged over S x S pixels (:attr:`rasc.sim.render.RenderOptions.supersample`; corners
-  closer to the renderer's truth, renders slower; docs/topics/datasets.md).
+  closer to the renderer's truth, renders slower; docs/topics/datasets.md);
+- the camera degradations (render; :data:`rasc.sim.render.DEGRADATIONS`, each off at its
+  default; docs/topics/degradations.md): ``full_well`` (sensor shot noise, electrons at
+  grey level 255) and ``read_noise`` (electrons RMS), ``vignetting`` (fraction of light
+  lost at the image corners), ``motion_blur`` (px) and ``motion_angle`` (deg),
+  ``focus_distance`` (m; thin-lens defocus changing with depth) with ``f_number`` and
+  ``focal_length_mm``, ``jpeg_quality`` (1-100; 0 = none).
 
 The work a spec asks for is bounded before anything runs (:func:`check_work` and the
 parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
