@@ -60,7 +60,9 @@ EXIT_DIRECTIVE = re.compile(r"<!--+\s*exit:\s*(\d+)\s*--+>\s*(?:<!--.*?-->\s*)*\
 
 
 def console_commands(source: str) -> list[str]:
-    """The ``$ `` commands of a console block, a trailing backslash joining lines."""
+    """The ``$ `` commands of a console block, a trailing backslash joining lines into one
+    command (as a shell's line continuation does: they were joined by a newline, which
+    ran the halves as two commands)."""
     commands: list[str] = []
     lines = iter(source.splitlines())
     for line in lines:
@@ -68,7 +70,7 @@ def console_commands(source: str) -> list[str]:
             continue
         command = line[2:]
         while command.endswith("\\"):
-            command = command[:-1] + "\n" + next(lines, "")
+            command = command[:-1].rstrip() + " " + next(lines, "").lstrip()
         commands.append(command)
     return commands
 

@@ -40,7 +40,7 @@ def test_the_collector_sees_the_readme_and_the_guide():
 
 def test_console_blocks_split_into_commands():
     block = "$ echo a \\\n  b\nout\n$ false\n# not a command\n"
-    assert collector.console_commands(block) == ["echo a \n  b", "false"]
+    assert collector.console_commands(block) == ["echo a b", "false"]
 
 
 def test_exit_directive_is_read_only_right_before_a_block():
