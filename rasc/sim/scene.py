@@ -288,10 +288,19 @@ class StereoHeadSim:
                  units: dict[str, UnitBuild] | None = None) -> None:
         mujoco = import_mujoco()
         self._renderer = None
+        self._board = board
         self.scene_xml: str | None = None
         self.units = self._check_units(units)
         spec = None
-        if board is not None and model_path is not None:
+        from rasc.sim.urdf import UrdfHead
+
+        if isinstance(model_path, UrdfHead):
+            if head_path is not None:
+                raise InputError("StereoHeadSim: give a UrdfHead or head_path, not both")
+            self.model_file = model_path.path.resolve()
+            self.units, edited = self._urdf_units(model_path)
+            self.model = self._load(lambda: edited.compile(), self.model_file)
+        elif board is not None and model_path is not None:
             if head_path is not None:
                 raise InputError("StereoHeadSim: give model_path or head_path, not both")
             if not Path(model_path).is_file():
@@ -300,7 +309,9 @@ class StereoHeadSim:
             spec = self._load(lambda: mujoco.MjSpec.from_file(str(where)), where)
             if spec.body("board_link") is None:     # a head alone: the scene around it
                 head_path, model_path, spec = model_path, None, None
-        if spec is not None:
+        if isinstance(model_path, UrdfHead):
+            pass
+        elif spec is not None:
             self.model_file = where
             edited = spec_with_target(spec, board)
             self.model = self._load(lambda: self._compile(lambda: edited, edited.compile),
@@ -339,6 +350,28 @@ class StereoHeadSim:
             self.set_target(T_base_from_world_facing(self.board))
 
     # -- loading -------------------------------------------------------------------------
+
+    def _urdf_units(self, head):
+        """(the units, the scene's MjSpec) of a URDF head (:mod:`rasc.sim.urdf`): the
+        head with the bench's names and cameras and the target in front; the encoder
+        scales and zeros its ``<mimic>`` joints state go into the units, which may not
+        state them too, nor edit the model (edit the URDF instead)."""
+        from rasc.sim.units import merge
+        from rasc.sim.urdf import head_spec
+
+        spec, encoder = head_spec(head)
+        units = {}
+        for eye in EYES:
+            build = self.units[eye]
+            if build.edits_model:
+                raise InputError(f"{head.path}: the {eye} unit build moves joints or the "
+                                 "camera; for a URDF head, edit the URDF instead")
+            clash = [k for k in encoder[eye] if getattr(build, k) != getattr(IDEAL_BUILD, k)]
+            if clash:
+                raise InputError(f"{head.path}: the {eye} unit's {', '.join(clash)} come "
+                                 "from the URDF's <mimic> joints; do not also give them")
+            units[eye] = merge(build, **encoder[eye])
+        return units, spec_with_target(spec, self._board or DEFAULT_BOARD)
 
     @staticmethod
     def _check_units(units) -> dict[str, UnitBuild]:
