@@ -215,10 +215,11 @@ def _rename(root: ET.Element, mapping: dict[str, str], kind: str) -> None:
                 mimic.set("joint", mapping.get(mimic.get("joint"), mimic.get("joint")))
 
 
-def _free_names(names: set[str], wanted: dict[str, str]) -> dict[str, str]:
-    """Mapping that moves every name in ``names`` that is a target of ``wanted`` but not
-    its source aside (``urdf_<name>``), then applies ``wanted``."""
-    targets = set(wanted.values())
+def _free_names(names: set[str], wanted: dict[str, str], reserved=()) -> dict[str, str]:
+    """Mapping that moves every name in ``names`` that is a target of ``wanted`` (or
+    ``reserved``, names to be added) but not its source aside (``urdf_<name>``), then
+    applies ``wanted``."""
+    targets = set(wanted.values()) | set(reserved)
     mapping = {}
     taken = set(names) | targets
     for n in names:
@@ -258,7 +259,7 @@ def urdf_text(head: UrdfHead) -> tuple[str, dict[str, dict], dict[str, str]]:
             wanted_joints[moving[head.joint(eye, which)]] = f"{eye}_{which}_joint"
     if len(set(wanted_links.values())) != len(wanted_links):
         raise InputError(f"{head.path}: the root link is a tilt joint's child")
-    link_map = _free_names(links | {f"{e}_ptu_link" for e in EYES}, wanted_links)
+    link_map = _free_names(links, wanted_links, {f"{e}_ptu_link" for e in EYES})
     joint_map = _free_names(set(joint_el), wanted_joints)
     # the camera links, and the names the ptu links insert, as renamed
     cameras = {eye: link_map.get(head.camera(eye), head.camera(eye)) for eye in EYES}
