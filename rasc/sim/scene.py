@@ -347,7 +347,7 @@ class StereoHeadSim:
         self._read_constants()
         self._dirty = True
         if self.board is not None:
-            self.set_target(T_base_from_world_facing(self.board))
+            self.set_target(self.facing_target())
 
     # -- loading -------------------------------------------------------------------------
 
@@ -529,6 +529,13 @@ class StereoHeadSim:
             self._T_ptu_from_base[eye] = self._T_ptu_from_base[eye] @ T_base_link_from_base
         self.T_base_from_base_link = T_base_from_base_link
         self.T_scene_from_base = self.T_scene_from_base_link @ T_base_link_from_base
+        # where the cameras look at home: base +y for the stock head; a head whose tilt
+        # joints turn the other way (a URDF's, positive tilt looking down) has the
+        # canonical base's y backwards, and the target goes to base -y
+        look = sum((self._T_ptu_from_base[eye][:3, :3].T
+                    @ invert_transform(self._T_cam_from_gaze[eye])[:3, 2] for eye in EYES),
+                   np.zeros(3))
+        self._ahead = 1.0 if look[1] >= 0 else -1.0
 
     def _local_chain(self, top: int, body: int, eye: str, what: str) -> list[int]:
         """Bodies from ``top`` (excluded) down to ``body`` (included); ``body`` must lie
@@ -740,6 +747,17 @@ class StereoHeadSim:
         self.data.mocap_pos[mocap] = T_scene_from_world[:3, 3]
         self.data.mocap_quat[mocap] = q
         self._dirty = True
+
+    def facing_target(self, distance: float = 1.0, centre_base=(0.0, 0.0)) -> np.ndarray:
+        """``T_base_from_world`` (4, 4) of the target facing the head upright, its centre
+        ``distance`` ahead of the cameras at home: :func:`T_base_from_world_facing` (base
+        +y ahead) for a head whose cameras look along base +y, as the stock head's do; for
+        one whose cameras look along base −y (a URDF head whose positive tilt looks down,
+        :mod:`rasc.sim.urdf`), the same pose turned half a turn about the base's x axis."""
+        T = T_base_from_world_facing(self._require_board(), distance, centre_base)
+        if self._ahead < 0:
+            T = np.diag([1.0, -1.0, -1.0, 1.0]) @ T
+        return T
 
     def forward(self) -> None:
         """Bring ``data`` (bodies, cameras, sites) up to date with the last set angles/target."""

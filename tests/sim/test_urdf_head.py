@@ -114,16 +114,23 @@ USER_JOINTS = "ptu_left_pan,ptu_left_tilt,ptu_right_pan,ptu_right_tilt"
 USER_CAMERAS = "cam_left_optical,cam_right_optical"
 
 
-def _user_urdf(folder: Path) -> Path:
+def _user_urdf(folder: Path, tilt_y: float = -1.0) -> Path:
     path = folder / "my_head.urdf"
     path.write_text(USER_URDF.format(eyes="".join(
         EYE.format(e=e, y=y, yaw=yaw) for e, y, yaw in (("left", 0.15, 0.01),
-                                                        ("right", -0.15, -0.01)))))
+                                                        ("right", -0.15, -0.01))))
+        .replace('axis xyz="0 -1 0.02"', f'axis xyz="0 {tilt_y:g} 0.02"'))
     return path
 
 
-def test_user_urdf_renders_with_truth(tmp_path, capsys):
-    path = _user_urdf(tmp_path)
+@pytest.mark.parametrize("tilt_y", [-1.0, 1.0], ids=["tilt-up", "tilt-down"])
+def test_user_urdf_renders_with_truth(tmp_path, capsys, tilt_y):
+    """Both tilt senses: positive tilt raising the gaze (the stock head's), and lowering
+    it (REP 103's positive pitch about +y), where the canonical base's y points backwards
+    and the target must still go in front of the cameras."""
+    from rasc.vision.dataset import load_dataset
+
+    path = _user_urdf(tmp_path, tilt_y)
     out = tmp_path / "ds"
     rc = main(["render", "--urdf", str(path), "--urdf-joints", USER_JOINTS,
                "--urdf-cameras", USER_CAMERAS, "--intrinsics-views", "3",
@@ -131,13 +138,20 @@ def test_user_urdf_renders_with_truth(tmp_path, capsys):
     assert rc == 0, capsys.readouterr().err
     gt = json.loads((out / "ground_truth.json").read_text())
     assert gt["model_file"] == "my_head.urdf"
+    # the target in front: every corner of every pose view inside the image, 1 m ahead
+    ds = load_dataset(out)
+    for name, view in gt["views"].items():
+        if name.startswith("poses/"):
+            T = np.asarray(view["T_cam_from_world"])
+            centre = T[:3, :3] @ ds.board.centre() + T[:3, 3]
+            assert 0.9 < centre[2] < 1.1, (name, centre)
     for eye in EYES:
         unit = PanTiltUnit.from_dict(gt[eye]["unit"])
         # the URDF's tilt joint: 4 mm off the pan axis (z) along x (forward), its axis
-        # (0, -1, 0.02) turned 0.01 rad about x; the unit's tilt axis is minus the joint's
-        # (eq. 3: the mechanism turns by +tau about -z'), so the angle to the pan axis
-        # (0, 0, 1) is arccos(-a_z)
-        a = np.array([0.0, -1.0, 0.02])
+        # (0, ∓1, 0.02) turned 0.01 rad about x; the unit's tilt axis is minus the
+        # joint's (eq. 3: the mechanism turns by +tau about -z'), so the angle to the pan
+        # axis (0, 0, 1) is arccos(-a_z)
+        a = np.array([0.0, tilt_y, 0.02])
         a = Rotation.from_euler("x", 0.01).apply(a / np.linalg.norm(a))
         assert unit.axis_distance == pytest.approx(0.004, abs=1e-9)
         assert unit.axis_angle_deg == pytest.approx(np.degrees(np.arccos(-a[2])), abs=1e-9)
