@@ -260,3 +260,24 @@ def test_round_trip_export_render_calibrate(tmp_path, capsys):
     worst = max(sig, key=lambda k: abs(sig[k]))
     print(f"round trip: largest difference {sig[worst]:+.2f} sigma ({worst})")
     assert abs(sig[worst]) < ROUND_TRIP_SIGMAS, (worst, sig[worst])
+
+
+def test_render_cached_urdf_head(tmp_path):
+    """rasc.testing.render_cached renders a UrdfHead, keyed by the file and its names:
+    the same head found again, another intrinsics a new key."""
+    from rasc.sim.urdf import UrdfHead
+    from rasc.testing import render_cached
+
+    head = _head()
+    path = tmp_path / "head.urdf"
+    path.write_text(to_urdf(head, joints="angles"))
+    K = {eye: getattr(head, eye).K for eye in EYES}
+    opts = dict(intrinsics_views=3, poses_deg=((0.0, 0.0), (5.0, 3.0), (-5.0, -3.0)),
+                distance=DISTANCE)
+    cache = tmp_path / "cache"
+    a = render_cached(cache, UrdfHead(path, K=K, image_size=(1280, 960)), **opts)
+    b = render_cached(cache, UrdfHead(path, K=K, image_size=(1280, 960)), **opts)
+    c = render_cached(cache, UrdfHead(path), **opts)
+    assert a.key == b.key != c.key and a.path == b.path
+    assert np.abs(np.asarray(a.truth["right"]["K"]) - K["right"]).max() < 1e-4
+    assert a.truth["model_file"] == "head.urdf"
