@@ -30,11 +30,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "(docs/topics/urdf-head.md), with the target in front; not with "
                         "--model")
     p.add_argument("--urdf-joints", metavar="LP,LT,RP,RT",
-                   default="left_pan,left_tilt,right_pan,right_tilt",
                    help="the URDF's left pan, left tilt, right pan, right tilt joints "
                         "(default: rasc export's names)")
     p.add_argument("--urdf-cameras", metavar="LEFT,RIGHT",
-                   default="left_camera_optical_frame,right_camera_optical_frame",
                    help="the URDF's camera links, REP 103 optical frames: z forward, x "
                         "right, y down (default: rasc export's names)")
     p.add_argument("--urdf-intrinsics", metavar="CAL",
@@ -103,7 +101,13 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
 def _urdf_head(args: argparse.Namespace, out: Path):
     """The ``--urdf*`` options as a :class:`rasc.sim.urdf.UrdfHead`."""
     from rasc.io import check_output
-    from rasc.sim.urdf import UrdfHead, intrinsics_from_calibration, parse_names
+    from rasc.sim.urdf import (
+        DEFAULT_CAMERAS,
+        DEFAULT_JOINTS,
+        UrdfHead,
+        intrinsics_from_calibration,
+        parse_names,
+    )
 
     if args.model is not None:
         raise InputError("--urdf: give --model or --urdf, not both")
@@ -113,8 +117,11 @@ def _urdf_head(args: argparse.Namespace, out: Path):
     K = size = None
     if args.urdf_intrinsics is not None:
         K, size = intrinsics_from_calibration(args.urdf_intrinsics)
-    return UrdfHead(args.urdf, parse_names(args.urdf_joints, 4, "--urdf-joints"),
-                    parse_names(args.urdf_cameras, 2, "--urdf-cameras"), K, size)
+    joints = DEFAULT_JOINTS if args.urdf_joints is None else \
+        parse_names(args.urdf_joints, 4, "--urdf-joints")
+    cameras = DEFAULT_CAMERAS if args.urdf_cameras is None else \
+        parse_names(args.urdf_cameras, 2, "--urdf-cameras")
+    return UrdfHead(args.urdf, joints, cameras, K, size)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -126,6 +133,12 @@ def run(args: argparse.Namespace) -> int:
     out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():
         raise InputError(f"--model {args.model}: file not found")
+    if args.urdf is None:
+        stray = [f for f, v in (("--urdf-joints", args.urdf_joints),
+                                ("--urdf-cameras", args.urdf_cameras),
+                                ("--urdf-intrinsics", args.urdf_intrinsics)) if v is not None]
+        if stray:
+            raise InputError(f"{stray[0]}: only with --urdf HEAD.urdf")
     model = args.model if args.urdf is None else _urdf_head(args, out)
     options = RenderOptions(
         poses_deg=parse_poses(args.poses, FLAGS["poses_deg"]),

@@ -251,8 +251,11 @@ class StereoHeadSim:
 
     Parameters
     ----------
-    model_path : path, optional
-        MJCF scene to load (default ``sim/models/scene.xml``). Must contain the bodies
+    model_path : path or rasc.sim.urdf.UrdfHead, optional
+        A head described in a URDF (:class:`rasc.sim.urdf.UrdfHead`: compiled by MuJoCo,
+        renamed and given cameras by :func:`rasc.sim.urdf.head_spec`, the target
+        ``board`` or the stock one in front), or the MJCF scene to load (default
+        ``sim/models/scene.xml``). Must contain the bodies
         ``base_link``, ``{eye}_ptu_link``, ``{eye}_tilt_link``, joints ``{eye}_pan_joint``,
         ``{eye}_tilt_joint`` and cameras ``{eye}_camera`` for eye in (left, right); a
         target (mocap body ``board_link``, site ``board_origin``, custom numerics
@@ -289,6 +292,8 @@ class StereoHeadSim:
         mujoco = import_mujoco()
         self._renderer = None
         self._board = board
+        #: the URDF head this simulator renders (:mod:`rasc.sim.urdf`), or None
+        self.urdf = None
         self.scene_xml: str | None = None
         self.units = self._check_units(units)
         spec = None
@@ -298,6 +303,7 @@ class StereoHeadSim:
             if head_path is not None:
                 raise InputError("StereoHeadSim: give a UrdfHead or head_path, not both")
             self.model_file = model_path.path.resolve()
+            self.urdf = model_path
             self.units, edited = self._urdf_units(model_path)
             self.model = self._load(lambda: edited.compile(), self.model_file)
         elif board is not None and model_path is not None:
@@ -894,6 +900,8 @@ class StereoHeadSim:
             "units": "metres, radians; pixels with centres at integers (OpenCV)",
             "gauge": GAUGE,
         }
+        if self.urdf is not None:      # which of the URDF's joints and links are the units'
+            gt["urdf"] = {"joints": list(self.urdf.joints), "cameras": list(self.urdf.cameras)}
         for eye in EYES:
             unit, T_cg, T_pb = self.unit_as_built(eye)
             gt[eye] = {"K": self.K(eye).tolist(), "dist": [0.0] * 5,

@@ -102,7 +102,8 @@ EYE = """
   <link name="cam_{e}_optical"/>
   <joint name="ptu_{e}_pan" type="continuous"><parent link="torso"/><child link="ptu_{e}_yaw"/>
     <origin xyz="0 {y} 0.05" rpy="0 0 {yaw}"/><axis xyz="0 0 1"/></joint>
-  <joint name="ptu_{e}_tilt" type="revolute"><parent link="ptu_{e}_yaw"/><child link="ptu_{e}_pitch"/>
+  <joint name="ptu_{e}_tilt" type="revolute"><parent link="ptu_{e}_yaw"/>
+    <child link="ptu_{e}_pitch"/>
     <origin xyz="0.004 0 0.06" rpy="0.01 0 0"/><axis xyz="0 -1 0.02"/>
     <limit lower="-0.8" upper="0.8" effort="1" velocity="1"/></joint>
   <joint name="cam_{e}_joint" type="fixed"><parent link="ptu_{e}_pitch"/><child link="cam_{e}"/>
@@ -138,6 +139,7 @@ def test_user_urdf_renders_with_truth(tmp_path, capsys, tilt_y):
     assert rc == 0, capsys.readouterr().err
     gt = json.loads((out / "ground_truth.json").read_text())
     assert gt["model_file"] == "my_head.urdf"
+    assert gt["urdf"]["joints"] == USER_JOINTS.split(",")
     # the target in front: every corner of every pose view inside the image, 1 m ahead
     ds = load_dataset(out)
     for name, view in gt["views"].items():
@@ -185,6 +187,8 @@ def test_refusals(tmp_path, capsys):
              "give --model or --urdf, not both", out)
     _refused(capsys, base + ["--urdf-joints", USER_JOINTS, "--tilt-axis-offset=0,1,0"],
              "edit the URDF instead", out)
+    _refused(capsys, ["render", "--urdf-joints", USER_JOINTS, "--out", str(out)],
+             "--urdf-joints: only with --urdf HEAD.urdf", out)
     bad = tmp_path / "bad.urdf"
     bad.write_text("<mujoco/>")
     _refused(capsys, ["render", "--urdf", str(bad), "--out", str(out)], "not a URDF", out)
