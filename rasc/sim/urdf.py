@@ -15,7 +15,8 @@ turns it into the ``mujoco.MjSpec`` :class:`rasc.sim.scene.StereoHeadSim` loads
   to MuJoCo's camera axes (look along −z, y up), with the intrinsics K and image size;
 * keeps static links as bodies (``fusestatic="false"``) and gives massless links a token
   mass (``boundmass``, ``boundinertia``): the bench only sets joints and renders, it never
-  steps the physics.
+  steps the physics;
+* finds ``package://`` meshes (:func:`mesh_file`), which MuJoCo does not resolve.
 
 Encoder zeros and scales: MuJoCo's URDF compiler ignores ``<mimic>``. When a named joint
 is the one other joint's ``<mimic joint=... multiplier="s" offset="o"/>`` follows (what
@@ -233,6 +234,28 @@ def _free_names(names: set[str], wanted: dict[str, str], reserved=()) -> dict[st
     return mapping
 
 
+def mesh_file(name: str, urdf: Path) -> str:
+    """A URDF mesh's file name as MuJoCo opens it: ``file://`` dropped; ``package://PKG/REL``
+    as ``DIR/REL`` for the nearest folder ``DIR`` named PKG above the URDF (a ROS package
+    holding its ``urdf/`` and ``meshes/``), else in a folder named PKG on
+    ``ROS_PACKAGE_PATH``, else ``REL``'s file name in the URDF's folder; other names as
+    written (MuJoCo resolves them against the URDF's folder)."""
+    if name.startswith("file://"):
+        return name[len("file://"):]
+    if not name.startswith("package://"):
+        return name
+    package, _, rel = name[len("package://"):].partition("/")
+    here = urdf.resolve().parent
+    roots = [d for d in (here, *here.parents) if d.name == package]
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            roots += [d for d in Path(entry).glob(f"**/{package}") if d.is_dir()][:1]
+    for root in roots:
+        if (root / rel).is_file():
+            return str(root / rel)
+    return str(here / Path(rel).name)
+
+
 def urdf_text(head: UrdfHead) -> tuple[str, dict[str, dict], dict[str, str]]:
     """The URDF rewritten with the bench's names (module docstring): (text, the encoder
     scales/zeros per eye, the camera links' names in the rewritten text)."""
@@ -274,11 +297,14 @@ def urdf_text(head: UrdfHead) -> tuple[str, dict[str, dict], dict[str, str]]:
         ET.SubElement(mount, "parent", link=parent.get("link"))
         ET.SubElement(mount, "child", link=ptu)
         parent.set("link", ptu)
+    for mesh in root.iter("mesh"):
+        if mesh.get("filename"):
+            mesh.set("filename", mesh_file(mesh.get("filename"), head.path))
     for old in root.findall("mujoco"):
         root.remove(old)
     ext = ET.SubElement(root, "mujoco")
     ET.SubElement(ext, "compiler", fusestatic="false", discardvisual="false",
-                  meshdir=str(head.path.resolve().parent), strippath="false")
+                  meshdir=str(head.path.resolve().parent))
     return ET.tostring(root, encoding="unicode"), encoder, cameras
 
 

@@ -285,3 +285,28 @@ def test_render_cached_urdf_head(tmp_path):
     assert a.key == b.key != c.key and a.path == b.path
     assert np.abs(np.asarray(a.truth["right"]["K"]) - K["right"]).max() < 1e-4
     assert a.truth["model_file"] == "head.urdf"
+
+
+def test_package_meshes(tmp_path, capsys, monkeypatch):
+    """A ROS package's layout: the URDF in PKG/urdf/, its meshes as package://PKG/meshes/…
+    (MuJoCo opens no package:// name): found above the URDF; a missing one is one line."""
+    from rasc.sim.urdf import mesh_file
+
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    pkg = tmp_path / "my_head"
+    (pkg / "urdf").mkdir(parents=True)
+    (pkg / "meshes").mkdir()
+    (pkg / "meshes" / "tetra.obj").write_text(
+        "v 0 0 0\nv 0.02 0 0\nv 0 0.02 0\nv 0 0 0.02\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    path = _user_urdf(pkg / "urdf")
+    text = path.read_text().replace(
+        '<link name="torso">', '<link name="torso"><visual><geometry><mesh '
+        'filename="package://my_head/meshes/tetra.obj"/></geometry></visual>')
+    path.write_text(text)
+    assert mesh_file("package://my_head/meshes/tetra.obj", path) == \
+        str((pkg / "meshes" / "tetra.obj").resolve())
+    argv = ["render", "--urdf", str(path), "--urdf-joints", USER_JOINTS, "--urdf-cameras",
+            USER_CAMERAS, "--intrinsics-views", "3", "--poses", "0,0;6,4;-6,-4", "--quiet"]
+    assert main(argv + ["--out", str(tmp_path / "ds")]) == 0, capsys.readouterr().err
+    (pkg / "meshes" / "tetra.obj").unlink()
+    _refused(capsys, argv + ["--out", str(tmp_path / "ds2")], "tetra.obj", tmp_path / "ds2")
