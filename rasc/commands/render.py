@@ -25,6 +25,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Render intrinsics views and pan-tilt pose views of the chessboard for "
                     "both eyes of the simulated head, with ground truth.")
     p.add_argument("--model", metavar="PATH", help="MJCF scene (default sim/models/scene.xml)")
+    p.add_argument("--urdf", metavar="HEAD.urdf",
+                   help="render your own head, described in a URDF that MuJoCo compiles "
+                        "(docs/topics/urdf-head.md), with the target in front; not with "
+                        "--model")
+    p.add_argument("--urdf-joints", metavar="LP,LT,RP,RT",
+                   help="the URDF's left pan, left tilt, right pan, right tilt joints "
+                        "(default: rasc export's names)")
+    p.add_argument("--urdf-cameras", metavar="LEFT,RIGHT",
+                   help="the URDF's camera links, REP 103 optical frames: z forward, x "
+                        "right, y down (default: rasc export's names)")
+    p.add_argument("--urdf-intrinsics", metavar="CAL",
+                   help="the cameras' K and image size from a calibration file (default: "
+                        "the stock cameras')")
     p.add_argument("--out", metavar="DIR", default="dataset",
                    help="output folder, new or empty: an existing dataset is never replaced "
                         "(default ./dataset)")
@@ -117,6 +130,32 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "jpeg_quality": "--jpeg-quality"}
 
 
+def _urdf_head(args: argparse.Namespace, out: Path):
+    """The ``--urdf*`` options as a :class:`rasc.sim.urdf.UrdfHead`."""
+    from rasc.io import check_output
+    from rasc.sim.urdf import (
+        DEFAULT_CAMERAS,
+        DEFAULT_JOINTS,
+        UrdfHead,
+        intrinsics_from_calibration,
+        parse_names,
+    )
+
+    if args.model is not None:
+        raise InputError("--urdf: give --model or --urdf, not both")
+    if not Path(args.urdf).is_file():
+        raise InputError(f"--urdf {args.urdf}: file not found")
+    check_output(str(out), inputs=[args.urdf, args.urdf_intrinsics], kind="folder")
+    K = size = None
+    if args.urdf_intrinsics is not None:
+        K, size = intrinsics_from_calibration(args.urdf_intrinsics)
+    joints = DEFAULT_JOINTS if args.urdf_joints is None else \
+        parse_names(args.urdf_joints, 4, "--urdf-joints")
+    cameras = DEFAULT_CAMERAS if args.urdf_cameras is None else \
+        parse_names(args.urdf_cameras, 2, "--urdf-cameras")
+    return UrdfHead(args.urdf, joints, cameras, K, size)
+
+
 def run(args: argparse.Namespace) -> int:
     with loading():  # here, not at module level: building the parser loads no library
         from rasc.io import finite_numbers, folder_built_atomically
@@ -126,6 +165,13 @@ def run(args: argparse.Namespace) -> int:
     out = _check_out(args.out, args.model)
     if args.model is not None and not Path(args.model).is_file():
         raise InputError(f"--model {args.model}: file not found")
+    if args.urdf is None:
+        stray = [f for f, v in (("--urdf-joints", args.urdf_joints),
+                                ("--urdf-cameras", args.urdf_cameras),
+                                ("--urdf-intrinsics", args.urdf_intrinsics)) if v is not None]
+        if stray:
+            raise InputError(f"{stray[0]}: only with --urdf HEAD.urdf")
+    model = args.model if args.urdf is None else _urdf_head(args, out)
     options = RenderOptions(
         poses_deg=parse_poses(args.poses, FLAGS["poses_deg"]),
         intrinsics_views=args.intrinsics_views, distance=args.distance, seed=args.seed,
@@ -141,7 +187,7 @@ def run(args: argparse.Namespace) -> int:
     board = None if args.target is None else parse_target(args.target, "--target")
     t0 = time.perf_counter()
     with folder_built_atomically(out, meanwhile=" (another render?)") as tmp:
-        render_dataset(tmp, options, model_path=args.model, quiet=args.quiet, units=units,
+        render_dataset(tmp, options, model_path=model, quiet=args.quiet, units=units,
                        board=board, names=FLAGS)
     if not args.quiet:
         print(f"render: wrote {out}/manifest.json ({time.perf_counter() - t0:.1f} s)",

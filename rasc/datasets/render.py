@@ -20,7 +20,8 @@ def render_what(options: Any, model_path: str | os.PathLike | None = None,
                 units: dict | None = None, board: Any = None) -> dict:
     """What a rendered dataset depends on beside the code: its
     :class:`rasc.sim.render.RenderOptions` (as a dict), the sha256 of the model file
-    it was rendered from (None: the package's model, part of the code digest), for
+    it was rendered from (None: the package's model, part of the code digest; for a
+    :class:`rasc.sim.urdf.UrdfHead` that of the URDF with its names and intrinsics), for
     an imperfect head its units (``{eye: rasc.sim.units.UnitBuild}``) and for a target
     drawn from its description (``rasc render --target``) the target's manifest object
     (None, the ideal units, the model's board, ``supersample`` 1 or a camera degradation
@@ -36,7 +37,13 @@ def render_what(options: Any, model_path: str | os.PathLike | None = None,
         if k not in kept:
             opts.pop(k, None)
     model = None if model_path is None else hashlib.sha256(
-        Path(model_path).read_bytes()).hexdigest()
+        Path(getattr(model_path, "path", model_path)).read_bytes()).hexdigest()
+    if hasattr(model_path, "cameras"):    # a rasc.sim.urdf.UrdfHead: the file and its names
+        model = {"urdf": model, "joints": list(model_path.joints),
+                 "cameras": list(model_path.cameras), "image_size": model_path.image_size,
+                 "K": None if model_path.K is None else
+                 {eye: [[float(v) for v in row] for row in k]
+                  for eye, k in model_path.K.items()}}
     what = {"options": opts, "model": model}
     if units is not None:
         what["units"] = {eye: asdict(b) for eye, b in sorted(units.items())}

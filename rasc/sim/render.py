@@ -612,7 +612,6 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
     board, the manifest's image entries, the ground truth document)."""
     from rasc.sim.scene import (
         StereoHeadSim,
-        T_base_from_world_facing,
         distortion_warp,
     )
 
@@ -632,7 +631,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
         for eye in EYES:
             gt[eye]["dist"] = dist.tolist()
         # fail on bad positions or distances before rendering anything
-        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
+        sim.set_target(sim.facing_target(options.distance))
         square_px = check_pose_views(
             sim, options, dist if distorted else None,
             log=None if quiet else (lambda line: print(f"render: {line}", file=sys.stderr)),
@@ -680,7 +679,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                     dist if distorted else None)):
                 sim.set_target(T_base_from_cam @ T_cw)
                 shoot(eye, f"intrinsics/{eye}_{k:03d}.png", {"role": "intrinsics"})
-        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
+        sim.set_target(sim.facing_target(options.distance))
         for k, (pan, tilt) in enumerate(options.poses_deg):
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))

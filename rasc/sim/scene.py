@@ -251,8 +251,11 @@ class StereoHeadSim:
 
     Parameters
     ----------
-    model_path : path, optional
-        MJCF scene to load (default ``sim/models/scene.xml``). Must contain the bodies
+    model_path : path or rasc.sim.urdf.UrdfHead, optional
+        A head described in a URDF (:class:`rasc.sim.urdf.UrdfHead`: compiled by MuJoCo,
+        renamed and given cameras by :func:`rasc.sim.urdf.head_spec`, the target
+        ``board`` or the stock one in front), or the MJCF scene to load (default
+        ``sim/models/scene.xml``). Must contain the bodies
         ``base_link``, ``{eye}_ptu_link``, ``{eye}_tilt_link``, joints ``{eye}_pan_joint``,
         ``{eye}_tilt_joint`` and cameras ``{eye}_camera`` for eye in (left, right); a
         target (mocap body ``board_link``, site ``board_origin``, custom numerics
@@ -288,10 +291,22 @@ class StereoHeadSim:
                  units: dict[str, UnitBuild] | None = None) -> None:
         mujoco = import_mujoco()
         self._renderer = None
+        self._board = board
+        #: the URDF head this simulator renders (:mod:`rasc.sim.urdf`), or None
+        self.urdf = None
         self.scene_xml: str | None = None
         self.units = self._check_units(units)
         spec = None
-        if board is not None and model_path is not None:
+        from rasc.sim.urdf import UrdfHead
+
+        if isinstance(model_path, UrdfHead):
+            if head_path is not None:
+                raise InputError("StereoHeadSim: give a UrdfHead or head_path, not both")
+            self.model_file = model_path.path.resolve()
+            self.urdf = model_path
+            self.units, edited = self._urdf_units(model_path)
+            self.model = self._load(lambda: edited.compile(), self.model_file)
+        elif board is not None and model_path is not None:
             if head_path is not None:
                 raise InputError("StereoHeadSim: give model_path or head_path, not both")
             if not Path(model_path).is_file():
@@ -300,7 +315,9 @@ class StereoHeadSim:
             spec = self._load(lambda: mujoco.MjSpec.from_file(str(where)), where)
             if spec.body("board_link") is None:     # a head alone: the scene around it
                 head_path, model_path, spec = model_path, None, None
-        if spec is not None:
+        if isinstance(model_path, UrdfHead):
+            pass
+        elif spec is not None:
             self.model_file = where
             edited = spec_with_target(spec, board)
             self.model = self._load(lambda: self._compile(lambda: edited, edited.compile),
@@ -336,9 +353,31 @@ class StereoHeadSim:
         self._read_constants()
         self._dirty = True
         if self.board is not None:
-            self.set_target(T_base_from_world_facing(self.board))
+            self.set_target(self.facing_target())
 
     # -- loading -------------------------------------------------------------------------
+
+    def _urdf_units(self, head):
+        """(the units, the scene's MjSpec) of a URDF head (:mod:`rasc.sim.urdf`): the
+        head with the bench's names and cameras and the target in front; the encoder
+        scales and zeros its ``<mimic>`` joints state go into the units, which may not
+        state them too, nor edit the model (edit the URDF instead)."""
+        from rasc.sim.units import merge
+        from rasc.sim.urdf import head_spec
+
+        spec, encoder = head_spec(head)
+        units = {}
+        for eye in EYES:
+            build = self.units[eye]
+            if build.edits_model:
+                raise InputError(f"{head.path}: the {eye} unit build moves joints or the "
+                                 "camera; for a URDF head, edit the URDF instead")
+            clash = [k for k in encoder[eye] if getattr(build, k) != getattr(IDEAL_BUILD, k)]
+            if clash:
+                raise InputError(f"{head.path}: the {eye} unit's {', '.join(clash)} come "
+                                 "from the URDF's <mimic> joints; do not also give them")
+            units[eye] = merge(build, **encoder[eye])
+        return units, spec_with_target(spec, self._board or DEFAULT_BOARD)
 
     @staticmethod
     def _check_units(units) -> dict[str, UnitBuild]:
@@ -496,6 +535,13 @@ class StereoHeadSim:
             self._T_ptu_from_base[eye] = self._T_ptu_from_base[eye] @ T_base_link_from_base
         self.T_base_from_base_link = T_base_from_base_link
         self.T_scene_from_base = self.T_scene_from_base_link @ T_base_link_from_base
+        # where the cameras look at home: base +y for the stock head; a head whose tilt
+        # joints turn the other way (a URDF's, positive tilt looking down) has the
+        # canonical base's y backwards, and the target goes to base -y
+        look = sum((self._T_ptu_from_base[eye][:3, :3].T
+                    @ invert_transform(self._T_cam_from_gaze[eye])[:3, 2] for eye in EYES),
+                   np.zeros(3))
+        self._ahead = 1.0 if look[1] >= 0 else -1.0
 
     def _local_chain(self, top: int, body: int, eye: str, what: str) -> list[int]:
         """Bodies from ``top`` (excluded) down to ``body`` (included); ``body`` must lie
@@ -708,6 +754,17 @@ class StereoHeadSim:
         self.data.mocap_quat[mocap] = q
         self._dirty = True
 
+    def facing_target(self, distance: float = 1.0, centre_base=(0.0, 0.0)) -> np.ndarray:
+        """``T_base_from_world`` (4, 4) of the target facing the head upright, its centre
+        ``distance`` ahead of the cameras at home: :func:`T_base_from_world_facing` (base
+        +y ahead) for a head whose cameras look along base +y, as the stock head's do; for
+        one whose cameras look along base −y (a URDF head whose positive tilt looks down,
+        :mod:`rasc.sim.urdf`), the same pose turned half a turn about the base's x axis."""
+        T = T_base_from_world_facing(self._require_board(), distance, centre_base)
+        if self._ahead < 0:
+            T = np.diag([1.0, -1.0, -1.0, 1.0]) @ T
+        return T
+
     def forward(self) -> None:
         """Bring ``data`` (bodies, cameras, sites) up to date with the last set angles/target."""
         if self._dirty:
@@ -861,6 +918,8 @@ class StereoHeadSim:
             "units": "metres, radians; pixels with centres at integers (OpenCV)",
             "gauge": GAUGE,
         }
+        if self.urdf is not None:      # which of the URDF's joints and links are the units'
+            gt["urdf"] = {"joints": list(self.urdf.joints), "cameras": list(self.urdf.cameras)}
         for eye in EYES:
             unit, T_cg, T_pb = self.unit_as_built(eye)
             gt[eye] = {"K": self.K(eye).tolist(), "dist": [0.0] * 5,
