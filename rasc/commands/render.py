@@ -132,14 +132,9 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
 
 def _urdf_head(args: argparse.Namespace, out: Path):
     """The ``--urdf*`` options as a :class:`rasc.sim.urdf.UrdfHead`."""
+    from rasc.head.use import intrinsics_from_calibration
     from rasc.io import check_output
-    from rasc.sim.urdf import (
-        DEFAULT_CAMERAS,
-        DEFAULT_JOINTS,
-        UrdfHead,
-        intrinsics_from_calibration,
-        parse_names,
-    )
+    from rasc.sim.urdf import DEFAULT_CAMERAS, DEFAULT_JOINTS, UrdfHead, parse_names
 
     if args.model is not None:
         raise InputError("--urdf: give --model or --urdf, not both")

@@ -676,3 +676,18 @@ def calibration_warnings(cal: CalibrationFile) -> list[str]:
                 "another length unit (millimetres among metres?); answers are wrong until "
                 "it is fixed"]
     return []
+
+
+def intrinsics_from_calibration(path: str | os.PathLike
+                                ) -> tuple[dict[str, np.ndarray], tuple[int, int]]:
+    """K per eye and the image size of a calibration file (what ``rasc calibrate`` or
+    ``rasc intrinsics`` writes; :func:`load_calibration`): the cameras ``rasc render
+    --urdf-intrinsics`` gives a URDF head (:class:`rasc.sim.urdf.UrdfHead`'s ``K``,
+    ``image_size``)."""
+    head = load_calibration(path)
+    K = {eye: np.asarray(getattr(head, eye).K, dtype=float) for eye in EYES}
+    sizes = {tuple(int(v) for v in getattr(head, eye).image_size) for eye in EYES}
+    if len(sizes) != 1:
+        raise InputError(f"{path}: the two eyes' image sizes differ ({sorted(sizes)}); the "
+                         "bench renders both eyes at one size")
+    return K, sizes.pop()

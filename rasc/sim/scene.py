@@ -365,7 +365,7 @@ class StereoHeadSim:
         from rasc.sim.units import merge
         from rasc.sim.urdf import head_spec
 
-        spec, encoder = head_spec(head)
+        spec, encoder = head_spec(head, import_mujoco())
         units = {}
         for eye in EYES:
             build = self.units[eye]

@@ -89,9 +89,11 @@ class UrdfHead:
                              f"right), got {','.join(self.cameras)}")
 
     def joint(self, eye: str, which: str) -> str:
+        """The URDF's name of ``eye``'s ``which`` ("pan" or "tilt") joint."""
         return self.joints[2 * EYES.index(eye) + ("pan", "tilt").index(which)]
 
     def camera(self, eye: str) -> str:
+        """The URDF's name of ``eye``'s camera link (an optical frame)."""
         return self.cameras[EYES.index(eye)]
 
 
@@ -103,12 +105,11 @@ def parse_names(text: str, count: int, flag: str) -> tuple[str, ...]:
     return names
 
 
-def stock_intrinsics() -> tuple[dict[str, np.ndarray], tuple[int, int]]:
-    """The stock head's cameras' K per eye and image size, read from its compiled model."""
+def stock_intrinsics(mujoco) -> tuple[dict[str, np.ndarray], tuple[int, int]]:
+    """The stock head's cameras' K per eye and image size, read from its compiled model
+    (``mujoco``: the module, as :func:`rasc.sim.scene.import_mujoco` gives it)."""
     from rasc.sim.mjcf import HEAD_XML
-    from rasc.sim.scene import import_mujoco
 
-    mujoco = import_mujoco()
     m = mujoco.MjModel.from_xml_path(str(HEAD_XML))
     K = {}
     for eye in EYES:
@@ -120,21 +121,6 @@ def stock_intrinsics() -> tuple[dict[str, np.ndarray], tuple[int, int]]:
                            [0.0, f[1] * h / sensor[1], h / 2 - p[1] * h / sensor[1] - 0.5],
                            [0.0, 0.0, 1.0]])
     return K, (w, h)
-
-
-def intrinsics_from_calibration(path: str | os.PathLike
-                                ) -> tuple[dict[str, np.ndarray], tuple[int, int]]:
-    """K per eye and the image size of a calibration file (what ``rasc calibrate`` or
-    ``rasc intrinsics`` writes; :func:`rasc.head.use.load_calibration`)."""
-    from rasc.head.use import load_calibration
-
-    head = load_calibration(path)
-    K = {eye: np.asarray(getattr(head, eye).K, dtype=float) for eye in EYES}
-    sizes = {tuple(int(v) for v in getattr(head, eye).image_size) for eye in EYES}
-    if len(sizes) != 1:
-        raise InputError(f"{path}: the two eyes' image sizes differ ({sorted(sizes)}); the "
-                         "bench renders both eyes at one size")
-    return K, sizes.pop()
 
 
 def _read_urdf(head: UrdfHead) -> ET.Element:
@@ -308,12 +294,11 @@ def urdf_text(head: UrdfHead) -> tuple[str, dict[str, dict], dict[str, str]]:
     return ET.tostring(root, encoding="unicode"), encoder, cameras
 
 
-def head_spec(head: UrdfHead):
+def head_spec(head: UrdfHead, mujoco):
     """(``mujoco.MjSpec`` of the head with the bench's names and cameras, the encoder
-    scales and zeros per eye as :class:`rasc.sim.units.UnitBuild` fields)."""
-    from rasc.sim.scene import import_mujoco
-
-    mujoco = import_mujoco()
+    scales and zeros per eye as :class:`rasc.sim.units.UnitBuild` fields); ``mujoco``: the
+    module, as :func:`rasc.sim.scene.import_mujoco` gives it (this module does not import
+    rasc.sim.scene, which imports it)."""
     text, encoder, cameras = urdf_text(head)
     try:
         spec = mujoco.MjSpec.from_string(text)
@@ -323,7 +308,7 @@ def head_spec(head: UrdfHead):
     spec.compiler.boundmass = 1e-3
     spec.compiler.boundinertia = 1e-6
     if head.K is None:
-        K, size = stock_intrinsics()
+        K, size = stock_intrinsics(mujoco)
         size = size if head.image_size is None else head.image_size
     else:
         K, size = head.K, head.image_size
