@@ -601,14 +601,23 @@ def pooled_z(results: list[CellResult]) -> dict[str, tuple[int, float, float]]:
 
 
 def markdown_tables(results: list[CellResult]) -> str:
-    """The results page's tables: every cell's figures, then the normalized errors."""
-    lines = ["| # | head | options | target | motion | door | verdict | χ²/n | within 3σ | "
-             "worst quantity (d² / bound) | hand-eye L / R (mm) | mounts (mm) | doors agree "
-             "| report pages | cell |",
-             "|" + " --- |" * 15]
+    """The results page's tables: every cell and its verdict, every cell's figures (two
+    tables, so that each fits a page's width), then the normalized errors."""
+    lines = ["| # | head | options | target | motion | door | verdict | doors agree | "
+             "report pages | rule |", "|" + " --- |" * 10]
     for k, r in enumerate(results):
-        c, s = r.cell, r.score
+        c = r.cell
         ok, why = cell_passes(r)
+        lines.append(
+            f"| {k} | {c['head']} | {c['options']} | {c['target']} | {c['motion']} | "
+            f"{c['door']} | {r.verdict or '—'} | "
+            f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
+            f"{r.report_pages if r.report_pages is not None else '—'} | "
+            f"{'ok' if ok else 'FAIL: ' + why} |")
+    lines += ["", "| # | χ²/n | within 3σ | worst quantity (d² / bound) | hand-eye L / R (mm) "
+              "| mounts (mm) |", "|" + " --- |" * 6]
+    for k, r in enumerate(results):
+        s = r.score
         worst = "—"
         if s.quantities:
             q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
@@ -618,14 +627,9 @@ def markdown_tables(results: list[CellResult]) -> str:
                         for eye in ("left", "right"))
         mounts = s.errors.get("mounts translation (mm)")
         lines.append(
-            f"| {k} | {c['head']} | {c['options']} | {c['target']} | {c['motion']} | "
-            f"{c['door']} | {r.verdict or '—'} | "
-            f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
+            f"| {k} | {'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
             f"{'—' if s.within_3sigma is None else f'{100 * s.within_3sigma:.0f} %'} | "
-            f"{worst} | {he} | {'—' if mounts is None else f'{mounts:.3f}'} | "
-            f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
-            f"{r.report_pages if r.report_pages is not None else '—'} | "
-            f"{'ok' if ok else 'FAIL: ' + why} |")
+            f"{worst} | {he} | {'—' if mounts is None else f'{mounts:.3f}'} |")
     usable = [r for r in results if r.verdict == "usable" and r.score.z]
     lines += ["", f"Normalized errors z = (estimate − truth) / σ of the {len(usable)} cells",
               "judged usable that have the refinement's covariance (a well-kept σ gives",
