@@ -59,6 +59,7 @@ EXPERIMENTS = (
     ("e7_model_mismatch", "E7 — beyond the paper: model mismatch (real pan-tilt units)"),
     ("e8_wide", "E8 — beyond the paper: wide motions with a ChArUco board"),
     ("e9_outliers", "E9 — beyond the paper: bad positions and unknown scale"),
+    ("e10_depth", "E10 — beyond the paper: depth at any gaze against the depth buffer"),
 )
 
 
