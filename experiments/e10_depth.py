@@ -3,10 +3,10 @@
 
 Protocol:
 
-* **Scene**: the stock head before a textured scene (``scene.xml`` and ``texture.png``
-  written beside the results): a wall 3 m ahead and a floor, two boxes and a ball
+* **Scene**: the stock head before a textured scene: a wall 3 m ahead and a floor, two boxes and a ball
   0.9–2.2 m away, all covered with a seeded random texture (blurred Gaussian noise at
   three scales, drawn from ``--seed``); the chessboard target is moved behind the wall.
+  Written to ``scene/scene.xml`` and ``scene/texture.png``.
 * **Gazes** (:data:`GAZES`): both eyes fixate a point (``rasc.head.use.look_at`` on the
   true head), then each eye's pan and tilt are offset: converging at 0.9 m and 1.5 m,
   diverging, asymmetric, up-left and down-right, every reading within ±30°. Vergence is
@@ -34,7 +34,8 @@ Run::
     python -m experiments.e10_depth [--seed S] [--quick] [--out DIR]
 
 Writes ``<out>/e10/``: ``depth.csv`` (one row per gaze and calibration),
-``summary.json``, ``scene.xml`` + ``texture.png`` (the scene), ``e10_depth.png`` (+ .svg).
+``summary.json``, ``scene/scene.xml`` + ``scene/texture.png`` (the scene),
+``e10_depth.png`` (+ .svg).
 """
 
 from __future__ import annotations
@@ -110,7 +111,7 @@ _GEOMS = """
 
 
 def write_scene(folder: Path, seed: int) -> Path:
-    """``folder/scene.xml`` (the stock head and chessboard scene, ``rasc.sim.mjcf.scene_xml``,
+    """``folder/scene/scene.xml`` (the stock head and chessboard scene, ``rasc.sim.mjcf.scene_xml``,
     with the textured wall, floor and objects) and its ``texture.png``; the scene's path."""
     from rasc.io import write_bytes_atomic, write_text_atomic
     from rasc.sim.mjcf import DEFAULT_BOARD, scene_xml
@@ -122,6 +123,8 @@ def write_scene(folder: Path, seed: int) -> Path:
     xml = xml.replace(floor, _ASSETS.strip() + "\n    <material name=\"floor\" "
                       'texture="e10_plane" texrepeat="4 4" texuniform="true" specular="0"/>')
     xml = xml.replace("  </worldbody>", _GEOMS.strip("\n"))
+    folder = folder / "scene"     # apart from the report's figures (the folder's *.png)
+    folder.mkdir(exist_ok=True)
     write_bytes_atomic(folder / TEXTURE_FILE, encode_png(texture(seed)))
     write_text_atomic(folder / "scene.xml", xml)
     return folder / "scene.xml"

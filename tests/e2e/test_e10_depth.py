@@ -78,4 +78,4 @@ def test_section_figure_and_registration(e10):
     assert png.stat().st_size > 10_000
     assert "![E10](e10/e10_depth.png)" in section.markdown
     assert "| converging 0.9 m | perturbed (0.1°) |" in section.markdown
-    assert (folder / "scene.xml").is_file() and (folder / "texture.png").is_file()
+    assert (folder / "scene" / "scene.xml").is_file()
