@@ -308,8 +308,8 @@ def markdown(rows: list[tuple], files, quick: bool) -> str:
              + (" Quick protocol: two of the six gazes." if quick else ""),
              "",
              md_table(("gaze", "calibration", "left pan, tilt (°)", "right pan, tilt (°)",
-                       "vergence (°)", "valid pixels (%)", "median |ΔZ| (mm)",
-                       "median |ΔZ|/Z (%)", "within 1 % (%)"), table), "",
+                       "vergence (°)", "valid pixels (%)", "median depth error (mm)",
+                       "median depth error (% of depth)", "within 1 % (%)"), table), "",
              "SGBM's disparity is quantised to 1/16 px and its subpixel fit is biased; a "
              "disparity error δ moves the depth by Z²δ/(f·B) (f ≈ 1150 px, B ≈ 0.33 m: "
              "0.1 px is 0.1 % at 1.3 m). A 0.1° vergence error is f·0.0017 ≈ 2 px of "
