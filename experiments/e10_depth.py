@@ -3,9 +3,10 @@
 
 Protocol:
 
-* **Scene**: the stock head before a textured scene: a wall 3 m ahead and a floor, two boxes and a ball
-  0.9–2.2 m away, all covered with a seeded random texture (blurred Gaussian noise at
-  three scales, drawn from ``--seed``); the chessboard target is moved behind the wall.
+* **Scene**: the stock head before a textured scene: a wall 3 m ahead and a floor, two
+  boxes and a ball 0.9–2.2 m away, all covered with a seeded random texture (blurred
+  Gaussian noise at three scales, drawn from ``--seed``); the chessboard target is moved
+  behind the wall.
   Written to ``scene/scene.xml`` and ``scene/texture.png``.
 * **Gazes** (:data:`GAZES`): both eyes fixate a point (``rasc.head.use.look_at`` on the
   true head), then each eye's pan and tilt are offset: converging at 0.9 m and 1.5 m,
@@ -45,8 +46,15 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments._common import Context, Section, md_table, script_main, stage, write_csv, \
-    write_json
+from experiments._common import (
+    Context,
+    Section,
+    md_table,
+    script_main,
+    stage,
+    write_csv,
+    write_json,
+)
 
 NAME = "e10"
 TITLE = "E10 — beyond the paper: depth at any gaze against the depth buffer"
