@@ -80,6 +80,19 @@ def unit_builds(render: dict[str, Any]) -> dict | None:
     return {eye: build for eye in EYES if which in ("both", eye)}
 
 
+def head_of(render: dict[str, Any], model_path: str | None):
+    """What a dataset is rendered from: with ``urdf``, a
+    :class:`rasc.sim.urdf.UrdfHead` of the file ``model_path`` and the cell's
+    ``urdf_joints`` and ``urdf_cameras``; else ``model_path`` (an MJCF scene or None)."""
+    if not render.get("urdf") or model_path is None:
+        return model_path
+    from rasc.sim.urdf import UrdfHead
+
+    names = {k: tuple(render.get(k, PARAMS[k].default).split(","))
+             for k in ("urdf_joints", "urdf_cameras")}
+    return UrdfHead(model_path, names["urdf_joints"], names["urdf_cameras"])
+
+
 def target_of(render: dict[str, Any]):
     """The target a cell's ``target`` describes (:func:`rasc.vision.board.parse_target`),
     or None for the model's own board."""
@@ -156,7 +169,7 @@ def render_task(task: RenderTask) -> dict | tuple:
             **{k: full[k] for k in DEGRADATIONS})
         names = ({"poses_deg": f"positions_file {task.positions_from}"}
                  if task.positions_from else RENDER_NAMES)
-        ds = render_in_memory(options, model_path=task.model_path, quiet=True,
+        ds = render_in_memory(options, model_path=head_of(r, task.model_path), quiet=True,
                               units=unit_builds(r), board=target_of(full), names=names)
         doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
         return (doc, ds) if task.keep else doc
@@ -166,7 +179,8 @@ def render_task(task: RenderTask) -> dict | tuple:
             shown = {k: v for k, v in r.items() if k not in ("layout", "positions",
                                                              "motion_deg")}
             shown["positions_file"] = task.positions_from
-        what = ", ".join(f"{k} = {v!r}" for k, v in sorted(shown.items()) if k != "model")
+        what = ", ".join(f"{k} = {v!r}" for k, v in sorted(shown.items())
+                         if k not in ("model", "urdf"))
         raise type(exc)(f"{task.where}: the dataset for {what}: "
                         f"{' '.join(str(exc).split())}") from None
 
@@ -299,7 +313,8 @@ def _pose_scene(task: PoseTask) -> tuple[dict, Any, Any, dict | None]:
                  "noise_sigma": b["image_noise"], "blur_sigma": b["blur"],
                  "dist": list(b["distortion"]), "supersample": b["supersample"],
                  **{k: b[k] for k in DEGRADATIONS}}
-        model_path, units, record = task.model_path, unit_builds(base["render"]), None
+        model_path = head_of(base["render"], task.model_path)
+        units, record = unit_builds(base["render"]), None
     else:
         record = base.get("scene")
         if record is None:
@@ -320,7 +335,7 @@ def _render_pose_views(task: PoseTask, options, board, model_path, units,
     """Render :func:`pose_task`'s pose views in the base's scene: per eye the images, the
     true ``T_cam_from_world`` of each, and the scene's ``T_cam_from_gaze``."""
     from rasc.sim.render import check_pose_views, distortion_of, view_image
-    from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing, distortion_warp
+    from rasc.sim.scene import StereoHeadSim, distortion_warp
 
     where = task.where
     dist, distorted = distortion_of(options)
@@ -330,7 +345,7 @@ def _render_pose_views(task: PoseTask, options, board, model_path, units,
         if sim.board != board:
             raise InputError(f"{where}: intrinsics_from = 'dataset': the scene's board "
                              f"{sim.board} is not the dataset's {board}")
-        sim.set_target(T_base_from_world_facing(board, distance=options.distance))
+        sim.set_target(sim.facing_target(options.distance))
         if record is not None:
             gt = sim.ground_truth()
             diff = _differs(sim.T_base_from_world.tolist(), record["T_base_from_world"]) \

@@ -313,6 +313,13 @@ def _given_dataset(spec: Spec, dataset: dict | None) -> str | None:
     return None
 
 
+def _model_file(spec: Spec, render: dict) -> str | None:
+    """The file a render's ``model`` or ``urdf`` digest names (None: the package's head);
+    :func:`rasc.study.datasets.head_of` makes a URDF's head of it in the worker."""
+    digest = render.get("model") or render.get("urdf")
+    return str(spec.model_path(digest)) if digest else None
+
+
 def _positions_from(spec: Spec, render: dict) -> str:
     """The spec's ``positions_file`` whose positions a render's are ("" when they are the
     layout's grid), for its messages."""
@@ -397,8 +404,7 @@ class _Run:
                 self.scratch = register_temporary(tempfile.mkdtemp(prefix="rasc-study-"))
             fn, tasks = render_task, [
                 RenderTask(k, wanted[k], spec.seed, where=str(spec.path), scratch=self.scratch,
-                           model_path=(str(spec.model_path(wanted[k]["model"]))
-                                       if wanted[k].get("model") else None),
+                           model_path=_model_file(spec, wanted[k]),
                            positions_from=_positions_from(spec, wanted[k]))
                 for k in missing]
         self.docs.update(_render(self.executor, fn, tasks, out, self.quiet, "render datasets",
@@ -422,8 +428,7 @@ class _Run:
             k = dataset_name({**r, "intrinsics_of": base_key}, spec.seed)
             self.keys[c.index] = k
             poses.setdefault(k, PoseTask(k, base_key, r, spec.seed, str(spec.path),
-                                         model_path=(str(spec.model_path(base_r["model"]))
-                                                     if base_r.get("model") else None)))
+                                         model_path=_model_file(spec, base_r)))
         self.docs.update(_found_datasets(self.out, poses, self.log))
         tasks = [replace(poses[k], base=self.docs[poses[k].base_key])
                  for k in sorted(poses) if k not in self.docs]

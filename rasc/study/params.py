@@ -12,6 +12,7 @@ from typing import Any
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.io import finite_number
+from rasc.sim.urdf import DEFAULT_CAMERAS, DEFAULT_JOINTS
 
 #: the paper's noise set k (docs/METHOD.md §8): σ_r = 0.005 k rad, σ_t = k mm
 PAPER_SIGMA_R_PER_LEVEL, PAPER_SIGMA_T_MM_PER_LEVEL = 0.005, 1.0
@@ -157,6 +158,18 @@ def _text(x) -> str:
     return x
 
 
+def _names(count: int) -> Callable[[Any], str]:
+    """``count`` different comma-separated names (``rasc render --urdf-joints`` and
+    ``--urdf-cameras``' form), normalised to ``a,b,...`` without spaces."""
+    def check(x) -> str:
+        names = [n.strip() for n in _text(x).split(",")]
+        if len(names) != count or not all(names) or len(set(names)) != count:
+            raise ValueError(f"expected {count} different comma-separated names, "
+                             f"got {_show(x)}")
+        return ",".join(names)
+    return check
+
+
 def _target(x) -> str:
     """A target description in ``rasc render --target``'s inline form ('' = the model's
     board), checked by :func:`rasc.vision.board.parse_target`."""
@@ -270,6 +283,16 @@ PARAMS: dict[str, Param] = {
                              "the lens's focal length, mm (with focus_distance)"),
     "jpeg_quality": Param(_jpeg_quality, 0, "render",
                           "JPEG compression quality 1-100 (0 = none)"),
+    # a head described in a URDF (rasc.sim.urdf.UrdfHead; docs/topics/urdf-head.md)
+    "urdf": Param(_text, "", "render",
+                  "a head described in a URDF (path relative to the spec; its bytes' sha256 "
+                  "identifies it), rendered in place of the package's head; not with model"),
+    "urdf_joints": Param(_names(4), ",".join(DEFAULT_JOINTS), "render",
+                         "the URDF's left pan, left tilt, right pan, right tilt joints "
+                         "(with urdf; rasc export's names by default)"),
+    "urdf_cameras": Param(_names(2), ",".join(DEFAULT_CAMERAS), "render",
+                          "the URDF's left and right camera links, REP 103 optical frames "
+                          "(with urdf; rasc export's names by default)"),
     "dataset": Param(_text, "", "dataset",
                      "an existing dataset folder (relative to the spec) instead of "
                      "rendering; [fixed] only, no render parameter beside it"),
@@ -287,7 +310,10 @@ UNIT_PARAMS = ("tilt_axis_offset_mm", "axis_skew_deg", "pan_zero_deg", "tilt_zer
 IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsics_from",
                      "target", "positions_file", "supersample", "full_well", "read_noise",
                      "vignetting", "motion_blur", "motion_angle", "focus_distance",
-                     "f_number", "focal_length_mm", "jpeg_quality")
+                     "f_number", "focal_length_mm", "jpeg_quality", "urdf", "urdf_joints",
+                     "urdf_cameras")
+#: the URDF parameters (a head from a URDF: rasc.sim.urdf.UrdfHead)
+URDF_PARAMS = ("urdf", "urdf_joints", "urdf_cameras")
 
 TOP_KEYS = {"name": _text, "description": _text, "seed": _int_at_least(0),
             "samples": _int_at_least(1), "methods": None,

@@ -303,8 +303,9 @@ class Spec:
             if params["noise_level"] is not None:
                 params["sigma_r"] = PAPER_SIGMA_R_PER_LEVEL * params["noise_level"]
                 params["sigma_t_mm"] = PAPER_SIGMA_T_MM_PER_LEVEL * params["noise_level"]
-            if params["model"]:
-                params["model"] = self.model_digests[params["model"]]
+            for name in ("model", "urdf"):
+                if params[name]:
+                    params[name] = self.model_digests[params[name]]
             if params["dataset"]:
                 params["dataset"] = self.dataset_digests[params["dataset"]]
             if params["positions_file"]:
@@ -324,7 +325,7 @@ class Spec:
         return (self.path.parent / rel).resolve() if rel else None
 
     def model_path(self, digest: str) -> Path | None:
-        """The model file whose bytes have ``digest`` ('' → the package's model)."""
+        """The model file or URDF whose bytes have ``digest`` ('' → the package's model)."""
         for rel, d in self.model_digests.items():
             if d == digest:
                 return (self.path.parent / rel).resolve()
@@ -553,16 +554,41 @@ def _check_poses(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> N
 
 def _model_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
                    fail: Fail) -> dict[str, str]:
-    """The sha256 of each model file the spec names (relative to the spec's folder)."""
+    """The sha256 of each model file and URDF the spec names (relative to the spec's
+    folder); a ``urdf`` is not given with ``model`` (:func:`_check_urdf`)."""
+    _check_urdf(fixed, axes, fail)
     digests: dict[str, str] = {}
-    models = list(axes.get("model", ())) + ([fixed["model"]] if fixed.get("model") else [])
-    for k, rel in enumerate(m for m in models if m):
-        key = "fixed.model" if "model" in fixed else f"axes.model[{k}]"
-        file = path.parent / rel
-        if not file.is_file():
-            fail(key, f"{file}: no such model file")
-        digests[rel] = "sha256:" + hashlib.sha256(file.read_bytes()).hexdigest()
+    for name, what in (("model", "model file"), ("urdf", "URDF file")):
+        models = list(axes.get(name, ())) + ([fixed[name]] if fixed.get(name) else [])
+        for k, rel in enumerate(m for m in models if m):
+            key = f"fixed.{name}" if name in fixed else f"axes.{name}[{k}]"
+            file = path.parent / rel
+            if not file.is_file():
+                fail(key, f"{file}: no such {what}")
+            digests[rel] = "sha256:" + hashlib.sha256(file.read_bytes()).hexdigest()
     return digests
+
+
+def _check_urdf(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
+    """A ``urdf`` describes the whole head: not with ``model`` or a head-model parameter
+    (the URDF's joints are the units); ``urdf_joints`` and ``urdf_cameras`` only with a
+    ``urdf``."""
+    def given(name: str) -> list:
+        return [v for v in axes.get(name, (fixed.get(name, PARAMS[name].default),))
+                if v != PARAMS[name].default]
+
+    def where(name: str) -> str:
+        return f"{'axes' if name in axes else 'fixed'}.{name}"
+
+    if not given("urdf"):
+        for name in ("urdf_joints", "urdf_cameras"):
+            if given(name):
+                fail(where(name), "names the URDF's joints or links: only with urdf")
+        return
+    for name in ("model", *UNIT_PARAMS, "units_eye"):
+        if given(name):
+            fail(where("urdf"), f"the URDF describes the whole head; not with {name} = "
+                 f"{_show(given(name)[0])}")
 
 
 def _check_target(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
