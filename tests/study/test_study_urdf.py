@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -26,8 +27,10 @@ UNIT = PanTiltUnit(tilt_axis=(0.02, 0.0, 1.0), tilt_point=(0.0, 0.01, 0.0),
                    pan_offset=0.01, tilt_offset=-0.005)
 
 
-def _exported_urdf(folder: Path, capsys) -> Path:
-    """``rasc export --format urdf`` of a calibration of the imperfect head."""
+def _exported_urdf(folder: Path, capsys, tilt_down: bool = False) -> Path:
+    """``rasc export --format urdf`` of a calibration of the imperfect head; with
+    ``tilt_down``, its tilt joints' axes turned round (positive tilt lowers the gaze, REP
+    103's pitch: the cameras look along the canonical base's -y)."""
     truth = default_head(UNIT)
     head = HeadCalibration(*(EyeCalibration(truth.K[eye], truth.dist[eye],
                                             truth.T_cam_from_gaze[eye],
@@ -37,6 +40,11 @@ def _exported_urdf(folder: Path, capsys) -> Path:
     cal.write_text(json.dumps(head.to_dict()))
     assert main(["export", str(cal), "--format", "urdf", "--out", str(urdf)]) == 0, \
         capsys.readouterr().err
+    if tilt_down:
+        text = urdf.read_text()
+        axis = re.search(r'name="left_tilt".*?(<axis xyz="[^"]*"/>)', text, re.S).group(1)
+        flipped = " ".join(f"{-float(v):.17g}" for v in axis.split('"')[1].split())
+        urdf.write_text(text.replace(axis, f'<axis xyz="{flipped}"/>'))
     return urdf
 
 
@@ -108,3 +116,22 @@ def test_tiny_study_over_an_exported_urdf(tmp_path, capsys, monkeypatch):
     assert len(rows) == 1 + 2
     status, col = rows[0].index("status"), rows[0].index("translation_mm")
     assert all(r[status] == "ok" and np.isfinite(float(r[col])) for r in rows[1:]), rows
+
+
+@pytest.mark.slow
+def test_pose_sets_of_a_tilt_down_urdf_face_the_target(tmp_path, capsys, monkeypatch):
+    """``intrinsics_from = "dataset"`` renders the pose sets in the URDF head's scene with
+    the target in front of its cameras (``sim.facing_target``), also for a head whose
+    cameras look along the canonical base's -y (before: the target was placed along +y,
+    behind the cameras, and the pose set was refused)."""
+    monkeypatch.setenv("RASC_CACHE_DIR", "none")
+    _exported_urdf(tmp_path, capsys, tilt_down=True)
+    spec = write(tmp_path, HEAD + "[fixed]\nurdf = 'head.urdf'\nintrinsics_views = 4\n"
+                 "distance = 1.4\nintrinsics_from = 'dataset'\n[axes]\n"
+                 "motion_deg = [8.0, 6.0]\n")
+    result = run_study(load_spec(spec), tmp_path / "out", quiet=True, workers=1)
+    docs = [json.loads(p.read_text()) for p in (tmp_path / "out" / "datasets").glob("*.json")]
+    assert sorted("intrinsics_of" in d for d in docs) == [False, True]   # base + pose set
+    rows = [r.split(",") for r in result.samples_text.strip().splitlines()]
+    status = rows[0].index("status")
+    assert len(rows) == 1 + 2 * 2 and all(r[status] == "ok" for r in rows[1:]), rows
