@@ -570,9 +570,10 @@ def _model_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
 
 
 def _check_urdf(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
-    """A ``urdf`` describes the whole head: not with ``model`` or a head-model parameter
-    (the URDF's joints are the units); ``urdf_joints`` and ``urdf_cameras`` only with a
-    ``urdf``."""
+    """A ``urdf`` is the head: not with ``model``, nor with the head-model parameters that
+    move its joints (``tilt_axis_offset_mm``, ``axis_skew_deg``: edit the URDF; encoder
+    zeros and scales may be added, as ``rasc render --urdf`` allows); ``urdf_joints`` and
+    ``urdf_cameras`` only with a ``urdf``."""
     def given(name: str) -> list:
         return [v for v in axes.get(name, (fixed.get(name, PARAMS[name].default),))
                 if v != PARAMS[name].default]
@@ -585,10 +586,12 @@ def _check_urdf(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> No
             if given(name):
                 fail(where(name), "names the URDF's joints or links: only with urdf")
         return
-    for name in ("model", *UNIT_PARAMS, "units_eye"):
+    for name, why in (("model", "give model or urdf, not both"),
+                      ("tilt_axis_offset_mm", "edit the URDF instead"),
+                      ("axis_skew_deg", "edit the URDF instead")):
         if given(name):
-            fail(where("urdf"), f"the URDF describes the whole head; not with {name} = "
-                 f"{_show(given(name)[0])}")
+            fail(where("urdf"), f"the URDF is the head; not with {name} = "
+                 f"{_show(given(name)[0])} ({why})")
 
 
 def _check_target(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
