@@ -56,6 +56,11 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   ``aprilgrid:COLSxROWS,TAGSIZE[,SPACING][,FAMILY]``, metres; '' = the model's own
   board); with ``model``, in place of that model's target; not with ``intrinsics_from =
   "dataset"``;
+- ``urdf`` (render): a head described in a URDF (relative to the spec; its bytes'
+  sha256 in the cell's identity), rendered as :class:`rasc.sim.urdf.UrdfHead` with the
+  joints ``urdf_joints`` and camera links ``urdf_cameras`` (comma lists, default
+  ``rasc export``'s names); not with ``model``, ``tilt_axis_offset_mm`` or
+  ``axis_skew_deg`` (:func:`_check_urdf`);
 - ``positions_file`` (render): a positions file (relative to the spec; what ``rasc plan``
   writes and ``rasc render --poses FILE`` reads, :func:`rasc.sim.render.read_positions`)
   whose positions replace the ``layout``/``positions``/``motion_deg`` grid; a cell's
