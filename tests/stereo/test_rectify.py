@@ -132,7 +132,7 @@ def test_a_hidden_heads_calibration_rectifies_its_gazes():
     calibrated with the defaults (the general model), then its true pixels at the four
     gazes rectified with that calibration: rows and depth as for the stock head (the
     general model answers the unit; the paper model, shown beside it, cannot)."""
-    from conftest import GAZES, board_facing, true_head
+    from stereo_rig import GAZES, board_facing, true_head
 
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.head.use import look_at
