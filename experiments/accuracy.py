@@ -189,33 +189,42 @@ def positions(cell: dict[str, str], seed: int = 0) -> tuple[tuple[float, float],
     # a plan is made for the nominal head; a chessboard must be seen whole, and on the
     # cell's own head a planned position may cut it: that view is left out, as detection
     # would leave it out of a real capture (rasc render refuses to render it)
-    return tuple(p for p in planned if _shown_whole(cell, board, p, distance(seed)))
+    return _shown_whole(cell, board, planned, distance(seed))
 
 
-def _shown_whole(cell: dict[str, str], board, position: tuple[float, float],
-                 at: float) -> bool:
+def _shown_whole(cell: dict[str, str], board, planned, at: float) -> tuple:
+    """The positions of ``planned`` at which the cell's head shows the whole board to both
+    eyes (rasc render's own check), from one simulator of that head."""
     from rasc.errors import InputError
     from rasc.sim.render import RenderOptions, check_pose_views
     from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
+
+    shown = []
+    with StereoHeadSim(board=board, units=_units(cell)) as sim:
+        sim.set_target(T_base_from_world_facing(board, distance=at))
+        for position in planned:
+            try:
+                check_pose_views(sim, RenderOptions(poses_deg=(position,), distance=at),
+                                 None)
+            except InputError:
+                continue
+            shown.append(position)
+    return tuple(shown)
+
+
+def _units(cell: dict[str, str]) -> dict:
+    """The cell's head as ``{eye: rasc.sim.units.UnitBuild}``."""
     from rasc.sim.units import UnitBuild
 
-    units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
-    with StereoHeadSim(board=board, units=units) as sim:
-        sim.set_target(T_base_from_world_facing(board, distance=at))
-        try:
-            check_pose_views(sim, RenderOptions(poses_deg=(position,), distance=at), None)
-        except InputError:
-            return False
-    return True
+    return {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
 
 
 def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
     """Render the cell's dataset (with its truth) into ``folder``."""
     from rasc.sim.render import RenderOptions, render_dataset
-    from rasc.sim.units import UnitBuild
     from rasc.vision.board import parse_target
 
-    units = {eye: UnitBuild(**kw) for eye, kw in HEADS[cell["head"]].items()}
+    units = _units(cell)
     options = RenderOptions(poses_deg=positions(cell, seed), intrinsics_views=INTRINSICS_VIEWS,
                             seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed))
     render_dataset(folder, options, units=units, board=parse_target(TARGETS[cell["target"]]),
@@ -229,10 +238,11 @@ def calibrate_python(folder: Path, options_level: str) -> dict:
     from rasc.vision.dataset import load_dataset
 
     cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**OPTIONS[options_level]))
-    return json.loads(json.dumps(_document(cal, folder), allow_nan=True))
+    return _document(cal, folder)
 
 
 def _document(cal, folder: Path) -> dict:
+    """The calibration's document as ``rasc calibrate`` writes it, read back (JSON types)."""
     from rasc.io import dumps_json
 
     doc = cal.to_dict()
