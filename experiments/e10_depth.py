@@ -142,16 +142,9 @@ def write_scene(folder: Path, seed: int) -> Path:
 
 def true_head(sim):
     """The simulated head's ground truth as a HeadCalibration (no lens distortion)."""
-    from rasc.geometry.kinematics import PanTiltUnit
-    from rasc.head.model import EyeCalibration, HeadCalibration
+    from rasc.head.model import HeadCalibration
 
-    gt = sim.ground_truth()
-    return HeadCalibration(**{eye: EyeCalibration(
-        K=np.array(gt[eye]["K"]), dist=np.zeros(5),
-        T_cam_from_gaze=np.array(gt[eye]["T_cam_from_gaze"]),
-        T_ptu_from_base=np.array(gt[eye]["T_ptu_from_base"]),
-        image_size=tuple(gt[eye]["image_size"]), unit=PanTiltUnit.from_dict(gt[eye]["unit"]))
-        for eye in ("left", "right")})
+    return HeadCalibration.from_truth(sim.ground_truth())
 
 
 def perturbed(head, degrees: float = PERTURB_DEG):

@@ -288,3 +288,18 @@ class HeadCalibration:
                 raise
             raise InputError(f"{source}: {exc}") from None
         return cls(eyes["left"], eyes["right"])
+
+    @classmethod
+    def from_truth(cls, truth: dict) -> HeadCalibration:
+        """The true head of a ground truth (``rasc render``'s ``ground_truth.json``, or
+        :meth:`rasc.sim.scene.StereoHeadSim.ground_truth`): per eye its K, dist, hand-eye,
+        mount, image size and unit, in the calibration's gauge and base as the renderer
+        writes them, so that it compares with a calibration as it is."""
+        return cls(**{eye: EyeCalibration(
+            K=np.asarray(truth[eye]["K"], float), dist=np.asarray(truth[eye]["dist"], float),
+            T_cam_from_gaze=np.asarray(truth[eye]["T_cam_from_gaze"], float),
+            T_ptu_from_base=np.asarray(truth[eye]["T_ptu_from_base"], float),
+            image_size=tuple(truth[eye]["image_size"]),
+            unit=(PanTiltUnit.from_dict(truth[eye]["unit"]) if "unit" in truth[eye]
+                  else IDEAL)) for eye in ("left", "right")})
+

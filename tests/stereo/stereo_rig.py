@@ -34,17 +34,9 @@ class GazePair:
 
 def true_head(sim):
     """The simulated head's ground truth as a HeadCalibration (no lens distortion)."""
-    from rasc.geometry.kinematics import PanTiltUnit
-    from rasc.head.model import EyeCalibration, HeadCalibration
+    from rasc.head.model import HeadCalibration
 
-    gt = sim.ground_truth()
-    eyes = {eye: EyeCalibration(
-        K=np.array(gt[eye]["K"]), dist=np.zeros(5),
-        T_cam_from_gaze=np.array(gt[eye]["T_cam_from_gaze"]),
-        T_ptu_from_base=np.array(gt[eye]["T_ptu_from_base"]),
-        image_size=tuple(gt[eye]["image_size"]), unit=PanTiltUnit.from_dict(gt[eye]["unit"]))
-        for eye in ("left", "right")}
-    return HeadCalibration(**eyes)
+    return HeadCalibration.from_truth(sim.ground_truth())
 
 
 def board_facing(board, p_base: np.ndarray) -> np.ndarray:
@@ -63,3 +55,33 @@ def board_facing(board, p_base: np.ndarray) -> np.ndarray:
         [0, 0, -pitch])).as_matrix()
     R_bw = R @ ahead[:3, :3]
     return make_transform(R_bw, p_base - R_bw @ board.centre())
+
+
+
+def gazes_on(sim, render: bool = True) -> tuple:
+    """``(head, board, pairs)`` for a :class:`rasc.sim.scene.StereoHeadSim`: its truth, its
+    board and a :class:`GazePair` at each of :data:`GAZES` (the readings that fixate each
+    gaze's point with the true head, plus its offsets); ``render``: also render both eyes
+    (else ``images`` is empty: the true pixels only)."""
+    from rasc.head.use import look_at
+
+    head = true_head(sim)
+    board = sim.board
+    pairs = []
+    for name, point, d_left, d_right in GAZES:
+        p = np.array(point, dtype=float)
+        readings = {}
+        for eye, d in (("left", d_left), ("right", d_right)):
+            fix = look_at(getattr(head, eye), p)
+            readings[eye] = (fix.pan + np.radians(d[0]), fix.tilt + np.radians(d[1]))
+            sim.set_angles(eye, *readings[eye])
+        sim.set_target(board_facing(board, p))
+        P_world = board.object_points()
+        T = sim.T_base_from_world
+        p_base = P_world @ T[:3, :3].T + T[:3, 3]
+        pairs.append(GazePair(
+            name, readings["left"], readings["right"],
+            {eye: sim.render_grey(eye) for eye in ("left", "right")} if render else {},
+            p_base,
+            {eye: sim.project_world_points(eye, P_world) for eye in ("left", "right")}))
+    return head, board, pairs

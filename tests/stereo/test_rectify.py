@@ -2,7 +2,7 @@
 head against its truth: corresponding board corners share a rectified row, and depth
 from disparity (through Q) is the board's depth.
 
-What is measured (four gazes of tests/stereo/conftest.py's GAZES, 1280×960):
+What is measured (four gazes of tests/stereo/stereo_rig.py's GAZES, 1280×960):
 
 * the true head, the corners' true ideal pixels: row difference ~1e-13 px, points from Q
   within ~1e-14 m of the truth (the geometry is exact; tolerance 1e-9 px / 1e-9 m);
@@ -132,10 +132,9 @@ def test_a_hidden_heads_calibration_rectifies_its_gazes():
     calibrated with the defaults (the general model), then its true pixels at the four
     gazes rectified with that calibration: rows and depth as for the stock head (the
     general model answers the unit; the paper model, shown beside it, cannot)."""
-    from stereo_rig import GAZES, board_facing, true_head
+    from stereo_rig import gazes_on
 
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.head.use import look_at
     from rasc.sim.render import RenderOptions, render_in_memory
     from rasc.sim.scene import StereoHeadSim
     from rasc.sim.units import UnitBuild
@@ -147,31 +146,18 @@ def test_a_hidden_heads_calibration_rectifies_its_gazes():
     paper = calibrate_dataset(ds, CalibrationOptions(model="paper")).head
     worst = {"general": (0.0, 0.0), "paper": (0.0, 0.0)}
     with StereoHeadSim(units=units) as sim:
-        truth = true_head(sim)
-        board = sim.board
-        for name, point, d_left, d_right in GAZES:
-            p = np.array(point, dtype=float)
-            readings = {}
-            for eye, d in (("left", d_left), ("right", d_right)):
-                fix = look_at(getattr(truth, eye), p)
-                readings[eye] = (fix.pan + np.radians(d[0]), fix.tilt + np.radians(d[1]))
-                sim.set_angles(eye, *readings[eye])
-            sim.set_target(board_facing(board, p))
-            P = board.object_points()
-            T = sim.T_base_from_world
-            p_base = P @ T[:3, :3].T + T[:3, 3]
-            uv_true = {eye: sim.project_world_points(eye, P) for eye in EYES}
-            for model, head in (("general", general), ("paper", paper)):
-                rect = rectify_head(head, readings["left"], readings["right"])
-                uv = {eye: rect.rectify_points(eye, uv_true[eye]) for eye in EYES}
-                rows = _rms(uv["left"][:, 1] - uv["right"][:, 1])
-                q = rect.points_from_disparity(uv["left"],
-                                               uv["left"][:, 0] - uv["right"][:, 0])
-                rel = float((np.linalg.norm(q - p_base, axis=1)
-                             / np.linalg.norm(p_base, axis=1)).max())
-                print(f"{name}: {model} model row RMS {rows:.4f} px, depth error ≤ "
-                      f"{100 * rel:.3f} %")
-                worst[model] = (max(worst[model][0], rows), max(worst[model][1], rel))
+        _, _, pairs = gazes_on(sim, render=False)
+    for g in pairs:
+        for model, head in (("general", general), ("paper", paper)):
+            rect = rectify_head(head, g.left, g.right)
+            uv = {eye: rect.rectify_points(eye, g.uv_true[eye]) for eye in EYES}
+            rows = _rms(uv["left"][:, 1] - uv["right"][:, 1])
+            q = rect.points_from_disparity(uv["left"], uv["left"][:, 0] - uv["right"][:, 0])
+            rel = float((np.linalg.norm(q - g.p_base, axis=1)
+                         / np.linalg.norm(g.p_base, axis=1)).max())
+            print(f"{g.name}: {model} model row RMS {rows:.4f} px, depth error ≤ "
+                  f"{100 * rel:.3f} %")
+            worst[model] = (max(worst[model][0], rows), max(worst[model][1], rel))
     # the same bounds as the stock head's calibrated test (0.2 px, 0.5 %)
     assert worst["general"][0] < 0.2 and worst["general"][1] < 0.005, worst
     # the paper's unit cannot hold a 20 mm offset: its rows or depths are far worse
