@@ -286,18 +286,17 @@ def _rotvec(R: np.ndarray) -> np.ndarray:
 
 
 def truth_values(truth: dict) -> dict[str, Any]:
-    """The truth in the calibration's gauge: per eye K, the canonical unit's refinement
-    parameters (tilt axis (x, y, 1), tilt point, scales, offsets), T_cam_from_gaze; and
-    T_ptuL_from_ptuR."""
-    from rasc.geometry.kinematics import PanTiltUnit, canonical_gauge
+    """The truth in the calibration's gauge
+    (:func:`rasc.head.pipeline.truth_in_calibration_gauge`): per eye K, the canonical
+    unit's refinement parameters (tilt axis (x, y, 1), tilt point, scales, offsets),
+    T_cam_from_gaze; and T_ptuL_from_ptuR."""
+    from rasc.head.pipeline import truth_in_calibration_gauge
 
+    gauge = truth_in_calibration_gauge(truth)
     out: dict[str, Any] = {}
-    T_pb = {}
     for eye in ("left", "right"):
         t = truth[eye]
-        unit, T_cg, T_pb[eye] = canonical_gauge(
-            PanTiltUnit.from_dict(t["unit"]), np.asarray(t["T_cam_from_gaze"], float),
-            np.asarray(t["T_ptu_from_base"], float))
+        unit, T_cg, _ = gauge[eye]
         a = np.asarray(unit.tilt_axis, float)
         q = np.asarray(unit.tilt_point, float)
         K = np.asarray(t["K"], float)
@@ -311,7 +310,7 @@ def truth_values(truth: dict) -> dict[str, Any]:
             "unit.pan_offset": 0.0, "unit.tilt_offset": 0.0,
             "T_cam_from_gaze": T_cg,
         }
-    out["T_ptuL_from_ptuR"] = T_pb["left"] @ np.linalg.inv(T_pb["right"])
+    out["T_ptuL_from_ptuR"] = gauge["T_ptuL_from_ptuR"]
     return out
 
 

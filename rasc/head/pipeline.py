@@ -369,6 +369,20 @@ def _scales_F(held, estimated) -> float:
     return float(gain / noise)
 
 
+def _scales_test(obs, estimate_first: bool) -> tuple[Any, Any, float]:
+    """(held, estimated, F) of :data:`SCALES_F_ESTIMATE`'s test, both fits on one corner
+    set: the first (scales estimated for ``auto``, held for ``hold``) from the closed form
+    with its own corner rejection, the second started there on exactly the corners it
+    kept, rejecting none."""
+    from rasc.head.refine import refine_head
+
+    first = refine_head(obs, estimate_scales=estimate_first)
+    second = refine_head(obs, estimate_scales=not estimate_first, start=first,
+                         reject_k=float("inf"))
+    held, estimated = (second, first) if estimate_first else (first, second)
+    return held, estimated, _scales_F(held, estimated)
+
+
 def scales_hold_warning(F: float, estimated) -> str:
     """The warning when ``--scales hold`` is contradicted by the corners (F above
     :data:`SCALES_F_ESTIMATE`); ``estimated``: the fit with the scales free."""
@@ -433,10 +447,7 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
             # its own rejection, from the closed form; then held, started there, on exactly
             # the corners it kept and rejecting none. (Held first, its rejection took the
             # corners that a wrong scale distorts, and the estimate never saw them again.)
-            res_e = refine_head(obs, estimate_scales=True)
-            res_h = refine_head(obs, estimate_scales=False, start=res_e,
-                                reject_k=float("inf"))
-            F = _scales_F(res_h, res_e)
+            res_h, res_e, F = _scales_test(obs, estimate_first=True)
             res = res_e if F > SCALES_F_ESTIMATE else res_h
             res.scales = {"mode": "auto", "F": F, "threshold_F": SCALES_F_ESTIMATE,
                           "estimated": res is res_e}
@@ -446,9 +457,7 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
             # held by choice; the same F test as auto says whether the corners contradict
             # the choice (a warning, and the report's verdict): the scales estimated from
             # the held fit, on exactly its corners
-            res = refine_head(obs, estimate_scales=False)
-            res_e = refine_head(obs, estimate_scales=True, start=res, reject_k=float("inf"))
-            F = _scales_F(res, res_e)
+            res, res_e, F = _scales_test(obs, estimate_first=False)
             res.scales = {"mode": "hold", "F": F, "threshold_F": SCALES_F_ESTIMATE,
                           "estimated": False}
             if F > SCALES_F_ESTIMATE:
@@ -582,6 +591,32 @@ def _rigid(value: Any, name: str) -> np.ndarray:
     return validate_rigid_transform(value, name=name)
 
 
+def truth_in_calibration_gauge(truth: dict, where: str = "ground truth") -> dict[str, Any]:
+    """A ground truth (``rasc render``'s layout) as a calibration states it: per eye
+    ``(unit, T_cam_from_gaze, T_ptu_from_base)`` in the canonical gauge (METHOD §10; unit
+    None when the truth names none, its transforms then as given), the mounts in the
+    cyclopean base of those units, and ``"T_ptuL_from_ptuR"``. A truth written in another
+    base frame (a model's base_link, as rasc render did before 0.3) is moved to the
+    cyclopean base: only the units' relative pose is observed; where the base sits is the
+    convention of docs/guide/concepts.md. Raises KeyError, TypeError or ValueError on a
+    malformed truth (:func:`errors_against_truth` words them)."""
+    out: dict[str, Any] = {}
+    for eye in EYES:
+        t = truth[eye]
+        unit = None
+        T_cg = np.asarray(t["T_cam_from_gaze"], float)
+        T_pb = np.asarray(t["T_ptu_from_base"], float)
+        if "unit" in t:
+            unit, T_cg, T_pb = canonical_gauge(
+                PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"), T_cg, T_pb)
+        out[eye] = (unit, T_cg, T_pb)
+    T_pLpR = out["left"][2] @ np.linalg.inv(out["right"][2])
+    for eye, T_pb in zip(EYES, cyclopean_base(T_pLpR), strict=True):
+        out[eye] = (out[eye][0], out[eye][1], T_pb)
+    out["T_ptuL_from_ptuR"] = T_pLpR
+    return out
+
+
 def errors_against_truth(cal: Calibration, truth: dict,
                          where: str = "ground truth") -> dict[str, Any]:
     """Errors of ``cal`` against a ground-truth dict (``rasc render``'s layout).
@@ -592,27 +627,14 @@ def errors_against_truth(cal: Calibration, truth: dict,
     """
     unit = cal.length_unit or "unit of board.square_size"
     out: dict[str, Any] = {"units": f"degrees; {unit}; pixels"}
-    T_cg_true, T_pb_true = {}, {}
     try:
-        for eye in EYES:
-            t = truth[eye]
-            T_cg_true[eye] = np.asarray(t["T_cam_from_gaze"], float)
-            T_pb_true[eye] = np.asarray(t["T_ptu_from_base"], float)
-            if "unit" in t:   # a general unit: compare in the gauge both share (METHOD §10)
-                _, T_cg_true[eye], T_pb_true[eye] = canonical_gauge(
-                    PanTiltUnit.from_dict(t["unit"], f"{where}: {eye}.unit"),
-                    T_cg_true[eye], T_pb_true[eye])
-        # ... and in the base both share, the cyclopean base of the canonical units: a
-        # truth written in another base frame (a model's base_link, as rasc render did
-        # before 0.3) is moved to it. Only the units' relative pose is observed; where the
-        # base sits is the convention of docs/guide/concepts.md.
-        T_pb_true = dict(zip(EYES, cyclopean_base(
-            T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])), strict=True))
+        gauge = truth_in_calibration_gauge(truth, where)
         for eye in EYES:
             est = getattr(cal.head, eye)
             K_t = np.asarray(truth[eye]["K"], float)
-            he = transform_error(est.T_cam_from_gaze, T_cg_true[eye])
-            pb = transform_error(est.T_ptu_from_base, T_pb_true[eye])
+            _, T_cg_t, T_pb_t = gauge[eye]
+            he = transform_error(est.T_cam_from_gaze, T_cg_t)
+            pb = transform_error(est.T_ptu_from_base, T_pb_t)
             out[eye] = {
                 "T_cam_from_gaze": he, "T_ptu_from_base": pb,
                 "K": {"fx": float(est.K[0, 0] - K_t[0, 0]), "fy": float(est.K[1, 1] - K_t[1, 1]),
@@ -626,7 +648,7 @@ def errors_against_truth(cal: Calibration, truth: dict,
                 out[eye]["pose_extrinsics_max"] = {
                     "rotation_deg": max(e["rotation_deg"] for e in errs),
                     "translation": max(e["translation"] for e in errs)}
-        T_pLpR_true = T_pb_true["left"] @ np.linalg.inv(T_pb_true["right"])
+        T_pLpR_true = gauge["T_ptuL_from_ptuR"]
         me = mount_errors(np.asarray(cal.base["T_ptuL_from_ptuR"], float), T_pLpR_true)
         out["T_ptuL_from_ptuR"] = {"rotation_deg": me.rotation_deg,
                                    "translation": me.translation,
