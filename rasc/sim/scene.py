@@ -299,14 +299,8 @@ class StereoHeadSim:
         spec = None
         from rasc.sim.urdf import UrdfHead
 
-        if isinstance(model_path, UrdfHead):
-            if head_path is not None:
-                raise InputError("StereoHeadSim: give a UrdfHead or head_path, not both")
-            self.model_file = model_path.path.resolve()
-            self.urdf = model_path
-            self.units, edited = self._urdf_units(model_path)
-            self.model = self._load(lambda: edited.compile(), self.model_file)
-        elif board is not None and model_path is not None:
+        if board is not None and model_path is not None and \
+                not isinstance(model_path, UrdfHead):
             if head_path is not None:
                 raise InputError("StereoHeadSim: give model_path or head_path, not both")
             if not Path(model_path).is_file():
@@ -316,7 +310,12 @@ class StereoHeadSim:
             if spec.body("board_link") is None:     # a head alone: the scene around it
                 head_path, model_path, spec = model_path, None, None
         if isinstance(model_path, UrdfHead):
-            pass
+            if head_path is not None:
+                raise InputError("StereoHeadSim: give a UrdfHead or head_path, not both")
+            self.model_file = model_path.path.resolve()
+            self.urdf = model_path
+            self.units, edited = self._urdf_units(model_path)
+            self.model = self._load(lambda: edited.compile(), self.model_file)
         elif spec is not None:
             self.model_file = where
             edited = spec_with_target(spec, board)
