@@ -19,6 +19,7 @@ unit the calibration used (metres in this project)::
     {"format": "rasc-head/1",
      "left":  {"K": 3x3, "dist": [k1, k2, p1, p2, ...], "T_cam_from_gaze": 4x4,
                "T_ptu_from_base": 4x4, "image_size": [width, height],
+               "lens": "fisheye",                 (optional: the lens model; "pinhole" if absent)
                "unit": {...},                     (optional: PanTiltUnit.to_dict(); ideal if absent)
                "std": {...}},                     (optional: per-parameter standard deviations)
      "right": {...}}
@@ -42,7 +43,7 @@ from rasc.geometry.transforms import invert_transform, validate_rigid_transform
 
 FORMAT = formats.HEAD.tag
 EYE_FIELDS = ("K", "dist", "T_cam_from_gaze", "T_ptu_from_base", "image_size")
-OPTIONAL_EYE_FIELDS = ("unit", "std")
+OPTIONAL_EYE_FIELDS = ("lens", "unit", "std")
 
 
 def _image_size(size, name: str) -> tuple[int, int]:
@@ -93,8 +94,9 @@ class EyeCalibration:
     ----------
     K : ndarray, shape (3, 3)
         Intrinsics (pixels).
-    dist : ndarray, shape (k,), k in {0, 4, 5, 8}
-        OpenCV distortion coefficients ``k1 k2 p1 p2 [k3 [k4 k5 k6]]``.
+    dist : ndarray, shape (k,)
+        The lens model's coefficients: pinhole, OpenCV's ``k1 k2 p1 p2 [k3 [k4 k5 k6]]``
+        (k in {0, 4, 5, 8}; 8 is the rational model); fisheye, ``k1 k2 k3 k4``.
     T_cam_from_gaze : ndarray, shape (4, 4)
         Hand-eye transform (the paper's ``T_cg``).
     T_ptu_from_base : ndarray, shape (4, 4)
@@ -106,6 +108,9 @@ class EyeCalibration:
     std : dict or None
         Standard deviations of the estimated parameters (name → number, or None for a
         parameter the data could not determine); informative only.
+    lens : str
+        The lens model (:data:`rasc.geometry.lens.LENS_MODELS`): ``"pinhole"`` (default)
+        or ``"fisheye"`` (OpenCV's equidistant model, ``cv2.fisheye``).
     """
 
     K: np.ndarray
@@ -115,6 +120,7 @@ class EyeCalibration:
     image_size: tuple[int, int]
     unit: PanTiltUnit = IDEAL
     std: dict | None = None
+    lens: str = "pinhole"
 
     def __post_init__(self):
         self._check("eye")
@@ -122,7 +128,9 @@ class EyeCalibration:
     def _check(self, where: str) -> None:
         set_ = object.__setattr__
         set_(self, "K", lens.validate_K(self.K, name=f"{where}.K"))
-        set_(self, "dist", lens.validate_dist(self.dist, name=f"{where}.dist"))
+        lens.check_model(self.lens, name=f"{where}.lens")
+        set_(self, "dist", lens.validate_dist(self.dist, name=f"{where}.dist",
+                                              model=self.lens))
         for field in ("T_cam_from_gaze", "T_ptu_from_base"):
             set_(self, field, validate_rigid_transform(getattr(self, field),
                                                        name=f"{where}.{field}"))
@@ -156,12 +164,12 @@ class EyeCalibration:
             raise InputError(f"pan, tilt: expected scalars or shape ({p_base.shape[0]},), "
                              f"got {T.shape[:-2]}")
         p_cam = np.einsum("...ij,...j->...i", T[..., :3, :3], p_base) + T[..., :3, 3]
-        return lens.project_points(p_cam, self.K, self.dist)
+        return lens.project_points(p_cam, self.K, self.dist, model=self.lens)
 
     def undistort(self, uv: np.ndarray) -> np.ndarray:
         """Distorted pixels (N, 2) → ideal pixels (N, 2)
         (:func:`rasc.geometry.lens.undistort_pixels`)."""
-        return lens.undistort_pixels(uv, self.K, self.dist)
+        return lens.undistort_pixels(uv, self.K, self.dist, model=self.lens)
 
     def to_dict(self) -> dict:
         """JSON-ready dict; ``unit`` only when it is not the ideal one, ``std`` when known."""
@@ -169,6 +177,8 @@ class EyeCalibration:
                "T_cam_from_gaze": self.T_cam_from_gaze.tolist(),
                "T_ptu_from_base": self.T_ptu_from_base.tolist(),
                "image_size": list(self.image_size)}
+        if self.lens != "pinhole":
+            out["lens"] = self.lens
         if not self.unit.is_ideal:
             out["unit"] = self.unit.to_dict()
         if self.std is not None:
@@ -197,6 +207,7 @@ class EyeCalibration:
         unit = IDEAL if "unit" not in d else PanTiltUnit.from_dict(d["unit"], f"{where}.unit")
         object.__setattr__(eye, "unit", unit)
         object.__setattr__(eye, "std", d.get("std"))
+        object.__setattr__(eye, "lens", d.get("lens", "pinhole"))
         eye._check(where)
         return eye
 
@@ -300,6 +311,7 @@ class HeadCalibration:
             T_cam_from_gaze=np.asarray(truth[eye]["T_cam_from_gaze"], float),
             T_ptu_from_base=np.asarray(truth[eye]["T_ptu_from_base"], float),
             image_size=tuple(truth[eye]["image_size"]),
+            lens=truth[eye].get("lens", "pinhole"),
             unit=(PanTiltUnit.from_dict(truth[eye]["unit"]) if "unit" in truth[eye]
                   else IDEAL)) for eye in ("left", "right")})
 

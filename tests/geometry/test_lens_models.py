@@ -106,3 +106,28 @@ def test_fisheye_remap_puts_corners_where_the_model_projects():
     uv = lens.project_points(p, k, FISHEYE, model="fisheye")
     # float32 maps: ideal pixels of up to a few hundred px, 2^-24 relative → < 1e-3 px
     assert np.abs(uv - np.stack([uu, vv], axis=1)).max() < 2e-3
+
+
+def test_a_fisheye_eye_projects_triangulates_and_round_trips_its_file():
+    from rasc.head.model import EyeCalibration, HeadCalibration
+    from rasc.sim.synthetic import default_head
+
+    truth = default_head()
+    k = np.array([[300.0, 0.0, 640.0], [0.0, 300.0, 480.0], [0.0, 0.0, 1.0]])
+    eyes = {e: EyeCalibration(K=k, dist=FISHEYE, T_cam_from_gaze=truth.T_cam_from_gaze[e],
+                              T_ptu_from_base=truth.T_ptu_from_base[e],
+                              image_size=(1280, 960), lens="fisheye") for e in ("left", "right")}
+    head = HeadCalibration(**eyes)
+    back = HeadCalibration.from_dict(head.to_dict())
+    assert back.left.lens == "fisheye" and head.to_dict()["left"]["lens"] == "fisheye"
+    rng = np.random.default_rng(5)
+    # points ahead of both eyes, up to ~50° off the left eye's axis
+    c = rng.uniform([-0.8, -0.6, 0.9], [0.8, 0.6, 1.5], (50, 3))
+    T = np.linalg.inv(back.left.T_cam_from_base(0.0, 0.0))
+    p = c @ T[:3, :3].T + T[:3, 3]
+    uvl, uvr = back.project(p, 0.0, 0.0, 0.0, 0.0)
+    q = back.triangulate(uvl, uvr, 0.0, 0.0, 0.0, 0.0)
+    assert np.abs(q - p).max() < 1e-9
+    with pytest.raises(InputError, match="left.lens: unknown lens model"):
+        HeadCalibration.from_dict({**head.to_dict(), "left": {**head.to_dict()["left"],
+                                                              "lens": "omni"}})
