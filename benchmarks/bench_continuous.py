@@ -90,9 +90,10 @@ def main(argv=None) -> int:
                     if opts.rolling_shutter:
                         # each corner at its own row's time (found by iterating twice)
                         own = truth.copy()
-                        for _ in range(2):
-                            for i, (u, v) in enumerate(own):
-                                tr = t + (v - (sim.image_size[1] - 1) / 2) * opts.rolling_shutter
+                        mid_row = (sim.image_size[1] - 1) / 2
+                        for _pass in range(2):
+                            for i, (_u, v) in enumerate(own):
+                                tr = t + (v - mid_row) * opts.rolling_shutter
                                 sim.set_angles(eye, *traj.angles(tr, eye))
                                 own[i] = sim.project_world_points(eye, P[i:i + 1])[0]
                         row_errs.append(c - own)
