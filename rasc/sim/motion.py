@@ -53,7 +53,7 @@ def _min_jerk(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x2 * x * (10 - 15 * x + 6 * x2), 30 * x2 * (1 - 2 * x + x2)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trajectory:
     """The head's motion: planned positions joined by minimum-jerk motions.
 
