@@ -17,8 +17,8 @@ rasc reads images).
 Refused (one line, exit 2, nothing written): a reading that is not two numbers or beyond
 a turn; images not of the calibration's size; one image without the other; an output
 that is an input; coinciding optical centres; eyes of two lens models; ``--alpha`` for
-fisheye eyes, ``--balance`` or ``--fov-scale`` for pinhole ones. Warned: readings outside the range the
-calibration's pose views spanned.
+fisheye eyes, ``--balance`` or ``--fov-scale`` for pinhole ones. Warned: readings outside
+the range the calibration's pose views spanned.
 """
 
 from __future__ import annotations

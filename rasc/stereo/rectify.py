@@ -291,9 +291,10 @@ def _inner_rectangle(rect: StereoRectification, eye: str) -> tuple[int, int, int
     """The valid rectangle of ``eye``'s rectified image as ``cv2.stereoRectify`` finds it
     (its getRectangles: the inner rectangle of the source image's edges, rectified, within
     the image), for a fisheye pair, whose rectified edges bend far more than a pinhole's:
-    :data:`INNER_RECT_EDGE_POINTS` points per edge where OpenCV takes 9. An edge point whose ray has no
-    rectified pixel (turned behind the rectified camera: the source image reaches past
-    the rectified view there) bounds nothing; (0, 0, 0, 0) when nothing is valid."""
+    :data:`INNER_RECT_EDGE_POINTS` points per edge where OpenCV takes 9. An edge point
+    whose ray has no rectified pixel (turned behind the rectified camera: the source
+    image reaches past the rectified view there) bounds nothing; (0, 0, 0, 0) when
+    nothing is valid."""
     w, h = rect.image_size
     n = INNER_RECT_EDGE_POINTS
     xs, ys = np.linspace(0, w - 1, n), np.linspace(0, h - 1, n)
