@@ -287,6 +287,20 @@ def _lens(head: HeadCalibration) -> str:
     return models["left"]
 
 
+def _fisheye_tables(K, dist, R, P, size, kind):
+    """``cv2.fisheye.initUndistortRectifyMap`` of one eye, made safe for fixed-point
+    tables: OpenCV writes ±inf where a rectified pixel's ray lies behind the camera, which
+    float tables remap to the border but ``CV_16SC2`` turns into source pixel 0 (measured:
+    half of a rectified image at a turned gaze filled from the source's corner). Those
+    entries become (−1, −1), outside the image, before the fixed-point conversion
+    (``cv2.convertMaps``, OpenCV's own rounding to 1/32 px)."""
+    mx, my = cv2.fisheye.initUndistortRectifyMap(K, dist, R, P, size, cv2.CV_32FC1)
+    behind = ~(np.isfinite(mx) & np.isfinite(my))
+    mx[behind] = -1.0
+    my[behind] = -1.0
+    return (mx, my) if kind == cv2.CV_32FC1 else cv2.convertMaps(mx, my, kind)
+
+
 def _inner_rectangle(rect: StereoRectification, eye: str) -> tuple[int, int, int, int]:
     """The valid rectangle of ``eye``'s rectified image as ``cv2.stereoRectify`` finds it
     (its getRectangles: the inner rectangle of the source image's edges, rectified, within
@@ -397,7 +411,7 @@ def rectify_head(head: HeadCalibration, left, right, options: RectifyOptions | N
             K1, d1, K2, d2, size, R, T.reshape(3, 1), flags, newImageSize=size,
             balance=options.balance, fov_scale=options.fov_scale)
         roi1 = roi2 = None                   # cv2.fisheye has none: computed below
-        init_map = cv2.fisheye.initUndistortRectifyMap
+        init_map = _fisheye_tables
     else:
         flags = cv2.CALIB_ZERO_DISPARITY if options.zero_disparity else 0
         R1, R2, P1, P2, Q, roi1, roi2 = cv2.stereoRectify(

@@ -109,6 +109,29 @@ def test_a_fisheye_pairs_valid_rectangles_hold_only_valid_pixels():
                 assert valid[y:y + rh, x:x + rw].all(), (name, balance, eye)
 
 
+def test_rectified_pixels_with_no_source_are_black_with_either_table_type():
+    """Where a rectified pixel's ray lies behind the fisheye, OpenCV's table holds ±inf:
+    the float table remaps it to the border (black); the fixed-point one must too (before
+    the fix it pointed at source pixel 0: at the down-right gaze 69 % of the left image
+    was 'valid' instead of 18 %)."""
+    from rasc.stereo.rectify import rectify_images
+
+    head, pairs = _pairs("fisheye", 10)
+    grey = np.full(head.left.image_size[::-1], 200, np.uint8)
+    for name, r, _, _ in pairs:
+        rect = {kind: rectify_head(head, r["left"], r["right"], RectifyOptions(map_type=kind))
+                for kind in ("float", "fixed")}
+        images = {kind: rectify_images(rect[kind], grey, grey) for kind in rect}
+        for k, eye in enumerate(EYES):
+            mx, my = rect["float"].maps[eye]
+            w, h = rect["float"].image_size
+            outside = (mx < -1) | (mx > w) | (my < -1) | (my > h)
+            lit = {kind: images[kind][k] > 0 for kind in images}
+            assert not lit["float"][outside].any() and not lit["fixed"][outside].any(), \
+                (name, eye)
+            assert abs(lit["fixed"].mean() - lit["float"].mean()) < 0.005, (name, eye)
+
+
 def test_fisheye_options_mean_what_they_mean_in_opencv():
     """balance 1 zooms out to keep the whole fisheye image, fov_scale divides the focal
     length, and both are cv2.fisheye.stereoRectify's own."""
