@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -12,6 +13,7 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform, make_transform
 from rasc.head.refine.jacobian import _JacobianMixin
+from rasc.head.refine.timing import angles_at, rates_at
 from rasc.head.refine.model import (
     DIST_NAMES,
     DIST_PARAMS,
@@ -157,6 +159,9 @@ class _Problem(_JacobianMixin):
         self.pan, self.tilt = np.array(pan), np.array(tilt)
         self.img_time = np.array(img_time, float)     # camera clock, s (NaN: none)
         self.streams = obs.streams if time_offset else None
+        # per eye, the stream's readings at encoder times (one function each, for _cached)
+        self._angles_of = {eye: functools.partial(angles_at, self.streams[eye])
+                           for eye in EYES} if time_offset else {}
         self.corners = np.array(corners, dtype=float)          # (n_img, N, 2)
         self.P = np.asarray(P, float)
         # a partial view (ChArUco) marks the corners it does not show with NaN rows: they
@@ -277,8 +282,7 @@ class _Problem(_JacobianMixin):
         estimated its stream at each image's time + δ."""
         if self.time_col is None:
             return self.pan[imgs], self.tilt[imgs]
-        a = self._cached(self.streams[eye].angles,
-                         self.img_time[imgs] + self.time_offset(x))
+        a = self._cached(self._angles_of[eye], self.img_time[imgs] + self.time_offset(x))
         return a[:, 0], a[:, 1]
 
     def time_derivative(self, x: np.ndarray, ch: dict[str, Any], sel: np.ndarray
@@ -301,8 +305,8 @@ class _Problem(_JacobianMixin):
             u = s[eye]["unit"]
             imgs = sel[idx]
             t = self.img_time[imgs] + d
-            ang = self.streams[eye].angles(t)
-            rate = self.streams[eye].rates(t)
+            ang = angles_at(self.streams[eye], t)
+            rate = rates_at(self.streams[eye], t)
             phi = u["pan_scale"] * ang[:, 0] + u["pan_offset"]
             tau = u["tilt_scale"] * ang[:, 1] + u["tilt_offset"]
             a = np.array([u["tilt_axis_x"], u["tilt_axis_y"], 1.0])
