@@ -130,9 +130,18 @@ def observations_from_calibration(cal, board) -> HeadObservations:
             T_cam_from_world_pose=dict(zip(r.pose_files, r.T_cam_from_world, strict=True)),
             T_cam_from_gaze=r.handeye.T_cam_from_gaze)
     T_loop = cal.base.get("loop_closure", {}).get("T_ptuL_from_ptuR", cal.base["T_ptuL_from_ptuR"])
+    streams = None
+    stream = getattr(cal, "joint_stream", None)
+    if stream is not None:
+        # a continuous capture: the pose images' times, and each eye's stream
+        for eye in EYES:
+            r = cal.eyes[eye]
+            eyes[eye].pose_time = {f: float(t) for f, t in
+                                   zip(r.pose_files, r.times, strict=True) if t is not None}
+        streams = {eye: stream[eye] for eye in EYES}
     return HeadObservations(board_points=board.object_points(), eyes=eyes,
                             T_ptuL_from_ptuR=np.asarray(T_loop, float),
-                            dist_model=cal.options.dist_model)
+                            dist_model=cal.options.dist_model, streams=streams)
 
 
 def _dist5(dist) -> np.ndarray:

@@ -26,10 +26,6 @@ from rasc.errors import InputError
 #: stream of another run, seconds against milliseconds), not an offset to estimate; the
 #: refinement refuses an estimate beyond it (one line).
 MAX_TIME_OFFSET_S = 0.5
-#: The time offset's modes under the general model (``CalibrationOptions.time_offset``):
-#: "auto" estimates δ when the dataset has image times and a joint stream (else there is
-#: nothing to estimate), "estimate" requires them, "hold" keeps δ = 0.
-TIME_OFFSET_MODES = ("auto", "estimate", "hold")
 
 
 def angles_at(stream, t: np.ndarray) -> np.ndarray:
