@@ -446,7 +446,10 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         return
     log("whole-head refinement (model general)")
     t0 = time.perf_counter()
-    obs = observations_from_calibration(cal, dataset.board)
+    try:
+        obs = observations_from_calibration(cal, dataset.board)
+    except InputError as exc:       # a pose image's time against the joint stream
+        raise InputError(f"{dataset.manifest_path}: {exc}") from None
     delta = _time_offset_wanted(obs, options, dataset)
     try:
         if options.scales_mode == "auto":

@@ -134,11 +134,14 @@ def observations_from_calibration(cal, board) -> HeadObservations:
     stream = getattr(cal, "joint_stream", None)
     if stream is not None:
         # a continuous capture: the pose images' times, and each eye's stream
+        from rasc.head.refine.timing import check_image_times
+
+        streams = {eye: stream[eye] for eye in EYES}
         for eye in EYES:
             r = cal.eyes[eye]
-            eyes[eye].pose_time = {f: float(t) for f, t in
-                                   zip(r.pose_files, r.times, strict=True) if t is not None}
-        streams = {eye: stream[eye] for eye in EYES}
+            times = dict(zip(r.pose_files, r.times, strict=True))
+            check_image_times(times, streams[eye], eye)
+            eyes[eye].pose_time = {f: float(t) for f, t in times.items()}
     return HeadObservations(board_points=board.object_points(), eyes=eyes,
                             T_ptuL_from_ptuR=np.asarray(T_loop, float),
                             dist_model=cal.options.dist_model, streams=streams)

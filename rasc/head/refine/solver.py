@@ -198,7 +198,8 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
                 x[j] = (known[name] - prob.p0[j]) / prob.scale[j]
         if start.kept is not None:
             prob.mask &= start.kept
-    frames_rejected: list[dict[str, Any]] = []
+    # (a refinement started from another keeps its corners, and so its dropped frames)
+    frames_rejected: list[dict[str, Any]] = [] if start is None else list(start.frames_rejected)
     for _ in range(2):   # fit; reject; refit once without the rejected corners
         x, nit = _levenberg_marquardt(prob, x, f_scale=3.0 * sigma0, max_iter=max_iter)
         iterations += nit
@@ -209,7 +210,8 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         if obs.has_stream and np.isfinite(reject_k):
             # a continuous capture: whole pose frames that fit as outliers (blur, a frame
             # whose time is not its own) go, by the one per-view rule of the intrinsics
-            frames = _outlier_frames(prob, r, prob.mask & ~bad)
+            # judged on all the corners they showed, the ones just rejected included
+            frames = _outlier_frames(prob, r, prob.mask)
             for i, rms, threshold in frames:
                 bad[i] = prob.mask[i]
                 frames_rejected.append({"eye": EYES[prob.img_eye[i]],
