@@ -547,7 +547,7 @@ def _time_offset_outcome(cal: Calibration, res, options: CalibrationOptions, dat
     if d:
         d["mode"] = options.time_offset_mode
         if d["estimated"]:
-            log(f"time offset (encoder clock − camera clock) {1000 * d['value_s']:.3f} ± "
+            log(f"time offset δ (encoder clock − camera clock) {1000 * d['value_s']:.3f} ± "
                 f"{1000 * d['std_s']:.3f} ms")
         elif d["tested"]:
             why = res.parameters["head"]["time_offset"].get("held", "")
