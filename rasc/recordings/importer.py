@@ -407,17 +407,24 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
 
 # ------------------------------------------------------------------ image folder + CSV
 
-CSV_COLUMNS = ("file", "eye", "pan", "tilt", "view", "role")
+CSV_COLUMNS = ("file", "eye", "pan", "tilt", "view", "role", "time")
 
 
 def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
-                        out: str | os.PathLike, cfg: ImportConfig) -> ImportResult:
+                        out: str | os.PathLike, cfg: ImportConfig,
+                        joints: str | os.PathLike | None = None) -> ImportResult:
     """A folder of images and a CSV of angles → a dataset folder (images copied).
 
     CSV (header line; ``file`` and ``eye`` required): ``file`` relative to ``folder``,
     ``eye`` left/right, ``pan``, ``tilt`` (in ``cfg.angle_unit``; both empty for an
     intrinsics view), optional ``view`` (default: the k-th pose row of each eye is view
-    k) and ``role`` (default: pose when there are angles, else intrinsics)."""
+    k) and ``role`` (default: pose when there are angles, else intrinsics).
+
+    ``joints``: a continuous capture (``rasc import --continuous``): the joint stream, a
+    CSV ``time,eye,pan,tilt`` (encoder clock, s; radians: the dataset's ``joints.csv``,
+    read by :func:`rasc.vision.joint_stream.read_joint_stream`), and the images' CSV gives
+    each pose image's ``time`` (camera clock, s, mid-exposure) instead of its angles: a
+    row with a time is a pose image, its pan/tilt the stream at that time."""
     from rasc import __version__
 
     t0 = time.perf_counter()
@@ -442,6 +449,17 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
     for need in ("file", "eye"):
         if need not in header:
             raise InputError(f"{csv_path}: line 1: missing column {need!r}")
+    stream = None
+    if joints is not None:
+        from rasc.vision.joint_stream import read_joint_stream
+
+        stream = read_joint_stream(joints)
+        if "time" not in header:
+            raise InputError(f"{csv_path}: line 1: missing column 'time' (--continuous: "
+                             "each pose image's time on the camera clock, s)")
+    elif "time" in header:
+        raise InputError(f"{csv_path}: line 1: a 'time' column is for a continuous capture: "
+                         "give its joint stream with --joints (and --continuous)")
     col = {h: i for i, h in enumerate(header)}
     images: list[dict] = []
     count = {eye: 0 for eye in EYES}
@@ -464,6 +482,18 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
         if eye not in EYES:
             raise InputError(f"{where}: eye must be 'left' or 'right', got {eye!r}")
         angles = [get.get("pan", ""), get.get("tilt", "")]
+        t = None
+        if stream is not None and get.get("time"):
+            t = finite_number(get["time"], f"{where}: time", text=True)
+            if any(angles):
+                raise InputError(f"{where}: a pose image of a continuous capture has a time, "
+                                 "not angles (they come from the joint stream)")
+            es = stream[eye]
+            if not es.time[0] <= t <= es.time[-1]:
+                raise InputError(f"{where}: time {t:g} s lies outside the {eye} joint "
+                                 f"stream ({es.time[0]:g} to {es.time[-1]:g} s): no readings")
+            k_unit = 1.0 if cfg.angle_unit == "rad" else 180.0 / np.pi
+            angles = [repr(float(k_unit * a)) for a in es.angles(np.array([t]))[0]]
         role = get.get("role") or ("pose" if any(angles) else "intrinsics")
         if role not in ("pose", "intrinsics"):
             raise InputError(f"{where}: role must be 'pose' or 'intrinsics', got {role!r}")
@@ -476,6 +506,8 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
             entry["pan"], entry["tilt"] = values
             entry["view"] = get.get("view") or f"{count[eye]:02d}"
             count[eye] += 1
+            if t is not None:
+                entry["time"] = t
         n = sum(e["eye"] == eye and e["role"] == role for e in images)
         entry["file"] = (f"{'poses' if role == 'pose' else 'intrinsics'}/{eye}_"
                          f"{n:03d}{src.suffix.lower()}")
@@ -490,11 +522,19 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
             dst = tmp / entry["file"]
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, dst)
+        stream_file = None
+        if stream is not None:
+            from rasc.vision.joint_stream import JOINTS, format_joint_stream
+
+            (tmp / JOINTS).write_text(format_joint_stream(stream), encoding="utf-8")
+            stream_file = JOINTS
         _final_check(tmp, board, images, wheres, angle_unit=cfg.angle_unit,
-                     length_unit=cfg.length_unit,
+                     length_unit=cfg.length_unit, joint_stream=stream_file,
                      provenance={"tool": f"rasc import (rasc {__version__})",
                                  "recordings": [{"path": str(folder), "format": "images + CSV",
-                                                 "csv": str(csv_path)}]})
+                                                 "csv": str(csv_path),
+                                                 **({"joints": str(joints)}
+                                                    if joints is not None else {})}]})
     n_pose = sum(e["role"] == "pose" for e in images)
     return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
                         bytes_read=sum(s.stat().st_size for s in sources),
