@@ -479,7 +479,6 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
     timer.add("refinement", time.perf_counter() - t0)
     cal.refinement = res
-    _time_offset_outcome(cal, res, options, dataset, log)
     cal.seed = {"method": options.method,
                 "what": "the method's closed form (eq. 3 units) seeded the refinement; "
                         "distance from the refined hand-eye in the gauge both share"}
@@ -488,6 +487,7 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         cal.seed[eye] = {"T_cam_from_gaze": closed.tolist(),
                          "quality": float(cal.eyes[eye].handeye.quality),
                          "vs_refined": transform_error(closed, res.T_cam_from_gaze[eye])}
+    _time_offset_outcome(cal, res, options, dataset, log)
     log(f"hand-eye method {options.method}: its closed form seeded the refinement ("
         + ", ".join(f"{eye} {cal.seed[eye]['vs_refined']['rotation_deg']:.3g} deg, "
                     f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"
@@ -547,6 +547,13 @@ def _time_offset_outcome(cal: Calibration, res, options: CalibrationOptions, dat
     if d:
         d["mode"] = options.time_offset_mode
         if d["estimated"]:
+            # the closed form's warnings judge the readings at δ = 0, which the refinement
+            # replaced (a jackknife "too noisy" for readings off by speed × δ): kept with
+            # the seed, not warned
+            stale = [w for eye in EYES for w in cal.eyes[eye].warnings]
+            if stale and cal.seed is not None:
+                cal.seed["closed_form_warnings"] = stale
+                cal.warnings = [w for w in cal.warnings if w not in stale]
             log(f"time offset δ (encoder clock − camera clock) {1000 * d['value_s']:.3f} ± "
                 f"{1000 * d['std_s']:.3f} ms")
         elif d["tested"]:

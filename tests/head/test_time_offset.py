@@ -172,3 +172,12 @@ def test_offset_beyond_the_prior_bound_is_refused():
         calibrate_dataset(ds)
     msg = str(exc.value)
     assert "\n" not in msg and "prior bound" in msg
+
+
+def test_closed_form_warnings_of_readings_at_zero_offset_are_kept_with_the_seed():
+    """200 ms off: the closed form, reading the angles at δ = 0, sees poses ~1° apart from
+    the readings and warns (jackknife above 1°); the refinement finds δ, so those warnings
+    judge readings it replaced: recorded with the seed, not warned."""
+    ds, cal = _calibrate(0.2, n_intrinsics=8, frame_rate=5.0)
+    assert abs(cal.refinement.time_offset["value_s"] - 0.2) < DELTA_TOL_S
+    assert cal.seed["closed_form_warnings"] and not cal.warnings
