@@ -548,8 +548,11 @@ def test_continuous_bag_import_then_calibrate_estimates_the_offset(moving, tmp_p
                             "--config", str(cfg), "--out", str(tmp_path / "ds"), "--quiet")
     assert code == 0, err
     code, _, err = rasc_cli("calibrate", str(tmp_path / "ds"), "--out",
-                            str(tmp_path / "cal.json"))
+                            str(tmp_path / "cal.json"), "--report", str(tmp_path / "r.pdf"))
     assert code == 0, err
+    # the report's residuals read each pose image at its time + δ, as the refinement did
+    # (at δ = 0 they reprojected at ~5 px: "UNUSABLE: the images do not fit")
+    assert "rasc calibrate: report: USABLE" in err, err
     m = re.search(r"time offset δ \(encoder clock − camera clock\) (-?[\d.]+) ± ([\d.]+) ms",
                   err)
     assert m, err
