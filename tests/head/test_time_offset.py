@@ -121,6 +121,9 @@ def test_blurred_frame_is_dropped_and_named():
     dropped = [f["file"] for f in cal.refinement.frames_rejected]
     assert spoiled in dropped
     assert any(spoiled in w and "outliers" in w for w in cal.warnings)
+    assert sum(spoiled in w for w in cal.warnings) == 1          # named once
+    assert cal.refinement.frames_rejected == [f for f in cal.refinement.frames_rejected
+                                              if f["file"] == spoiled]   # only it
     assert abs(cal.refinement.time_offset["value_s"] - 0.01) < DELTA_TOL_S
 
 
