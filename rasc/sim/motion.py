@@ -53,7 +53,7 @@ def _min_jerk(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x2 * x * (10 - 15 * x + 6 * x2), 30 * x2 * (1 - 2 * x + x2)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trajectory:
     """The head's motion: planned positions joined by minimum-jerk motions.
 
@@ -169,44 +169,51 @@ def kept_frames(n: int, max_frames: int) -> np.ndarray:
 
 def exposure_plan(t_mid: float, exposure: float, subframes: int, line_time: float = 0.0,
                   rows: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """How an exposure is rendered: ``(times, first)``.
+    """How an exposure is rendered: ``(times, start)``.
 
-    The renders are taken at ``times`` (J,), a grid of step h = exposure / subframes
-    (the middle of each of the sub-intervals); row r of the image is the mean of renders
-    ``first[r] … first[r] + subframes − 1``, those inside its own exposure. Row r's
-    exposure is centred at ``t_mid + (r − (rows − 1)/2) · line_time`` (the image's stamp
-    ``t_mid`` is its middle row's mid-exposure); with a global shutter (line_time 0)
-    every row averages the same ``subframes`` renders. The error this makes: a row's
-    sub-frame times lie on the common grid, up to h/2 from its own (rows that share
-    ``first`` form bands of h / line_time rows exposed alike), and each sub-interval is
-    seen at its middle instant (the blur is a sum of ``subframes`` sharp images).
+    The renders are taken at ``times`` (J,), the middles of a grid of cells of
+    h = exposure / subframes; row r's exposure is centred at
+    ``t_mid + (r − (rows − 1)/2) · line_time`` (the image's stamp ``t_mid`` is its middle
+    row's mid-exposure) and covers cells ``start[r]`` to ``start[r] + subframes`` (in
+    cell units, from the first row's exposure start). :func:`expose` weights each render
+    by the share of its cell inside the row's exposure, so every row's mean time is its
+    own exactly. With a global shutter (line_time 0) every row averages the same
+    ``subframes`` renders; a rolling shutter takes ``subframes`` + readout / h (+1)
+    renders. The error this makes: each cell is seen at its middle instant (the blur is
+    a weighted sum of sharp images, not a continuous smear), and a row whose exposure
+    starts inside a cell blends the two renders at its ends, which a continuous exposure
+    would have seen part of: a time error of at most h/2 at those ends (none at the
+    row's centre).
     """
     S = int(subframes)
     h = exposure / S
     readout = (rows - 1) * line_time
     t0 = t_mid - 0.5 * readout - 0.5 * exposure       # the first row's exposure starts
-    first = np.ceil(np.arange(rows) * line_time / h - 0.5 - 1e-9).astype(int) \
-        if line_time > 0 else np.zeros(rows, dtype=int)
-    first = np.maximum(first, 0)
-    J = int(first[-1]) + S
-    return t0 + (np.arange(J) + 0.5) * h, first
+    start = np.arange(rows) * (line_time / h)
+    J = int(math.ceil(start[-1] + S - 1e-9))
+    return t0 + (np.arange(J) + 0.5) * h, start
 
 
-def expose(render_at, times: np.ndarray, first: np.ndarray, subframes: int) -> np.ndarray:
-    """The exposure of :func:`exposure_plan`'s ``(times, first)``: ``render_at(t)`` gives
-    the sharp image (H, W) at time ``t``; returns the float image (H, W), each row the mean
-    of its ``subframes`` renders. Renders one image per time, holding one sum."""
+def expose(render_at, times: np.ndarray, start: np.ndarray, subframes: int) -> np.ndarray:
+    """The exposure of :func:`exposure_plan`'s ``(times, start)``: ``render_at(t)`` gives
+    the sharp image (H, W) at time ``t``; returns the float image (H, W), row r the mean
+    of the renders over cells ``start[r]`` … ``start[r] + subframes``, each weighted by
+    its cell's share inside that span. Renders one image per time, holding one sum."""
     S = int(subframes)
     acc = None
     for j, t in enumerate(times):
-        lo = int(np.searchsorted(first, j - S, side="right"))
-        hi = int(np.searchsorted(first, j, side="right"))
-        if lo >= hi:
+        w = np.clip(np.minimum(j + 1.0, start + S) - np.maximum(float(j), start), 0.0, 1.0)
+        rows = np.flatnonzero(w > 1e-12)
+        if not len(rows):
             continue
+        lo, hi = int(rows[0]), int(rows[-1]) + 1
         image = np.asarray(render_at(float(t)), dtype=float)
         if acc is None:
             acc = np.zeros_like(image)
-        acc[lo:hi] += image[lo:hi]
+        if hi - lo == len(w) and np.all(w == 1.0):
+            acc += image
+        else:
+            acc[lo:hi] += w[lo:hi, None] * image[lo:hi]
     return acc / S
 
 

@@ -858,7 +858,7 @@ def continuous_grey(sim, eye: str, traj, t_mid: float, options: RenderOptions
     angles."""
     from rasc.sim.motion import expose, exposure_plan
 
-    times, first = exposure_plan(t_mid, options.exposure, options.subframes,
+    times, start = exposure_plan(t_mid, options.exposure, options.subframes,
                                  options.rolling_shutter, sim.image_size[1])
 
     def render_at(t: float) -> np.ndarray:
@@ -866,7 +866,7 @@ def continuous_grey(sim, eye: str, traj, t_mid: float, options: RenderOptions
         sim.set_angles(eye, pan, tilt)
         return sim.render_grey(eye, supersample=options.supersample)
 
-    image = expose(render_at, times, first, options.subframes)
+    image = expose(render_at, times, start, options.subframes)
     return np.clip(np.rint(image), 0, 255).astype(np.uint8)
 
 
