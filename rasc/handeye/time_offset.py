@@ -349,7 +349,8 @@ class TimedHandEyeResult(RefinedHandEyeResult):
         held).
     n_used : camera poses inside the unit stream at δ (refined over); n_camera : all.
     max_offset : the coarse step's range.
-    notes : sentences for the user (camera poses left out, ...).
+    notes : sentences for the user: camera poses left out, the outlier policy's note,
+        :func:`rasc.handeye.advice.translation_warnings` on the aligned pairs.
     """
 
     time_offset: float = math.nan
@@ -426,7 +427,7 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
         (:func:`rasc.handeye.advice.check_motions_match`), :class:`SolverFailure` when the
         refinement fails.
     """
-    from rasc.handeye.advice import check_motions_match
+    from rasc.handeye.advice import check_motions_match, translation_warnings
     from rasc.handeye.robust_calibrate import closed_form
     from rasc.handeye.solver import diagnose
 
@@ -488,6 +489,7 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
         notes.append(f"{len(t_cam) - len(used)} of {len(t_cam)} camera poses lie outside "
                      f"the unit stream at the time offset {offset:+.4f} s and were left out")
     notes += list(closed.notes)
+    notes += translation_warnings(T_cw[used], G_final, X)
     return TimedHandEyeResult(
         T_cam_from_gaze=X, quality=quality, method=f"{closed.method}+refine",
         diagnostics=diagnostics, covariance=CX,
