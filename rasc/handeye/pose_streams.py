@@ -21,6 +21,8 @@ Motions (``motion``):
               that keeps changing (what the offset estimate needs);
 ``"circle"``  the gaze going round a cone (pan = A cos ωt, tilt = A sin ωt): a rotation
               speed that hardly changes, whose magnitude cannot time the streams;
+``"periodic"`` a Lissajous figure (pan at 0.5 Hz, tilt at 1 Hz): a speed that changes
+              but repeats every 2 s, so offsets 2 s apart look alike;
 ``"still"``   the unit at rest.
 
 Every draw comes from ``numpy.random.default_rng(seed)``.
@@ -38,7 +40,7 @@ from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.handeye.corruption import TRUE_T_CAM_FROM_GAZE, TRUE_T_PTU_FROM_WORLD
 from rasc.handeye.noise import perturb_T_cam_from_world
 
-MOTIONS = ("sines", "circle", "still")
+MOTIONS = ("sines", "circle", "periodic", "still")
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,10 @@ def _angles(motion: str, t: np.ndarray, amplitude: tuple[float, float],
     if motion == "circle":
         w = 2 * math.pi * 0.25
         return np.column_stack([amplitude[0] * np.cos(w * t), amplitude[1] * np.sin(w * t)])
+    if motion == "periodic":
+        w = 2 * math.pi * 0.5
+        return np.column_stack([amplitude[0] * np.sin(w * t),
+                                amplitude[1] * np.sin(2 * w * t + 0.7)])
     out = np.empty((len(t), 2))
     for j in range(2):
         f = rng.uniform(0.1, 0.6, 3)
@@ -114,7 +120,7 @@ def make_pose_streams(seed: int = 0, *, duration: float = 20.0, unit_rate: float
     jitter : standard deviation of each stamp's error, seconds.
     sigma_r, sigma_t : eq. 13–14 noise of the camera poses (radians, metres).
     amplitude_deg : the pan and tilt amplitudes.
-    motion : "sines", "circle" or "still" (module docstring).
+    motion : "sines", "circle", "periodic" or "still" (module docstring).
     camera_span : real-time interval the camera records (default: the unit's span less
         half a second at each end, so offsets of up to ±0.5 s keep every camera pose
         inside the unit stream).

@@ -32,8 +32,9 @@ hand_eye_calibration, the refinement done jointly as Kalibr does):
 With ``time_offset`` a number, δ is held at it (X and Y refined; no σ for δ).
 
 Refused (:class:`~rasc.errors.DegenerateDataError`, one line): a unit stream that turns less
-than :data:`MIN_TURN_DEG`; streams that share fewer than :data:`MIN_POSES` camera poses
-at every δ in range; a rotation speed nearly constant (coefficient of variation below
+than :data:`MIN_TURN_DEG`; streams that share fewer than :data:`MIN_POSES` camera
+poses, or overlap for less than :data:`MIN_OVERLAP` seconds, at every δ in range; a
+rotation speed nearly constant (coefficient of variation below
 :data:`MIN_SPEED_VARIATION`), whose magnitude cannot time the streams; speeds that match
 at no δ (correlation below :data:`MIN_CORRELATION`); two δ that match about as well
 (within :data:`AMBIGUITY`: a periodic motion); a best δ at the edge of the range.
@@ -75,6 +76,11 @@ DEFAULT_MAX_OFFSET = 0.5
 #: streams to be compared: fewer cannot show a speed profile (a second of a 30 Hz camera
 #: is 30).
 MIN_POSES = 20
+
+#: The streams must overlap for at least this long (seconds) at the δ tried: a shorter
+#: stretch holds less than one swing of a head's motion (0.1–1 Hz), and its speed
+#: profile can match a wrong δ by chance.
+MIN_OVERLAP = 2.0
 
 #: A unit stream that turns less than this (degrees, largest angle from its first pose)
 #: has no motion to time.
@@ -253,14 +259,20 @@ def coarse_time_offset(times: np.ndarray, T_cam_from_world: np.ndarray, unit: Un
     valid = (times[None, :-1] + offsets[:, None] >= lo) & (times[None, 1:] + offsets[:, None]
                                                            <= hi)
     count = valid.sum(axis=1)
-    if count.max() < MIN_POSES - 1:
+    t_mid = 0.5 * (times[:-1] + times[1:])
+    lasts = np.array([np.ptp(t_mid[v]) + float(np.median(dt)) if v.any() else 0.0
+                      for v in valid])
+    enough = (count >= MIN_POSES - 1) & (lasts >= MIN_OVERLAP)
+    if not enough.any():
+        poses = int(count.max()) + 1 if count.max() else 0
         raise DegenerateDataError(
-            f"the streams share at most {count.max() + 1} camera poses for any time offset "
-            f"within ±{max_offset:g} s (need {MIN_POSES}): {_describe_spans(times, unit, origin)}; "
-            "record both streams over the same motion, or widen the offset's range")
+            f"the streams overlap for at most {lasts.max():.3g} s ({poses} camera "
+            f"poses) at any time offset within ±{max_offset:g} s (need {MIN_OVERLAP:g} s "
+            f"and {MIN_POSES} poses): {_describe_spans(times, unit, origin)}; record both "
+            "streams over the same motion, or widen the offset's range")
     corr = np.full(len(offsets), np.nan)
     variation = np.full(len(offsets), np.nan)
-    for i in np.flatnonzero(count >= MIN_POSES - 1):
+    for i in np.flatnonzero(enough):
         a, b = speed_cam[valid[i]], speed_unit[i][valid[i]]
         variation[i] = b.std() / max(b.mean(), 1e-300)
         if a.std() > 0 and b.std() > 0:
