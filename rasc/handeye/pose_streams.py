@@ -117,7 +117,8 @@ def make_pose_streams(seed: int = 0, *, duration: float = 20.0, unit_rate: float
     duration : seconds of unit stream (real time 0 to ``duration``).
     unit_rate, camera_rate : samples per second of each stream.
     time_offset : δ in seconds (the unit's clock minus the camera's).
-    jitter : standard deviation of each stamp's error, seconds.
+    jitter : standard deviation of each stamp's error, seconds (clipped at 0.4 of the
+        stream's sampling interval, so that the stamps keep their order).
     sigma_r, sigma_t : eq. 13–14 noise of the camera poses (radians, metres).
     amplitude_deg : the pan and tilt amplitudes.
     motion : "sines", "circle", "periodic" or "still" (module docstring).
@@ -138,11 +139,11 @@ def make_pose_streams(seed: int = 0, *, duration: float = 20.0, unit_rate: float
     G_unit, G_cam = G_all[:len(tu)], G_all[len(tu):]
     T_cw = TRUE_T_CAM_FROM_GAZE @ G_cam @ TRUE_T_PTU_FROM_WORLD
     T_cw = perturb_T_cam_from_world(T_cw, sigma_r, sigma_t, rng, "exponential")
-    unit_stamps = start + tu + time_offset + rng.normal(0.0, jitter, len(tu))
-    cam_stamps = start + tc + rng.normal(0.0, jitter, len(tc))
-    # a stamp's error never reorders a stream (jitter well below the sampling interval)
-    unit_stamps, cam_stamps = np.maximum.accumulate(unit_stamps), \
-        np.maximum.accumulate(cam_stamps)
+    # a stamp's error is clipped to 0.4 of the sampling interval: it never reorders a stream
+    unit_stamps = start + tu + time_offset + np.clip(
+        rng.normal(0.0, jitter, len(tu)), -0.4 / unit_rate, 0.4 / unit_rate)
+    cam_stamps = start + tc + np.clip(rng.normal(0.0, jitter, len(tc)),
+                                      -0.4 / camera_rate, 0.4 / camera_rate)
     return PoseStreams(times=cam_stamps, T_cam_from_world=T_cw, unit_times=unit_stamps,
                        T_gaze_from_ptu=G_unit, pan_tilt_deg=angles[:len(tu)],
                        time_offset=float(time_offset), T_cam_from_gaze=TRUE_T_CAM_FROM_GAZE,

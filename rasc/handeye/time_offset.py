@@ -336,6 +336,7 @@ class _TimedProblem(_Problem):
         super().__init__(T_cw, unit(times + offset0), X0, Y0)
         self.times, self.unit = times, unit
         self.offset0, self.estimate = offset0, estimate
+        self._at = offset0
 
     @property
     def n_params(self) -> int:
@@ -346,7 +347,9 @@ class _TimedProblem(_Problem):
 
     def raw(self, p):
         if self.estimate:
-            self.G = self.unit(self.times + self.offset(p))
+            offset = self.offset(p)
+            if offset != self._at:      # the Jacobian's other 12 columns keep δ
+                self.G, self._at = self.unit(self.times + offset), offset
         return super().raw(p)
 
 
