@@ -1,6 +1,8 @@
-"""Hand-eye from two timestamped pose streams: the time offset estimated, against a refined reference that ignores it and the same reference given the true offset.
+"""Hand-eye from two timestamped pose streams with the time offset estimated,
+against a refined reference that ignores the offset and the same reference given it.
 
-    .venv/bin/python benchmarks/bench_handeye_time_offset.py [--seeds 20] [--markdown docs/results/handeye_time_offset.md]
+    .venv/bin/python benchmarks/bench_handeye_time_offset.py [--seeds 20] \
+        [--markdown docs/results/handeye_time_offset.md]
 
 Streams from :func:`rasc.handeye.pose_streams.make_pose_streams` (seeded; a pan-tilt unit
 moving along sums of sines for 20 s, its poses at 200 Hz, the camera's at 30 Hz with

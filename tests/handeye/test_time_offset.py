@@ -29,9 +29,9 @@ import pytest
 from rasc.errors import DegenerateDataError, InputError
 from rasc.geometry.transforms import rotation_error_deg
 from rasc.handeye.document import parse_handeye_document
+from rasc.handeye.methods import solve
 from rasc.handeye.pose_streams import make_pose_streams
 from rasc.handeye.robust_refine import refine_handeye
-from rasc.handeye.methods import solve
 from rasc.handeye.time_offset import (
     DEFAULT_MAX_OFFSET,
     TimeOffsetOptions,
