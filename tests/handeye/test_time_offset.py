@@ -160,6 +160,14 @@ def test_periodic_motion_within_a_narrow_range_is_timed():
     assert abs(_solve(s).time_offset - s.time_offset) < OFFSET_TOL_S
 
 
+def test_offset_beyond_the_range_is_refused_then_found_in_a_wider_one():
+    s = _streams(2, time_offset=0.45)
+    with pytest.raises(DegenerateDataError, match=r"the best time offset, \+0\.3000 s, is at "
+                                                  "the edge of the range searched"):
+        _solve(s, TimeOffsetOptions(max_offset=0.3))
+    assert abs(_solve(s).time_offset - 0.45) < OFFSET_TOL_S
+
+
 def test_held_offset_outside_the_unit_stream_is_refused():
     s = _streams(2)
     with pytest.raises(DegenerateDataError, match="camera poses lie inside the unit stream"):
