@@ -19,6 +19,13 @@ The method goes through the outlier policy ``rasc calibrate`` uses
 the consistency checks flag is replaced by ``rasc-robust``'s when it rejects positions;
 the output's ``method`` is then "rasc-robust", its ``robust`` block says why, and the
 policy's note is a warning. Any other method is used as it is.
+
+A document with a ``unit_stream`` (two timestamped streams, :mod:`rasc.handeye.document`)
+goes to :func:`rasc.handeye.time_offset.solve_streams`: the clocks' offset is estimated
+(``--time-offset estimate``, the default) or held (``hold``: 0, or a number of seconds),
+searched within ``--max-time-offset``, and the result is always refined; a line on
+stderr gives the offset and its σ, the output a ``time_offset`` block, and
+``uncertainty`` comes from the refinement's covariance.
 """
 
 from __future__ import annotations

@@ -253,9 +253,11 @@ def coarse_time_offset(times: np.ndarray, T_cam_from_world: np.ndarray, unit: Un
     h = float(np.median(dt)) / 2
     k = max(int(math.ceil(max_offset / h)), 1)
     offsets = np.linspace(-max_offset, max_offset, 2 * k + 1)
-    R_unit = unit.rotations(np.clip(times[None, :] + offsets[:, None], *unit.span))
-    speed_unit = _angles(R_unit[:, :-1], R_unit[:, 1:]) / dt
     lo, hi = unit.span
+    speed_unit = np.empty((len(offsets), len(dt)))
+    for i, offset in enumerate(offsets):       # one offset at a time: memory ∝ n
+        R_unit = unit.rotations(np.clip(times + offset, lo, hi))
+        speed_unit[i] = _angles(R_unit[:-1], R_unit[1:]) / dt
     valid = (times[None, :-1] + offsets[:, None] >= lo) & (times[None, 1:] + offsets[:, None]
                                                            <= hi)
     count = valid.sum(axis=1)
@@ -436,7 +438,9 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
     Returns
     -------
     TimedHandEyeResult
-        ``T_cam_from_gaze``, δ and its σ, X's covariance (δ's uncertainty included).
+        ``T_cam_from_gaze``, δ and its σ, X's covariance (δ's uncertainty included);
+        ``quality`` (eq. 10) and ``diagnostics`` are those of the closed form's
+        :data:`START_POSES` camera poses paired at the final δ.
         Raises :class:`DegenerateDataError` (module docstring), :class:`InputError` for
         malformed streams or streams whose motions do not match once aligned
         (:func:`rasc.handeye.advice.check_motions_match`), :class:`SolverFailure` when the
@@ -492,10 +496,13 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
     offset = problem.offset(p)
     X, Y = problem.transforms(p)
     G_final = unit(t_cam[used] + offset)
-    R = np.ascontiguousarray(T_cw[None, used, :3, :3])
-    Q = np.ascontiguousarray(G_final[None, :, :3, :3])
+    # eq. 10 and the diagnostics over the closed form's poses, paired at the final δ (over
+    # every camera pose they would cost n² pairs)
+    G_pick = unit(t_cam[pick] + offset)
+    R = np.ascontiguousarray(T_cw[None, pick, :3, :3])
+    Q = np.ascontiguousarray(G_pick[None, :, :3, :3])
     quality = float(quality_eq10(R, Q, X[None, :3, :3])[0])
-    diagnostics = diagnose(T_cw[pick], unit(t_cam[pick] + offset))[0]
+    diagnostics = diagnose(T_cw[pick], G_pick)[0]
     CX = C[:6, :6].copy()
     CX.flags.writeable = False
     per_position = np.abs(z.reshape(len(used), 6)).max(axis=1)
