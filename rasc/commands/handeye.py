@@ -227,7 +227,7 @@ def _stream_options(args: argparse.Namespace):
 def _run_streams(args: argparse.Namespace, data: HandEyeInput, options) -> int:
     """Two timestamped streams: hand-eye and the time offset, always refined
     (:func:`rasc.handeye.time_offset.solve_streams`)."""
-    from rasc.handeye.advice import solution_warnings
+    from rasc.handeye.advice import input_warnings, solution_warnings
     from rasc.handeye.time_offset import solve_streams
     from rasc.io import dumps_json, write_json_atomic, write_stdout
 
@@ -258,6 +258,7 @@ def _run_streams(args: argparse.Namespace, data: HandEyeInput, options) -> int:
         line = f"time offset held at {ms:+.3f} ms (the unit's clock minus the camera's"
     print(f"rasc handeye: {line}; {result.n_used} of {result.n_camera} camera poses)",
           file=sys.stderr)
-    for warning in list(result.notes) + solution_warnings(result, pan_tilt=data.from_angles):
+    for warning in input_warnings(data.T_cam_from_world) + list(result.notes) + \
+            solution_warnings(result, pan_tilt=data.from_angles):
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
