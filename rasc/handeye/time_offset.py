@@ -12,10 +12,10 @@ time (δ taken as 0) turns δ into a pose error of δ times the rotation speed (
 hand_eye_calibration, the refinement done jointly as Kalibr does):
 
 1. **Coarse** (:func:`coarse_time_offset`): the rotation speed of each stream, the angle
-   between consecutive camera poses over their interval, and the same for the unit's poses
-   interpolated at the camera's stamps plus a trial δ. The angle of a relative rotation
-   is the same in the camera's frame and the unit's (``A = X B X⁻¹``), so the two speed
-   signals are equal at the true δ whatever the hand-eye. δ on a grid over
+   between camera poses :data:`SPEED_BASELINE` apart over their interval, and the same for
+   the unit's poses interpolated at the camera's stamps plus a trial δ. The angle of a
+   relative rotation is the same in the camera's frame and the unit's (``A = X B X⁻¹``),
+   so the two speed signals are equal at the true δ whatever the hand-eye. δ on a grid over
    ``±max_offset`` (half a camera interval apart) maximises their correlation, refined
    by a parabola through the best three.
 2. **Joint refinement**: ``T_cam_from_world_k ≈ X · T_gaze_from_ptu(t_k + δ) · Y`` over
@@ -78,9 +78,11 @@ DEFAULT_MAX_OFFSET = 0.5
 MIN_POSES = 20
 
 #: The streams must overlap for at least this long (seconds) at the δ tried: a shorter
-#: stretch holds less than one swing of a head's motion (0.1–1 Hz), and its speed
-#: profile can match a wrong δ by chance.
-MIN_OVERLAP = 2.0
+#: stretch holds a few swings of a head's motion (0.1–1 Hz) at most, and its speed profile
+#: can match a wrong δ by chance (measured: camera poses whose true overlap with the unit
+#: stream was 0.2 s matched a δ 2.5 s off, over the 2.7 s of overlap there, with a
+#: correlation above the best elsewhere).
+MIN_OVERLAP = 5.0
 
 #: A unit stream that turns less than this (degrees, largest angle from its first pose)
 #: has no motion to time.
@@ -98,9 +100,21 @@ MIN_CORRELATION = 0.5
 #: one's own peak) makes δ ambiguous.
 AMBIGUITY = 0.05
 
+#: The coarse step's rotation speeds are angles between camera poses this far apart
+#: (seconds, rounded to whole camera intervals): a pose's noise then counts for a
+#: fraction of the angle (at 30 Hz, six intervals: 0.002 rad of noise against the 0.06 rad
+#: that 0.3 rad/s turns in 0.2 s), while the speed still follows a head's motion (0.1–1 Hz).
+SPEED_BASELINE = 0.2
+
 #: Camera poses paired at the coarse δ that the closed-form start uses (evenly spread
 #: over the overlap): enough to average the noise, few enough for a fast solve.
 START_POSES = 60
+
+#: δ's std above this fraction of the camera's interval is warned of as poorly
+#: determined: the unit's pose is then uncertain by a good part of what it turns between
+#: two frames (measured on 0.002 rad / 1 mm poses at 30 Hz: 0.09 ms for ±20° motions,
+#: 0.9 ms for ±3°; a δ matched by chance on too little overlap: 33 ms).
+POOR_STD_FRACTION = 0.25
 
 #: Central-difference step of δ in the covariance's Jacobian, seconds.
 STEP_TIME = 1e-5
@@ -248,25 +262,29 @@ def coarse_time_offset(times: np.ndarray, T_cam_from_world: np.ndarray, unit: Un
             f"the unit stream turns at most {turn:.3g}° (< {MIN_TURN_DEG:g}°): no motion "
             "to time the streams by; record the unit while it moves")
     R_cam = project_to_rotation(np.asarray(T_cam_from_world, dtype=float)[:, :3, :3])
-    dt = np.diff(times)
-    speed_cam = _angles(R_cam[:-1], R_cam[1:]) / dt
-    h = float(np.median(dt)) / 2
+    step = float(np.median(np.diff(times)))
+    lag = max(1, int(round(SPEED_BASELINE / step)))   # poses apart: noise / lag
+    if len(times) <= lag:
+        lag = max(1, len(times) - 1)
+    a, b = np.arange(len(times) - lag), np.arange(lag, len(times))
+    dt = times[b] - times[a]
+    speed_cam = _angles(R_cam[a], R_cam[b]) / dt
+    h = step / 2
     k = max(int(math.ceil(max_offset / h)), 1)
     offsets = np.linspace(-max_offset, max_offset, 2 * k + 1)
     lo, hi = unit.span
     speed_unit = np.empty((len(offsets), len(dt)))
     for i, offset in enumerate(offsets):       # one offset at a time: memory ∝ n
         R_unit = unit.rotations(np.clip(times + offset, lo, hi))
-        speed_unit[i] = _angles(R_unit[:-1], R_unit[1:]) / dt
-    valid = (times[None, :-1] + offsets[:, None] >= lo) & (times[None, 1:] + offsets[:, None]
-                                                           <= hi)
-    count = valid.sum(axis=1)
-    t_mid = 0.5 * (times[:-1] + times[1:])
-    lasts = np.array([np.ptp(t_mid[v]) + float(np.median(dt)) if v.any() else 0.0
-                      for v in valid])
-    enough = (count >= MIN_POSES - 1) & (lasts >= MIN_OVERLAP)
+        speed_unit[i] = _angles(R_unit[a], R_unit[b]) / dt
+    shifted = times[None, :] + offsets[:, None]
+    inside = (shifted >= lo) & (shifted <= hi)
+    valid = inside[:, a] & inside[:, b]
+    count = inside.sum(axis=1)
+    lasts = np.array([np.ptp(times[v]) + step if v.any() else 0.0 for v in inside])
+    enough = (count >= MIN_POSES) & (lasts >= MIN_OVERLAP) & (valid.sum(axis=1) >= 3)
     if not enough.any():
-        poses = int(count.max()) + 1 if count.max() else 0
+        poses = int(count.max())
         raise DegenerateDataError(
             f"the streams overlap for at most {lasts.max():.3g} s ({poses} camera "
             f"poses) at any time offset within ±{max_offset:g} s (need {MIN_OVERLAP:g} s "
@@ -469,7 +487,8 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
         offset0 = coarse.time_offset
     else:
         coarse, offset0 = None, float(options.time_offset)
-    margin = float(np.median(np.diff(t_cam)))    # δ moves by less in the refinement
+    interval = float(np.median(np.diff(t_cam)))
+    margin = interval                   # δ moves by less in the refinement
     used = np.flatnonzero(_inside(t_cam, offset0, unit, margin if options.estimate else 0.0))
     if len(used) < MIN_POSES:
         raise DegenerateDataError(
@@ -510,6 +529,11 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
     if len(used) < len(t_cam):
         notes.append(f"{len(t_cam) - len(used)} of {len(t_cam)} camera poses lie outside "
                      f"the unit stream at the time offset {offset:+.4f} s and were left out")
+    std_offset = math.sqrt(C[N_PARAMS, N_PARAMS]) if options.estimate else math.nan
+    if std_offset > POOR_STD_FRACTION * interval:
+        notes.append(f"the time offset is poorly determined: its std, {1e3 * std_offset:.3g}"
+                     f" ms, is over {POOR_STD_FRACTION:g} of the camera's interval "
+                     f"({1e3 * interval:.3g} ms); record a longer or livelier motion")
     notes += list(closed.notes)
     notes += translation_warnings(T_cw[used], G_final, X)
     return TimedHandEyeResult(
@@ -522,7 +546,7 @@ def solve_streams(times: np.ndarray, T_cam_from_world: np.ndarray, unit_times: n
         n_downweighted=int(np.sum(per_position > F_SCALE)) if options.loss != "linear" else 0,
         residual_rms=float(np.sqrt(np.mean(problem.raw(p)[1] ** 2))),
         time_offset=offset,
-        std_time_offset=math.sqrt(C[N_PARAMS, N_PARAMS]) if options.estimate else math.nan,
+        std_time_offset=std_offset,
         time_offset_mode="estimate" if options.estimate else "hold",
         coarse_time_offset=coarse.time_offset if coarse else math.nan,
         correlation=coarse.correlation if coarse else math.nan,

@@ -145,7 +145,10 @@ def test_held_offset_has_no_sigma_and_hold_means_zero():
     ({"motion": "periodic"}, 2.5, "two time offsets match"),
     ({"camera_span": (11.8, 16.0)}, DEFAULT_MAX_OFFSET, "the streams overlap for at most"),
     ({"camera_span": (30.0, 40.0)}, DEFAULT_MAX_OFFSET, "the streams overlap for at most"),
-], ids=["no-motion", "constant-speed", "periodic", "short-overlap", "no-overlap"])
+    ({"camera_span": (19.8, 25.0), "duration": 20.0}, 2.5,
+     "the streams overlap for at most 2.7"),
+], ids=["no-motion", "constant-speed", "periodic", "short-overlap", "no-overlap",
+        "overlap-only-at-a-wrong-offset"])
 def test_degenerate_streams_are_refused(kw, max_offset, words):
     s = _streams(2, **kw)
     with pytest.raises(DegenerateDataError, match=words) as info:
@@ -336,3 +339,15 @@ def test_command_default_matches_library():
     from rasc.commands import handeye
 
     assert handeye.DEFAULT_MAX_OFFSET == DEFAULT_MAX_OFFSET
+
+
+def test_poorly_determined_offset_is_warned(monkeypatch):
+    """The note's rule, checked by lowering its threshold below the σ of a good stream
+    (its σ, about 0.1 ms, is 0.003 of the 33 ms camera interval)."""
+    import rasc.handeye.time_offset as module
+
+    s = _streams(8)
+    assert not any("poorly determined" in n for n in _solve(s).notes)
+    monkeypatch.setattr(module, "POOR_STD_FRACTION", 1e-4)
+    notes = [n for n in _solve(s).notes if "poorly determined" in n]
+    assert len(notes) == 1 and "ms, is over 0.0001 of the camera's interval" in notes[0]
