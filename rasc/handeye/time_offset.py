@@ -293,10 +293,10 @@ def coarse_time_offset(times: np.ndarray, T_cam_from_world: np.ndarray, unit: Un
     corr = np.full(len(offsets), np.nan)
     variation = np.full(len(offsets), np.nan)
     for i in np.flatnonzero(enough):
-        a, b = speed_cam[valid[i]], speed_unit[i][valid[i]]
-        variation[i] = b.std() / max(b.mean(), 1e-300)
-        if a.std() > 0 and b.std() > 0:
-            corr[i] = float(np.corrcoef(a, b)[0, 1])
+        cam, own = speed_cam[valid[i]], speed_unit[i][valid[i]]
+        variation[i] = own.std() / max(own.mean(), 1e-300)
+        if cam.std() > 0 and own.std() > 0:
+            corr[i] = float(np.corrcoef(cam, own)[0, 1])
     speed_variation = float(np.nanmedian(variation))
     if speed_variation < MIN_SPEED_VARIATION:
         raise DegenerateDataError(
