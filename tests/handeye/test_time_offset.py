@@ -8,9 +8,8 @@ eq. 13–14 noise, 0.2 ms of stamp jitter, seeded. Tolerances:
 
 - δ within 1 ms of the truth: the issue's target. At this noise σ(δ) is about 0.1 ms
   (benchmarks/bench_handeye_time_offset.py, 20 seeds: median 0.09 ms, largest error
-  0.15 ms), so 1 ms holds with a wide margin and fails for a wrong sign, the coarse
-  step's answer alone (errors up to 7.6 ms measured) or a δ off by a sampling interval
-  (5 ms of the unit, 33 ms of the camera).
+  0.15 ms), so 1 ms holds with a wide margin and fails for a wrong sign or a δ off by a
+  sampling interval (5 ms of the unit, 33 ms of the camera).
 - σ against the error over seeds: the RMS of z = (δ̂ − δ)/σ within [0.4, 2.5] (σ right to
   within a factor of 2.5 either way; the RMS of 12 draws of a standard normal lies in
   [0.6, 1.4] 95 % of the time, so the band leaves room for the model's small misfit —
