@@ -191,6 +191,7 @@ class UnitStream:
 
     @property
     def span(self) -> tuple[float, float]:
+        """The first and last sample's time."""
         return float(self.times[0]), float(self.times[-1])
 
     def rotations(self, t: np.ndarray) -> np.ndarray:
