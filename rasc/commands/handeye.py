@@ -19,6 +19,13 @@ The method goes through the outlier policy ``rasc calibrate`` uses
 the consistency checks flag is replaced by ``rasc-robust``'s when it rejects positions;
 the output's ``method`` is then "rasc-robust", its ``robust`` block says why, and the
 policy's note is a warning. Any other method is used as it is.
+
+A document with a ``unit_stream`` (two timestamped streams, :mod:`rasc.handeye.document`)
+goes to :func:`rasc.handeye.time_offset.solve_streams`: the clocks' offset is estimated
+(``--time-offset estimate``, the default) or held (``hold``: 0, or a number of seconds),
+searched within ``--max-time-offset``, and the result is always refined; a line on
+stderr gives the offset and its σ, the output a ``time_offset`` block, and
+``uncertainty`` comes from the refinement's covariance.
 """
 
 from __future__ import annotations
@@ -49,6 +56,10 @@ METHOD_HELP = ("hand-eye method: a built-in name (" + ", ".join(METHOD_NAMES) + 
                "rasc-robust when its solution fails the consistency checks and rasc-robust "
                "rejects positions; any other name is used as it is)")
 
+#: rasc.handeye.time_offset.DEFAULT_MAX_OFFSET, written here so that building the parser
+#: imports no solver; a test checks that they match.
+DEFAULT_MAX_OFFSET = 0.5
+
 QUALITY_NOTE = ("eq. 10: mean over ordered pairs i != j of ||X B_ij X^T - A_ij||_F; "
                 "0 is a perfect fit, the paper found solutions above 1 unusable")
 
@@ -70,6 +81,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                         help="refine the method's result on the pose residuals (rotation "
                              "and translation jointly, robust loss) and report its "
                              "covariance (rasc.handeye.robust_refine)")
+    parser.add_argument("--time-offset", metavar="T", default=None,
+                        help="POSES.json with a unit_stream (two timestamped streams) "
+                             "only: 'estimate' (the default) estimates the offset between "
+                             "the clocks with its std, 'hold' holds it at 0, a number holds "
+                             "it at that many seconds (the unit's clock minus the camera's; "
+                             "rasc.handeye.time_offset)")
+    parser.add_argument("--max-time-offset", metavar="S", type=float, default=None,
+                        help="with a unit_stream: search the offset within ±S seconds "
+                             f"(default {DEFAULT_MAX_OFFSET:g})")
     parser.add_argument("--out", metavar="FILE",
                         help="write the result JSON here (atomically) instead of stdout")
     parser.set_defaults(func=run)
@@ -113,7 +133,8 @@ def result_document(data: HandEyeInput, result, *, source: str, method: str,
         "length_unit": data.length_unit or "same as the input's T_cam_from_world translations",
         **({} if home is None else {"home": home}),
         # rasc-robust's rejections, rasc-scale's scale, --refine's covariance
-        **{k: v for k, v in result.to_dict().items() if k in ("robust", "scale", "refinement")},
+        **{k: v for k, v in result.to_dict().items() if k in ("robust", "scale", "refinement",
+                                                        "time_offset")},
     }
 
 
@@ -133,7 +154,15 @@ def run(args: argparse.Namespace) -> int:
     if args.home is not None and args.method != "li":
         raise InputError(f"--home {args.home}: only --method li uses a home position")
     solve = _solver(args.method)  # an unknown name or a broken plugin: before reading
+    stream_options = _stream_options(args)  # a malformed --time-offset: before reading
     data = load_handeye_input(source)
+    if data.is_stream:
+        return _run_streams(args, data, stream_options)
+    for flag, value in (("--time-offset", args.time_offset),
+                        ("--max-time-offset", args.max_time_offset)):
+        if value is not None:
+            raise InputError(f"{flag}: {source} has no unit_stream (timestamped unit poses); "
+                             "the time offset is only estimated between two streams")
     kwargs = {} if args.home is None else {"home": args.home}
     try:
         # the outlier policy rasc calibrate uses: rasc, or rasc-robust when the data ask
@@ -175,3 +204,61 @@ def run(args: argparse.Namespace) -> int:
         print(f"rasc handeye: warning: {warning}", file=sys.stderr)
     return 0
 
+
+
+def _stream_options(args: argparse.Namespace):
+    """The :class:`rasc.handeye.time_offset.TimeOffsetOptions` of the flags (checked
+    before anything is read)."""
+    from rasc.handeye.time_offset import TimeOffsetOptions
+
+    fields = {"method": args.method}
+    if args.time_offset is not None:
+        fields["time_offset"] = args.time_offset
+    if args.max_time_offset is not None:
+        fields["max_offset"] = args.max_time_offset
+    try:
+        return TimeOffsetOptions(**fields)
+    except InputError as exc:
+        text = str(exc).replace("time_offset", "--time-offset", 1) \
+            .replace("max_offset", "--max-time-offset", 1)
+        raise InputError(text) from None
+
+
+def _run_streams(args: argparse.Namespace, data: HandEyeInput, options) -> int:
+    """Two timestamped streams: hand-eye and the time offset, always refined
+    (:func:`rasc.handeye.time_offset.solve_streams`)."""
+    from rasc.handeye.advice import input_warnings, solution_warnings
+    from rasc.handeye.time_offset import solve_streams
+    from rasc.io import dumps_json, write_json_atomic, write_stdout
+
+    source = args.poses
+    if args.home is not None:
+        raise InputError(f"--home {args.home}: {source} has a unit_stream; the closed form "
+                         "there starts from camera poses spread over the streams, without a "
+                         "home position")
+    try:
+        result = solve_streams(data.times, data.T_cam_from_world, data.unit_times,
+                               data.unit_stream, options)
+    except RascError as exc:
+        raise type(exc)(f"{source}: {exc}") from None
+    doc = result_document(data, result, source=source, method=result.method)
+    doc["uncertainty"] = {
+        "method": "covariance of the joint refinement (the time offset's uncertainty "
+                  "included)",
+        "rotation_deg": result.std_rotation_deg, "translation": result.std_translation}
+    if args.out is None:
+        write_stdout(dumps_json(doc))
+    else:
+        write_json_atomic(args.out, doc)
+    ms = 1e3 * result.time_offset
+    if result.time_offset_mode == "estimate":
+        line = (f"time offset {ms:+.3f} ms ± {1e3 * result.std_time_offset:.3f} ms (the "
+                "unit's clock minus the camera's")
+    else:
+        line = f"time offset held at {ms:+.3f} ms (the unit's clock minus the camera's"
+    print(f"rasc handeye: {line}; {result.n_used} of {result.n_camera} camera poses)",
+          file=sys.stderr)
+    for warning in input_warnings(data.T_cam_from_world) + list(result.notes) + \
+            solution_warnings(result, pan_tilt=data.from_angles):
+        print(f"rasc handeye: warning: {warning}", file=sys.stderr)
+    return 0

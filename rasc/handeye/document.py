@@ -30,6 +30,25 @@ rigidity (:func:`rasc.geometry.transforms.validate_rigid_transform`),
 at least 3 positions, the angle unit (:func:`check_angle_unit`), and that the unit's
 motions turn as far as the camera's (:func:`rasc.handeye.solver.check_motions_match`, which
 catches a wrong angle unit that the values alone cannot show).
+
+**Two timestamped streams** (a head that never stops): with a top-level ``unit_stream``,
+the positions are the camera's stream and the unit's poses come from the unit's own::
+
+    "positions": [                         the camera's stream, at least 3
+      {"time": 0.0333, "T_cam_from_world": [[...], x4]},  ...
+    ],
+    "unit_stream": [                       the unit's stream, at least 4
+      {"time": 0.0050, "pan": 1.25, "tilt": -0.5},       or "T_gaze_from_ptu": [[...]]
+      ...
+    ]
+
+Each position then gives ``time`` (seconds, the camera's clock) and ``T_cam_from_world``,
+and no motion; each ``unit_stream`` sample gives ``time`` (seconds, the unit's clock) and
+the unit's pose as pan/tilt or ``T_gaze_from_ptu``. Within each stream the times must
+increase; the two clocks may differ by an unknown offset, which ``rasc handeye``
+estimates (:mod:`rasc.handeye.time_offset`: the unit's clock reads the camera's plus δ).
+A ``time`` without a ``unit_stream`` is refused (it would change nothing). The unit's
+motions are checked against the camera's once the streams are aligned.
 """
 
 from __future__ import annotations
@@ -50,9 +69,14 @@ from rasc.io import shown as _shown
 
 FORMAT = formats.HANDEYE.tag
 ANGLE_UNITS = ("deg", "rad")
-TOP_KEYS = ("format", "angle_unit", "length_unit", "description", "positions")
-POSITION_KEYS = ("pan", "tilt", "T_gaze_from_ptu", "T_cam_from_world", "label")
+TOP_KEYS = ("format", "angle_unit", "length_unit", "description", "positions",
+            "unit_stream")
+POSITION_KEYS = ("pan", "tilt", "T_gaze_from_ptu", "T_cam_from_world", "label", "time")
+UNIT_STREAM_KEYS = ("time", "pan", "tilt", "T_gaze_from_ptu")
 MIN_POSITIONS = 3
+
+#: A unit stream's fewest samples: a cubic spline through them needs 4.
+MIN_UNIT_SAMPLES = 4
 
 #: Rule (a) for ``angle_unit "deg"``: if the largest |pan| or |tilt| is above 0 but
 #: below this many degrees, the angles are taken for radians. A pan-tilt set whose
@@ -89,7 +113,17 @@ class HandEyeInput:
     labels : tuple of (str or None), length n
     description : str or None
     from_angles : bool
-        Every position gave pan/tilt (a pan-tilt unit, eq. 3), none a matrix.
+        Every position (or unit-stream sample) gave pan/tilt (a pan-tilt unit, eq. 3),
+        none a matrix.
+    times : ndarray, shape (n,), or None
+        With a unit stream: each position's ``time`` (the camera's clock, seconds).
+    unit_times : ndarray, shape (m,), or None
+        The unit stream's times (the unit's clock, seconds).
+    unit_stream : ndarray, shape (m, 4, 4), or None
+        The unit's pose at each of ``unit_times``. With a stream, ``T_gaze_from_ptu`` is
+        the naive pairing, the unit pose whose time is nearest each position's (the
+        clocks taken as one): :func:`rasc.handeye.time_offset.solve_streams` pairs them
+        properly.
     """
 
     T_cam_from_world: np.ndarray
@@ -99,11 +133,19 @@ class HandEyeInput:
     labels: tuple
     description: str | None
     from_angles: bool = False
+    times: np.ndarray | None = None
+    unit_times: np.ndarray | None = None
+    unit_stream: np.ndarray | None = None
 
     @property
     def n_positions(self) -> int:
         """The number of pan-tilt positions (views) in the document."""
         return int(self.T_cam_from_world.shape[0])
+
+    @property
+    def is_stream(self) -> bool:
+        """True for two timestamped streams (the document has a ``unit_stream``)."""
+        return self.unit_stream is not None
 
 
 def read_json(path: str | os.PathLike) -> Any:
@@ -187,13 +229,54 @@ def check_angle_unit(angles: list[tuple[str, float]], angle_unit: str) -> None:
                 f" degrees that way; they look like radians; set angle_unit to 'rad'")
 
 
-def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]]
-              ) -> tuple[np.ndarray, np.ndarray, str | None, tuple[float, float] | None]:
-    """(T_cam_from_world, T_gaze_from_ptu, label, (pan, tilt) as written or None)."""
+def _motion(item: dict, where: str, angle_unit: str, angles: list[tuple[str, float]]
+            ) -> tuple[np.ndarray, tuple[float, float] | None]:
+    """The unit's motion of a position or unit-stream sample: (T_gaze_from_ptu,
+    (pan, tilt) as written or None)."""
+    has_angles = "pan" in item or "tilt" in item
+    if has_angles and "T_gaze_from_ptu" in item:
+        raise InputError(f"{where}: has both pan/tilt and T_gaze_from_ptu; give one of them")
+    if not has_angles and "T_gaze_from_ptu" not in item:
+        raise InputError(f"{where}: missing the unit's motion; give pan and tilt, "
+                         "or T_gaze_from_ptu")
+    if not has_angles:
+        return _matrix4(item["T_gaze_from_ptu"], f"{where}.T_gaze_from_ptu"), None
+    for key, other in (("pan", "tilt"), ("tilt", "pan")):
+        if key not in item:
+            raise InputError(f"{where}: {other!r} given without {key!r}")
+    pan = finite_number(item["pan"], f"{where}.pan")
+    tilt = finite_number(item["tilt"], f"{where}.tilt")
+    for key, value in (("pan", pan), ("tilt", tilt)):   # radians: check_angle_unit
+        if angle_unit == "deg" and abs(value) > 360.0:
+            raise InputError(f"{where}.{key} = {value:g} deg is more than a full turn")
+    angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
+    return _eq3(pan, tilt, angle_unit), (pan, tilt)
+
+
+def _time(item: dict, where: str, previous: float | None, previous_where: str) -> float:
+    """A sample's ``time`` (seconds), after the previous sample's."""
+    if "time" not in item:
+        raise InputError(f"{where}: missing 'time' (seconds; every pose of a stream is "
+                         "stamped)")
+    t = finite_number(item["time"], f"{where}.time")
+    if previous is not None and not t > previous:
+        raise InputError(f"{where}.time = {t:.9g} is not after {previous_where}.time = "
+                         f"{previous:.9g}: a stream's times must increase")
+    return t
+
+
+def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]],
+              stream: bool = False
+              ) -> tuple[np.ndarray, np.ndarray | None, str | None,
+                         tuple[float, float] | None]:
+    """(T_cam_from_world, T_gaze_from_ptu, label, (pan, tilt) as written or None); with
+    ``stream`` (the document has a unit_stream) a position gives no motion
+    (T_gaze_from_ptu None)."""
     where = f"positions[{k}]"
     if not isinstance(item, dict):
-        raise InputError(f"{where}: expected an object with T_cam_from_world and pan/tilt or "
-                         f"T_gaze_from_ptu, got {_type_name(item)}")
+        what = ("T_cam_from_world and time" if stream else
+                "T_cam_from_world and pan/tilt or T_gaze_from_ptu")
+        raise InputError(f"{where}: expected an object with {what}, got {_type_name(item)}")
     unknown = [key for key in item if key not in POSITION_KEYS]
     if unknown:
         raise InputError(f"{where}: unknown key {unknown[0]!r}; allowed: "
@@ -201,32 +284,51 @@ def _position(item: Any, k: int, angle_unit: str, angles: list[tuple[str, float]
     if "T_cam_from_world" not in item:
         raise InputError(f"{where}: missing T_cam_from_world (the target's pose from "
                          "camera calibration)")
-    has_angles = "pan" in item or "tilt" in item
-    if has_angles and "T_gaze_from_ptu" in item:
-        raise InputError(f"{where}: has both pan/tilt and T_gaze_from_ptu; give one of them")
-    if not has_angles and "T_gaze_from_ptu" not in item:
-        raise InputError(f"{where}: missing the unit's motion; give pan and tilt, "
-                         "or T_gaze_from_ptu")
-    if has_angles:
-        for key, other in (("pan", "tilt"), ("tilt", "pan")):
-            if key not in item:
-                raise InputError(f"{where}: {other!r} given without {key!r}")
-        pan = finite_number(item["pan"], f"{where}.pan")
-        tilt = finite_number(item["tilt"], f"{where}.tilt")
-        for key, value in (("pan", pan), ("tilt", tilt)):   # radians: check_angle_unit
-            if angle_unit == "deg" and abs(value) > 360.0:
-                raise InputError(f"{where}.{key} = {value:g} deg is more than a full turn")
-        angles += [(f"{where}.pan", pan), (f"{where}.tilt", tilt)]
-        written = (pan, tilt)
-        T_gp = _eq3(pan, tilt, angle_unit)
+    if stream:
+        motion = [key for key in ("pan", "tilt", "T_gaze_from_ptu") if key in item]
+        if motion:
+            raise InputError(f"{where}: has {motion[0]} but the document has a unit_stream: "
+                             "a position then gives only time and T_cam_from_world (the "
+                             "unit's poses come from the stream)")
+        T_gp, written = None, None
     else:
-        written = None
-        T_gp = _matrix4(item["T_gaze_from_ptu"], f"{where}.T_gaze_from_ptu")
+        if "time" in item:
+            raise InputError(f"{where}.time: a time is only read with a unit_stream (the "
+                             "unit's timestamped poses); without one each position pairs "
+                             "a camera pose with the motion beside it")
+        T_gp, written = _motion(item, where, angle_unit, angles)
     T_cw = _matrix4(item["T_cam_from_world"], f"{where}.T_cam_from_world")
     label = item.get("label")
     if label is not None and not isinstance(label, str):
         raise InputError(f"{where}.label: expected a string, got {_type_name(label)}")
     return T_cw, T_gp, label, written
+
+
+def _unit_stream(doc: dict, angle_unit: str, angles: list[tuple[str, float]]
+                 ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(times (m,), T_gaze_from_ptu (m, 4, 4), every sample from pan/tilt)."""
+    stream = doc["unit_stream"]
+    if not isinstance(stream, list):
+        raise InputError(f"unit_stream: expected a list, got {_type_name(stream)}")
+    if len(stream) < MIN_UNIT_SAMPLES:
+        raise InputError(f"unit_stream: need at least {MIN_UNIT_SAMPLES} timestamped unit "
+                         f"poses to interpolate, got {len(stream)}")
+    times, poses, from_angles = [], [], True
+    for j, item in enumerate(stream):
+        where = f"unit_stream[{j}]"
+        if not isinstance(item, dict):
+            raise InputError(f"{where}: expected an object with time and pan/tilt or "
+                             f"T_gaze_from_ptu, got {_type_name(item)}")
+        unknown = [key for key in item if key not in UNIT_STREAM_KEYS]
+        if unknown:
+            raise InputError(f"{where}: unknown key {unknown[0]!r}; allowed: "
+                             + ", ".join(UNIT_STREAM_KEYS))
+        times.append(_time(item, where, times[-1] if times else None,
+                           f"unit_stream[{j - 1}]"))
+        T, written = _motion(item, where, angle_unit, angles)
+        poses.append(T)
+        from_angles &= written is not None
+    return np.array(times), np.stack(poses), from_angles
 
 
 def _eq3(pan: float, tilt: float, angle_unit: str) -> np.ndarray:
@@ -272,7 +374,12 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
         raise InputError(f"positions: need at least {MIN_POSITIONS} positions (two motions "
                          f"about different axes), got {len(positions)}")
     angles: list[tuple[str, float]] = []
-    parsed = [_position(item, k, angle_unit, angles) for k, item in enumerate(positions)]
+    stream = "unit_stream" in doc
+    parsed = [_position(item, k, angle_unit, angles, stream)
+              for k, item in enumerate(positions)]
+    if stream:
+        return _stream_input(doc, positions, parsed, angle_unit, angles, length_unit,
+                             description)
     check_angle_unit(angles, angle_unit)
     T_cw, T_gp = np.stack([p[0] for p in parsed]), np.stack([p[1] for p in parsed])
     from rasc.handeye.advice import check_motions_match  # scipy: not needed to build the parser
@@ -288,6 +395,33 @@ def parse_handeye_document(doc: Any) -> HandEyeInput:
         labels=tuple(p[2] for p in parsed),
         description=description,
         from_angles=all(p[3] is not None for p in parsed),
+    )
+
+
+def _stream_input(doc: dict, positions: list, parsed: list, angle_unit: str,
+                  angles: list[tuple[str, float]], length_unit: str | None,
+                  description: str | None) -> HandEyeInput:
+    """A document with a ``unit_stream``: the positions' times, the stream (the motions
+    are checked against the camera's once the streams are aligned, by
+    :func:`rasc.handeye.time_offset.solve_streams`)."""
+    times: list[float] = []
+    for k, item in enumerate(positions):
+        times.append(_time(item, f"positions[{k}]", times[-1] if times else None,
+                           f"positions[{k - 1}]"))
+    unit_times, unit_poses, from_angles = _unit_stream(doc, angle_unit, angles)
+    check_angle_unit(angles, angle_unit)
+    from rasc.handeye.time_offset import nearest_pairs  # scipy: not needed to build the parser
+
+    t = np.array(times)
+    return HandEyeInput(
+        T_cam_from_world=np.stack([p[0] for p in parsed]),
+        T_gaze_from_ptu=nearest_pairs(t, unit_times, unit_poses),
+        angle_unit=angle_unit,
+        length_unit=length_unit,
+        labels=tuple(p[2] for p in parsed),
+        description=description,
+        from_angles=from_angles,
+        times=t, unit_times=unit_times, unit_stream=unit_poses,
     )
 
 

@@ -255,6 +255,62 @@ def _weights(z: np.ndarray, loss: str) -> np.ndarray:
     return np.ones_like(z)
 
 
+def target_start(X0: np.ndarray, T_gaze_from_ptu: np.ndarray,
+                 T_cam_from_world: np.ndarray) -> np.ndarray:
+    """The refinement's start for ``Y = T_ptu_from_world`` given X0: the chordal mean of
+    each position's ``Y_k = (X0 T_gaze_from_ptu_k)⁻¹ T_cam_from_world_k`` rotation and
+    the mean of their translations."""
+    Yk = _inv(X0[None] @ T_gaze_from_ptu) @ T_cam_from_world
+    return make_transform(_chordal_mean(Yk[None, :, :3, :3], np.ones((1, len(Yk))))[0],
+                          Yk[:, :3, 3].mean(axis=0))
+
+
+def fit_problem(problem: _Problem, p: np.ndarray, *, loss: str, distance: float,
+                extra_steps: np.ndarray, what: str
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Solve ``problem`` (a :class:`_Problem`, or one with more unknowns after the 12 of
+    X and Y) from ``p``: the noise scales from the start, then once more from the first
+    solution (:func:`_sigmas`), ``least_squares`` with ``loss`` each time, and the
+    covariance ``s² (Jᵀ W J)⁻¹`` from central differences at the solution (steps
+    :data:`STEP` for rotations, ``STEP · distance`` for translations, ``extra_steps`` for
+    the unknowns after the 12). Returns ``(p, z, C)``: the solution, its whitened
+    residuals and the covariance of all unknowns. Raises :class:`SolverFailure` (naming
+    ``what``) when the optimiser does not converge or the covariance is singular."""
+    n_params = problem.n_params
+    floor = (1e-12, 1e-12 * distance)
+    for _ in range(2):                     # σ from the start, then from the first solution
+        r, t = problem.raw(p)
+        s_r, s_t = _sigmas(r, t, n_params)
+        problem.w = np.array([max(s_r, floor[0]), max(s_t, floor[1])])
+        fit = least_squares(problem.residuals, p, loss=loss, f_scale=F_SCALE,
+                            ftol=TOL, xtol=TOL, gtol=TOL, x_scale="jac")
+        if fit.status <= 0 or not np.all(np.isfinite(fit.x)):
+            raise SolverFailure(f"the pose-residual refinement did not converge "
+                                f"({fit.message})")
+        p = fit.x
+    # covariance from the whitened Jacobian at the solution (central differences)
+    z = problem.residuals(p)
+    steps = np.r_[np.full(3, STEP), np.full(3, STEP * distance),
+                  np.full(3, STEP), np.full(3, STEP * distance), extra_steps]
+    J = np.empty((z.size, n_params))
+    for i in range(n_params):
+        e = np.zeros(n_params)
+        e[i] = steps[i]
+        J[:, i] = (problem.residuals(p + e) - problem.residuals(p - e)) / (2 * steps[i])
+    w = _weights(z, loss)
+    s2 = float(np.sum(w * z ** 2)) / max(z.size - n_params, 1)
+    H = J.T @ (w[:, None] * J)
+    try:
+        C = s2 * np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        raise SolverFailure(f"the pose-residual refinement's covariance is singular: the "
+                            f"data do not determine {what}") from None
+    if not (np.all(np.isfinite(C)) and np.all(np.diag(C) >= 0)):
+        raise SolverFailure(f"the pose-residual refinement's covariance is not finite: the "
+                            f"data do not determine {what}")
+    return p, z, C
+
+
 def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
                    result: HandEyeResult | np.ndarray, *, loss: str = "huber",
                    check_rigid: bool = True, scale: float | None = None
@@ -307,47 +363,15 @@ def refine_handeye(T_cam_from_world: np.ndarray, T_gaze_from_ptu: np.ndarray,
     s0 = 1.0 if scale is None else float(scale)
     T_scaled = T_cw.copy()
     T_scaled[:, :3, 3] *= s0                 # in the unit's length unit
-    Yk = _inv(X0[None] @ T_gp) @ T_scaled
-    Y0 = make_transform(_chordal_mean(Yk[None, :, :3, :3], np.ones((1, len(T_cw))))[0],
-                        Yk[:, :3, 3].mean(axis=0))
+    Y0 = target_start(X0, T_gp, T_scaled)
     problem = _Problem(T_cw, T_gp, X0, Y0, None if scale is None else s0)
     n_params = problem.n_params
     distance = max(float(np.median(np.linalg.norm(T_scaled[:, :3, 3], axis=1))), 1e-300)
     p = np.zeros(n_params)
     p[3:6], p[9:12] = X0[:3, 3], Y0[:3, 3]
-    floor = (1e-12, 1e-12 * distance)
-    for _ in range(2):                     # σ from the start, then from the first solution
-        r, t = problem.raw(p)
-        s_r, s_t = _sigmas(r, t, n_params)
-        problem.w = np.array([max(s_r, floor[0]), max(s_t, floor[1])])
-        fit = least_squares(problem.residuals, p, loss=loss, f_scale=F_SCALE,
-                            ftol=TOL, xtol=TOL, gtol=TOL, x_scale="jac")
-        if fit.status <= 0 or not np.all(np.isfinite(fit.x)):
-            raise SolverFailure(f"the pose-residual refinement did not converge "
-                                f"({fit.message})")
-        p = fit.x
-    # covariance from the whitened Jacobian at the solution (central differences)
-    z = problem.residuals(p)
-    steps = np.r_[np.full(3, STEP), np.full(3, STEP * distance),
-                  np.full(3, STEP), np.full(3, STEP * distance),
-                  np.full(n_params - N_PARAMS, STEP)]
-    J = np.empty((z.size, n_params))
-    for i in range(n_params):
-        e = np.zeros(n_params)
-        e[i] = steps[i]
-        J[:, i] = (problem.residuals(p + e) - problem.residuals(p - e)) / (2 * steps[i])
-    w = _weights(z, loss)
-    s2 = float(np.sum(w * z ** 2)) / max(z.size - n_params, 1)
-    H = J.T @ (w[:, None] * J)
     what = "T_cam_from_gaze" if scale is None else "T_cam_from_gaze and the scale"
-    try:
-        C = s2 * np.linalg.inv(H)
-    except np.linalg.LinAlgError:
-        raise SolverFailure(f"the pose-residual refinement's covariance is singular: the "
-                            f"data do not determine {what}") from None
-    if not (np.all(np.isfinite(C)) and np.all(np.diag(C) >= 0)):
-        raise SolverFailure(f"the pose-residual refinement's covariance is not finite: the "
-                            f"data do not determine {what}")
+    p, z, C = fit_problem(problem, p, loss=loss, distance=distance,
+                          extra_steps=np.full(n_params - N_PARAMS, STEP), what=what)
     X, Y = problem.transforms(p)
     CX = C[:6, :6].copy()
     scale_fields: dict[str, Any] = {}
