@@ -497,9 +497,10 @@ def findings(stats: list[dict]) -> str:
             f"{hi['translation_mm']:.3f} mm / {hi['rotation_deg']:.4f}° ({cell(hi)}). "
             "An exposure centred on the stamp moves a corner by the second-order term of "
             "the motion, (e²/24)·d²x/dt²: nothing at constant speed, but a minimum-jerk "
-            "motion's acceleration changes fast at high ω, so long exposures at high speed "
-            "bias the corners of the frames taken while the head speeds up or slows down "
-            "(a detector finds a smeared corner near its centroid only to first order).")
+            "motion's acceleration grows as ω², so the shift grows as (ω·e)² in the frames "
+            "taken while the head speeds up or slows down (with a detector that finds a "
+            "smeared corner at its centroid; the rendered confirmation has the pipeline's "
+            "own detector).")
     at_zero = [(held[k], s) for s in est
                if (k := (s["speed_deg_s"], s["exposure_ms"], s["true_offset_ms"])) in held
                and s["true_offset_ms"] == 0]

@@ -60,6 +60,8 @@ EXPERIMENTS = (
     ("e8_wide", "E8 — beyond the paper: wide motions with a ChArUco board"),
     ("e9_outliers", "E9 — beyond the paper: bad positions and unknown scale"),
     ("e10_depth", "E10 — beyond the paper: depth at any gaze against the depth buffer"),
+    ("e12_continuous", "E12 — beyond the paper: continuous motion, the time offset and "
+                       "the capture time"),
 )
 
 
