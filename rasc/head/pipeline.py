@@ -493,7 +493,9 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
                     f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"
                     " from the refined "
                     "hand-eye" for eye in EYES) + ")")
-    gone = [im for im in res.images if not np.isfinite(im.rms)]
+    dropped = {(f["eye"], f["file"]) for f in res.frames_rejected}   # warned on their own
+    gone = [im for im in res.images if not np.isfinite(im.rms)
+            and (im.eye, im.name) not in dropped]
     if gone:
         cal.warnings.append(
             f"the whole-head refinement rejected every corner of {len(gone)} image(s) ("

@@ -121,6 +121,9 @@ def test_blurred_frame_is_dropped_and_named():
     dropped = [f["file"] for f in cal.refinement.frames_rejected]
     assert spoiled in dropped
     assert any(spoiled in w and "outliers" in w for w in cal.warnings)
+    assert sum(spoiled in w for w in cal.warnings) == 1          # named once
+    assert cal.refinement.frames_rejected == [f for f in cal.refinement.frames_rejected
+                                              if f["file"] == spoiled]   # only it
     assert abs(cal.refinement.time_offset["value_s"] - 0.01) < DELTA_TOL_S
 
 
@@ -181,3 +184,19 @@ def test_closed_form_warnings_of_readings_at_zero_offset_are_kept_with_the_seed(
     ds, cal = _calibrate(0.2, n_intrinsics=8, frame_rate=5.0)
     assert abs(cal.refinement.time_offset["value_s"] - 0.2) < DELTA_TOL_S
     assert cal.seed["closed_form_warnings"] and not cal.warnings
+
+
+def test_the_command_s_flag_is_the_option(rasc_cli, tmp_path):
+    """--time-offset: the option's default and choices; refused under the paper model
+    with the library's message, before the dataset is read (exit 2, one line)."""
+    from rasc.cli import build_parser
+    from rasc.head import options as calopts
+
+    args = build_parser().parse_args(["calibrate", "ds"])
+    assert args.time_offset == CalibrationOptions().time_offset is None
+    assert calopts.TIME_OFFSET_MODES == ("auto", "estimate", "hold")
+    status, out, err = rasc_cli("calibrate", str(tmp_path), "--model", "paper",
+                                "--time-offset", "estimate")
+    assert status == 2 and out == ""
+    assert err.strip() == ("rasc calibrate: error: --time-offset: only the whole-head "
+                           "refinement estimates the time offset; use it with --model general")

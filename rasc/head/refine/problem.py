@@ -13,7 +13,6 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform, make_transform
 from rasc.head.refine.jacobian import _JacobianMixin
-from rasc.head.refine.timing import angles_at, rates_at
 from rasc.head.refine.model import (
     DIST_NAMES,
     DIST_PARAMS,
@@ -25,6 +24,7 @@ from rasc.head.refine.model import (
     _unit_motion,
     _unit_motion_of,
 )
+from rasc.head.refine.timing import angles_at, rates_at
 
 
 class _Problem(_JacobianMixin):
