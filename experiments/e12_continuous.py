@@ -20,10 +20,12 @@ Protocol:
 * **Sweep** (one factor at a time about the baseline ω = 30°/s, e = 10 ms, δ = +30 ms):
   ω ∈ :data:`SPEEDS`, e ∈ :data:`EXPOSURES`, δ ∈ :data:`OFFSETS`; :data:`FRAMES` frames
   per eye whatever the speed (the frame rate scaled to the motion's duration, so that
-  the speed is not confounded with the amount of data). Each capture calibrated twice
-  (``rasc.head.pipeline.calibrate_dataset``, the general model): δ estimated in the
-  whole-head refinement (``time_offset = "estimate"``) and δ held at 0 (``"hold"``: the
-  readings at the stamps, as a calibration without an offset has them). Reported: the
+  the speed is not confounded with the amount of data), :data:`SEEDS` seeds. Each
+  capture calibrated (``rasc.head.pipeline.calibrate_dataset``, the general model) with
+  δ estimated in the whole-head refinement (``time_offset = "estimate"``), and, for the
+  first seed (what holding δ costs is a bias, far above the noise; these calibrations
+  are the slow ones, rejecting corners), with δ held at 0 (``"hold"``: the readings at
+  the stamps, as a calibration without an offset has them). Reported: the
   hand-eye (``T_cam_from_gaze``) rotation and translation error against the truth (mean
   of both eyes), δ's error and its σ (the refinement's covariance), the images whose
   every corner the refinement rejected.
@@ -197,8 +199,9 @@ def rejected_images(cal, n_corners: int) -> int:
     """Pose images of which the whole-head refinement rejected every corner (of
     ``n_corners``) or which it dropped whole as outlying frames."""
     ref = cal.refinement
-    gone = sum(1 for im in ref.images if im.role == "pose" and len(im.rejected) >= n_corners)
-    return gone + len(ref.frames_rejected)
+    gone = {(im.eye, im.name) for im in ref.images
+            if im.role == "pose" and len(im.rejected) >= n_corners}
+    return len(gone | {(f["eye"], f["file"]) for f in ref.frames_rejected})
 
 
 # ------------------------------------------------------------------ the sweep
@@ -223,8 +226,8 @@ def sweep_rows(seeds, quick: bool) -> list[tuple]:
             ds, duration = continuous(seed, speed, exposure, offset)
             n = len(ds.select(role="pose", eye="left"))
             for delta in ("estimate", "hold"):
-                if quick and delta == "hold" and factor != "baseline":
-                    continue          # quick: δ held at 0 on the baseline only
+                if delta == "hold" and (seed != seeds[0] or quick and factor != "baseline"):
+                    continue   # held: the first seed (a bias, not noise); quick: baseline
                 cal = calibrate(ds, delta)
                 d, s = offset_of(cal)
                 rot, tr = handeye_errors(cal.head, ds.truth)
@@ -287,10 +290,10 @@ def capture_summary(rows: list[tuple]) -> dict:
               if c["ratio_translation"] <= factor and c["ratio_rotation"] <= factor]
         out[name] = min(ok, key=lambda c: c["capture_s"])["capture_s"] if ok else None
     three = [c for c in out["continuous"] if c["time_factor"] >= TARGET_TIME]
+    meeting = [c["speed_deg_s"] for c in three if c["ratio_translation"] <= TARGET_RATIO
+               and c["ratio_rotation"] <= TARGET_RATIO]
     out["target"] = {"captures_at_least_3x_shorter": [c["speed_deg_s"] for c in three],
-                     "met": bool(three) and all(
-                         c["ratio_translation"] <= TARGET_RATIO
-                         and c["ratio_rotation"] <= TARGET_RATIO for c in three)}
+                     "meeting_it": meeting, "met": bool(meeting)}
     return out
 
 
@@ -454,7 +457,7 @@ def capture_figure(rows: list[tuple], summary: dict, folder: Path,
         ax.axhline(TARGET_RATIO * stop[key], color="C3", lw=0.8, ls="--",
                    label=f"{TARGET_RATIO:g}× stop-and-go's error")
         ax.axvline(stop["capture_s"] / TARGET_TIME, color="k", lw=0.8, ls="-.",
-                   label=f"a third of stop-and-go's capture time")
+                   label="a third of stop-and-go's capture time")
         ax.set_xlabel("capture time (s)")
         ax.set_ylabel(ylabel)
         ax.set_xlim(0, 1.1 * stop["capture_s"])
@@ -560,9 +563,9 @@ def markdown(stats, capture, rendered, files, quick: bool, seeds: int) -> str:
         f"{SUBFRAMES} instants across it, calibrated by `calibrate_dataset` (the general "
         "model) with δ estimated in the whole-head refinement and with δ held at 0. One "
         f"factor at a time about ω = {speed0:g}°/s, {1000 * exp0:g} ms, δ = "
-        f"{1000 * off0:+g} ms; {seeds} seed(s) per capture; errors are the mean of both "
-        "eyes and of the seeds; \"spread\" is the sample std of δ's error over the seeds, "
-        "to compare with the refinement's σ."
+        f"{1000 * off0:+g} ms; {seeds} seed(s) per capture with δ estimated, the first "
+        "with δ held; errors are the mean of both eyes and of the seeds; \"spread\" is the "
+        "sample std of δ's error over the seeds, to compare with the refinement's σ."
         + (" Quick protocol: one seed, two captures, no render." if quick else ""), "",
         md_table(("factor", "ω (°/s)", "exposure (ms)", "true δ (ms)", "δ error (ms)",
                   "largest \\|δ error\\| (ms)", "σ of δ (ms)", "spread (ms)",
@@ -587,13 +590,18 @@ def markdown(stats, capture, rendered, files, quick: bool, seeds: int) -> str:
         + ("; within 1×: " + (f"{capture['within_1x']:.1f} s"
                               if capture["within_1x"] is not None else "none"))
         + ". Issue 33's target (within 1.5× of a stop-and-go capture three times as long): "
-        + (("met by every continuous capture at least 3× shorter (ω = "
-            + ", ".join(f"{s:g}" for s in tgt["captures_at_least_3x_shorter"])
-            + "°/s)") if tgt["met"] else
+        + (("met at ω = " + ", ".join(f"{s:g}" for s in tgt["meeting_it"]) + "°/s")
+           if tgt["met"] else
            ("not met" if tgt["captures_at_least_3x_shorter"] else
             "no continuous capture here is 3× shorter"))
-        + ". A continuous capture has more images than stop-and-go's nine per eye, each a "
-        "different pose, in a fraction of the time."]
+        + ("; of the captures at least 3× shorter, "
+           + ", ".join(f"ω = {c['speed_deg_s']:g}°/s is {c['ratio_translation']:.2f}× / "
+                       f"{c['ratio_rotation']:.2f}×" for c in capture["continuous"]
+                       if c["time_factor"] >= TARGET_TIME)
+           + " (translation / rotation)" if tgt["captures_at_least_3x_shorter"] else "")
+        + ". A continuous capture has more images than "
+        "stop-and-go's nine per eye, each a different pose, in a fraction of the time; "
+        "too fast, and its frames are few and the blur's bias grows."]
     if rendered:
         rtable = [(r[0], "estimated" if r[1] == "estimate" else "held at 0", r[2],
                    _f(r[3], ".4f") if r[1] == "estimate" else "—",
