@@ -5,8 +5,9 @@
 Renders the default dataset from the MuJoCo head, calibrates it through the real
 pipeline (detection → intrinsics → extrinsics → RASC → loop closure), runs every
 experiment of docs/METHOD.md §9 (E1–E5) and the extras (E6–E10, E12), and writes
-``DIR/REPORT.md`` with each figure (PNG and SVG) and table beside the paper's values, the protocol parameters, the
-seed, the software versions and the wall time of every stage. Raw results (CSV/JSON)
+``DIR/REPORT.md`` with each figure (PNG and SVG) and table beside the paper's values,
+the protocol parameters, the seed, the software versions and the wall time of every
+stage. Raw results (CSV/JSON)
 are byte-identical for the same seed, whatever ``--workers``.
 
 ``--quick`` is the reduced protocol, for tests (each module's docstring says what it
