@@ -394,7 +394,8 @@ def sweep_figure(stats: list[dict], folder: Path, quick: bool) -> list[Path]:
     from experiments._figures import save_experiment_figure
 
     fig, axes = plt.subplots(3, 3, figsize=(13.0, 10.5))
-    style = {"estimate": ("C0", "o", "δ estimated"), "hold": ("C3", "s", "δ held at 0 (first seed)")}
+    style = {"estimate": ("C0", "o", "δ estimated"),
+             "hold": ("C3", "s", "δ held at 0 (first seed)")}
     for j, (factor, xlabel) in enumerate(FACTORS):
         for delta, (c, m, label) in style.items():
             x, pts = _factor_series(stats, factor, delta)
