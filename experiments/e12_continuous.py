@@ -43,7 +43,7 @@ Protocol:
   reproduction's stop-and-go default dataset calibrated with the same (general) model.
 
 ``--quick`` (for tests): one seed; the baseline (δ estimated and held) and ω = 90°/s
-with a 30 ms exposure (δ estimated); the capture-time comparison at ω = 60°/s; no render.
+(δ estimated); the capture-time comparison at ω = 60°/s; no render.
 
 Run::
 
@@ -211,7 +211,7 @@ def sweep_cells(quick: bool) -> list[tuple[str, float, float, float]]:
     factor at a time."""
     speed0, exp0, off0 = BASE
     if quick:
-        return [("baseline", *BASE), ("speed", 90.0, 0.030, off0)]
+        return [("baseline", *BASE), ("speed", 90.0, exp0, off0)]
     cells = [("baseline", *BASE)]
     cells += [("speed", s, exp0, off0) for s in SPEEDS if s != speed0]
     cells += [("exposure", speed0, e, off0) for e in EXPOSURES if e != exp0]
