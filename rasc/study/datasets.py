@@ -156,7 +156,7 @@ def render_task(task: RenderTask) -> dict | tuple:
     """
     worker_environment()
     from rasc.datasets.calibration import calibrate
-    from rasc.sim.render import DEGRADATIONS, RenderOptions, render_in_memory
+    from rasc.sim.render import CONTINUOUS, DEGRADATIONS, RenderOptions, render_in_memory
 
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
@@ -166,7 +166,7 @@ def render_task(task: RenderTask) -> dict | tuple:
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
             distortion=tuple(full["distortion"]), supersample=full["supersample"],
-            **{k: full[k] for k in DEGRADATIONS})
+            **{k: full[k] for k in (*DEGRADATIONS, *CONTINUOUS)})
         names = ({"poses_deg": f"positions_file {task.positions_from}"}
                  if task.positions_from else RENDER_NAMES)
         ds = render_in_memory(options, model_path=head_of(r, task.model_path), quiet=True,

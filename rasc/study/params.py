@@ -12,6 +12,13 @@ from typing import Any
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.io import finite_number
+from rasc.sim.motion import (
+    DEFAULT_EXPOSURE,
+    DEFAULT_FRAME_RATE,
+    DEFAULT_JOINT_RATE,
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_SUBFRAMES,
+)
 from rasc.sim.urdf import DEFAULT_CAMERAS, DEFAULT_JOINTS
 
 #: the paper's noise set k (docs/METHOD.md §8): σ_r = 0.005 k rad, σ_t = k mm
@@ -90,6 +97,37 @@ def _supersample(x) -> int:
     """An integer from 1 to the renderer's ``rasc.sim.render.MAX_SUPERSAMPLE``."""
     from rasc.sim.render import MAX_SUPERSAMPLE
     return _int_at_least(1, MAX_SUPERSAMPLE)(x)
+
+
+def _render_int(name: str, lo: int) -> Callable[[Any], int]:
+    """An integer from ``lo`` to the renderer's bound ``rasc.sim.render.<name>``."""
+    def check(x) -> int:
+        from rasc.sim import render
+        return _int_at_least(lo, getattr(render, name))(x)
+    return check
+
+
+def _signed_render_bound(name: str, unit: str) -> Callable[[Any], float]:
+    """A number from −bound to +bound, the renderer's ``rasc.sim.render.<name>``."""
+    def check(x) -> float:
+        from rasc.sim import render
+        x, top = _number(x), getattr(render, name)
+        if not -top <= x <= top:
+            raise ValueError(f"expected a number from {-top:g} to {top:g} ({unit}), got {x:g}")
+        return x
+    return check
+
+
+def _seconds_up_to_one(positive: bool) -> Callable[[Any], float]:
+    """Seconds from 0 (excluded when ``positive``) to 1, the renderer's bound on an
+    exposure and on the joint stamps' jitter."""
+    def check(x) -> float:
+        x = _number(x)
+        if x > 1.0 or x < 0 or positive and x == 0:
+            span = "above 0 and at most 1" if positive else "from 0 to 1"
+            raise ValueError(f"expected a number {span} (seconds), got {x:g}")
+        return x
+    return check
 
 
 def _jpeg_quality(x) -> int:
@@ -283,6 +321,29 @@ PARAMS: dict[str, Param] = {
                              "the lens's focal length, mm (with focus_distance)"),
     "jpeg_quality": Param(_jpeg_quality, 0, "render",
                           "JPEG compression quality 1-100 (0 = none)"),
+    # continuous motion (rasc.sim.render.CONTINUOUS; docs/topics/continuous.md): 0 is
+    # stop-and-go, the others need motion_speed_deg_s > 0 (RenderOptions.validate)
+    "motion_speed_deg_s": Param(_render_bound("MAX_MOTION_SPEED", "deg/s"), 0.0, "render",
+                                "peak joint speed between the positions, deg/s "
+                                "(0 = stop-and-go)"),
+    "dwell": Param(_render_bound("MAX_DWELL", "seconds"), 0.0, "render",
+                   "seconds held at each position (0 = never stops)"),
+    "frame_rate": Param(_render_range("MAX_FRAME_RATE", 1e-3, "frames per second"),
+                        DEFAULT_FRAME_RATE, "render", "the cameras' frames per second"),
+    "exposure": Param(_seconds_up_to_one(positive=True), DEFAULT_EXPOSURE,
+                      "render", "exposure time, s (the mean of subframes renders)"),
+    "subframes": Param(_render_int("MAX_SUBFRAMES", 1), DEFAULT_SUBFRAMES, "render",
+                       "renders averaged over an exposure"),
+    "rolling_shutter": Param(_render_bound("MAX_LINE_TIME", "seconds per line"), 0.0,
+                             "render", "rolling shutter line time, s (0 = global shutter)"),
+    "joint_rate": Param(_render_range("MAX_JOINT_RATE", 1e-3, "readings per second"),
+                        DEFAULT_JOINT_RATE, "render", "joint readings per second"),
+    "clock_offset": Param(_signed_render_bound("MAX_CLOCK_OFFSET", "seconds"), 0.0, "render",
+                          "δ, s: encoder clock = camera clock + δ"),
+    "clock_jitter": Param(_seconds_up_to_one(positive=False), 0.0, "render",
+                          "Gaussian jitter (σ) of the joint stamps, s"),
+    "max_frames": Param(_render_int("MAX_FRAMES_KEPT", 3), DEFAULT_MAX_FRAMES, "render",
+                        "pose frames kept per eye (every k-th of those taken)"),
     # a head described in a URDF (rasc.sim.urdf.UrdfHead; docs/topics/urdf-head.md)
     "urdf": Param(_text, "", "render",
                   "a head described in a URDF (path relative to the spec; its bytes' sha256 "
@@ -311,7 +372,9 @@ IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsi
                      "target", "positions_file", "supersample", "full_well", "read_noise",
                      "vignetting", "motion_blur", "motion_angle", "focus_distance",
                      "f_number", "focal_length_mm", "jpeg_quality", "urdf", "urdf_joints",
-                     "urdf_cameras")
+                     "urdf_cameras", *("motion_speed_deg_s", "dwell", "frame_rate", "exposure",
+                                       "subframes", "rolling_shutter", "joint_rate",
+                                       "clock_offset", "clock_jitter", "max_frames"))
 #: the URDF parameters (a head from a URDF: rasc.sim.urdf.UrdfHead)
 URDF_PARAMS = ("urdf", "urdf_joints", "urdf_cameras")
 

@@ -74,7 +74,14 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   grey level 255) and ``read_noise`` (electrons RMS), ``vignetting`` (fraction of light
   lost at the image corners), ``motion_blur`` (px) and ``motion_angle`` (deg),
   ``focus_distance`` (m; thin-lens defocus changing with depth) with ``f_number`` and
-  ``focal_length_mm``, ``jpeg_quality`` (1-100; 0 = none).
+  ``focal_length_mm``, ``jpeg_quality`` (1-100; 0 = none);
+- continuous motion (render; :data:`rasc.sim.render.CONTINUOUS`, each off at its
+  default; docs/topics/continuous.md): ``motion_speed_deg_s`` (0 = stop-and-go; the
+  others need it > 0 in every cell, :func:`_check_continuous`), ``dwell``,
+  ``frame_rate``, ``exposure``, ``subframes``, ``rolling_shutter``, ``joint_rate``,
+  ``clock_offset``, ``clock_jitter``, ``max_frames``; not with ``intrinsics_from =
+  "dataset"``. A cell's calibration takes the readings at each image's stamp (δ is not
+  estimated by the study's closed form).
 
 The work a spec asks for is bounded before anything runs (:func:`check_work` and the
 parameters' own checks: :data:`MAX_POSITIONS`, :data:`MAX_INTRINSICS_VIEWS`,
@@ -403,6 +410,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     digests = _model_digests(path, fixed, axes, fail)
     positions_files = _positions_files(path, fixed, axes, fail)
     _check_target(fixed, axes, fail)
+    _check_continuous(fixed, axes, fail)
     dataset_digests = _dataset_digests(path, fixed, axes, fail)
     paired = _paired(doc, axes, fail)
     if positions_files:
@@ -612,6 +620,30 @@ def _check_target(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> 
                 fail(f"{table}.target", f"a target is drawn in the rendered scene, not "
                      f"the base dataset's; not with {other} = "
                      f"{_show(next(v for v in value if v))}")
+
+
+def _check_continuous(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
+    """A continuous capture (``motion_speed_deg_s`` > 0, docs/topics/continuous.md) is
+    rendered whole: not with ``intrinsics_from = "dataset"``, which renders still pose
+    views at the positions in the base dataset's scene; the other continuous-motion
+    fields (:data:`rasc.sim.render.CONTINUOUS`) away from their defaults need a speed
+    > 0 in every cell (as :meth:`rasc.sim.render.RenderOptions.validate` asks, but before
+    anything runs)."""
+    from rasc.sim.render import CONTINUOUS
+
+    speeds = axes.get("motion_speed_deg_s", (fixed.get("motion_speed_deg_s", 0.0),))
+    reuse = axes.get("intrinsics_from", (fixed.get("intrinsics_from", "calibrate"),))
+    if any(speeds) and "dataset" in reuse:
+        table = "axes" if "motion_speed_deg_s" in axes else "fixed"
+        fail(f"{table}.motion_speed_deg_s", "a continuous capture is rendered whole; not "
+             "with intrinsics_from = 'dataset' (still pose views in the base's scene)")
+    if all(speeds):
+        return
+    for key in CONTINUOUS:
+        values = axes.get(key, (fixed[key],) if key in fixed else ())
+        if key != "motion_speed_deg_s" and any(v != PARAMS[key].default for v in values):
+            fail(f"{'axes' if key in axes else 'fixed'}.{key}", "is for continuous motion: "
+                 "give motion_speed_deg_s > 0 in every cell (0 is stop-and-go)")
 
 
 def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
