@@ -64,6 +64,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+from rasc.sim import DEFAULT_SUPERSAMPLE  # noqa: E402
+
 NOISE_PX = 0.05
 RENDER_NOISE = 2.0            # grey levels
 #: ``--jitter``: every capture places the target anew, at a distance (m) drawn uniformly
@@ -368,10 +371,10 @@ def main(argv=None) -> int:
                    help="the target, as rasc render --target (default: the stock chessboard)")
     p.add_argument("--jitter", action="store_true",
                    help="each capture with the target at another distance (JITTER_DISTANCES)")
-    p.add_argument("--supersample", type=int, default=1, metavar="S",
+    p.add_argument("--supersample", type=int, default=DEFAULT_SUPERSAMPLE, metavar="S",
                    help="render every image at S times the size and average it down "
-                        "(RenderOptions.supersample: the render's systematic corner errors "
-                        "shrink)")
+                        "(RenderOptions.supersample, default %(default)s; 1: the plain "
+                        "render, whose systematic corner errors are twice as large)")
     p.add_argument("--summary-only", action="store_true",
                    help="summarise the captures recorded so far, capture nothing")
     args = p.parse_args(argv)
