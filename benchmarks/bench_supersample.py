@@ -13,7 +13,12 @@ corners: the pipeline's detector (``saddle``) on the grey image, against the tru
 projection of the board's corners (the simulator's ``project_world_points``). Printed:
 per S and kind of view, the corners' RMS error (px), their mean error (x, y: a shift of
 every corner, which a wrong pixel-centre convention would give), the largest error, the
-median wall time of one grey image and its ratio to S = 1.
+median wall time of one grey image and its ratio to S = 1. Then the default
+(``rasc.sim.DEFAULT_SUPERSAMPLE``, what ``RenderOptions.supersample`` and ``rasc render``
+use) against this run's trade: each step from S − 1 to S, the share of the pose views'
+corner error it removes and the render time it adds; the default is the largest S whose
+step still removes at least a quarter of the error (``STEP_GAIN``); beside it, what the
+default costs and buys where it was measured outside this script (``ELSEWHERE``).
 """
 
 from __future__ import annotations
@@ -33,6 +38,16 @@ from rasc.geometry.kinematics import PAPER_POSES_DEG  # noqa: E402
 from rasc.geometry.transforms import invert_transform  # noqa: E402
 
 INTRINSICS_VIEWS = 6
+#: the rule the default follows: the largest S whose step from S - 1 removes at least this
+#: share of the pose views' corner RMS error (each further step removes less, for more
+#: added render time than the last)
+STEP_GAIN = 0.25
+
+#: What the default costs and buys beyond this script's renders, measured once by the
+#: commands named (the lead's bench machine: 2 shared AMD EPYC cores, no GPU, EGL), for
+#: the plain render (S = 1) and the default (S = 2): (what, S = 1, S = 2, measured by).
+ELSEWHERE = (
+)
 
 
 def main(argv=None) -> int:
@@ -111,7 +126,44 @@ def main(argv=None) -> int:
             print(f"| {s} | {kind} | {len(e)} | {np.sqrt(np.mean(r ** 2)):.4f} | "
                   f"{mx:+.4f}, {my:+.4f} | {r.max():.4f} | {1e3 * median[s]:.0f} | "
                   f"{median[s] / median[1]:.2f} |", flush=True)
+    rms = {s: float(np.sqrt(np.mean(np.sum(np.concatenate(errors[s, "pose"]) ** 2, axis=1))))
+           for s in factors}
+    print_default(rms, median)
     return 0
+
+
+def print_default(rms: dict[int, float], median: dict[int, float]) -> None:
+    """The default against this run's trade (pose views' RMS error ``rms`` and median
+    time per image ``median``, per S), then :data:`ELSEWHERE`."""
+    from rasc.sim import DEFAULT_SUPERSAMPLE
+
+    factors = sorted(rms)
+    print("\n## The default\n")
+    print("| step | pose views' RMS px | error removed | time per image added | "
+          "error removed per added ms (px) |")
+    print("| --- | --- | ---: | ---: | ---: |")
+    chosen = factors[0]
+    for s in factors[1:]:
+        gain = 1 - rms[s] / rms[s - 1]
+        added = median[s] - median[s - 1]
+        if gain >= STEP_GAIN:
+            chosen = s
+        print(f"| {s - 1} → {s} | {rms[s - 1]:.4f} → {rms[s]:.4f} | {100 * gain:.0f} % | "
+              f"{1e3 * added:+.0f} ms ({median[s] / median[s - 1]:.2f}×) | "
+              f"{(rms[s - 1] - rms[s]) / (1e3 * added):.2e} |")
+    verdict = ("agrees with" if chosen == DEFAULT_SUPERSAMPLE else
+               "DIFFERS from (revisit the default:")
+    print(f"\nThe largest S whose step removes at least {100 * STEP_GAIN:.0f} % of the "
+          f"pose views' corner error: S = {chosen}; this {verdict} the default, "
+          f"rasc.sim.DEFAULT_SUPERSAMPLE = {DEFAULT_SUPERSAMPLE}"
+          + ("." if chosen == DEFAULT_SUPERSAMPLE else ")."))
+    if ELSEWHERE:
+        print("\nWhat the default costs and buys beyond these renders (measured once, by "
+              "the command named; not re-run by this script):\n")
+        print("| what | S = 1 | S = 2 | measured by |")
+        print("| --- | --- | --- | --- |")
+        for what, one, two, how in ELSEWHERE:
+            print(f"| {what} | {one} | {two} | {how} |")
 
 
 if __name__ == "__main__":
