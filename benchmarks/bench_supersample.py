@@ -47,6 +47,28 @@ STEP_GAIN = 0.25
 #: commands named (the lead's bench machine: 2 shared AMD EPYC cores, no GPU, EGL), for
 #: the plain render (S = 1) and the default (S = 2): (what, S = 1, S = 2, measured by).
 ELSEWHERE = (
+    ("the reproduction's CPU time (user + system)", "141.1 s", "194.5 s (+38 %)",
+     "`python -m experiments.reproduce` (`make reproduce`: 2 workers, caches off), "
+     "2026-11-28"),
+    ("its render CPU time (`StereoHeadSim.render_camera`, 1168 images) and share",
+     "31.9 s (23 %)", "90.0 s (46 %; E10's 18 stay plain)", "the same two runs"),
+    ("`reproduce --quick` (the suite runs it 2–3 times): CPU, render CPU",
+     "27.9 s, 2.3 s", "32.2 s, 5.4 s", "`python -m experiments.reproduce --quick`"),
+    ("the test suite's CPU time (460–625 s measured, developer guide)", "—",
+     "+45–85 s, estimated", "35 ms more CPU per 1280x960 image (the reproduction's "
+     "renders: 21 → 56 ms) over an estimated 1000–2000 images, and the quick runs"),
+    ("E8: closed-form hand-eye error, ChArUco ±30° over ±8° (ideal unit, one placement; "
+     "0.25–0.27 on projected corners)", "0.540", "0.263", "the reproduction's E8"),
+    ("E5: loop closure on the rendered views", "0.0206°, 0.56 mm", "0.0161°, 0.13 mm",
+     "the reproduction's E5"),
+    ("E4: the true model from detected corners, std lateral / vertical / depth",
+     "0.058 / 0.059 / 0.344 mm", "0.043 / 0.044 / 0.250 mm", "the reproduction's E4"),
+    ("the plan's prediction (each kind of view's noise), within ±25 %: `rasc plan`'s "
+     "summary quantities; components", "19 of 24; 37 of 48", "23 of 24; 43 of 48",
+     "`python experiments/plan_check.py --rendered --jitter --captures 40 "
+     "--supersample S` (chessboard, the same 40 captures)"),
+    ("— of them the unit's axis angle (measured / predicted σ)", "3 of 6 (0.78–1.52)",
+     "6 of 6 (0.94–1.21)", "the same"),
 )
 
 
