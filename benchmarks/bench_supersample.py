@@ -49,14 +49,15 @@ STEP_GAIN = 0.25
 ELSEWHERE = (
     ("the reproduction's CPU time (user + system)", "141.1 s", "194.5 s (+38 %)",
      "`python -m experiments.reproduce` (`make reproduce`: 2 workers, caches off), "
-     "2026-11-28"),
+     "2026-11-28, load average 10–16 (wall 441 s and 516 s: not comparable)"),
     ("its render CPU time (`StereoHeadSim.render_camera`, 1168 images) and share",
      "31.9 s (23 %)", "90.0 s (46 %; E10's 18 stay plain)", "the same two runs"),
     ("`reproduce --quick` (the suite runs it 2–3 times): CPU, render CPU",
      "27.9 s, 2.3 s", "32.2 s, 5.4 s", "`python -m experiments.reproduce --quick`"),
     ("the test suite's CPU time (460–625 s measured, developer guide)", "—",
-     "+45–85 s, estimated", "35 ms more CPU per 1280x960 image (the reproduction's "
-     "renders: 21 → 56 ms) over an estimated 1000–2000 images, and the quick runs"),
+     "+50–90 s, estimated", "35 ms more CPU per 1280x960 image (the reproduction's "
+     "renders: 21 → 56 ms) over an estimated 1000–2000 images (about 80 places in "
+     "tests/ render), 4 s per quick run"),
     ("E8: closed-form hand-eye error, ChArUco ±30° over ±8° (ideal unit, one placement; "
      "0.25–0.27 on projected corners)", "0.540", "0.263", "the reproduction's E8"),
     ("E5: loop closure on the rendered views", "0.0206°, 0.56 mm", "0.0161°, 0.13 mm",
