@@ -9,7 +9,8 @@ z the depth); the closer two planes about 6 mm in z.
 Here: a 22×21-corner chessboard of 40 mm squares (1.00 × 0.96 m with its quiet zone,
 462 corners) is rendered by the MuJoCo head at each depth from two pan/tilt poses
 (both eyes verging on the plane centre, then the same plus a common offset), its corners
-are detected in both images (``detect_corners(method="saddle")``), the angles carry a
+are detected in both images (``detect_corners(method="saddle")``; the images rendered
+as the datasets are, at ``RenderOptions.supersample``'s default), the angles carry a
 seeded encoder noise of 3 arc-seconds, and each point is triangulated (eq. 15–19, least
 squares and total least squares) with four models that separate the error sources:
 
@@ -172,6 +173,7 @@ def render_and_detect(depths: Sequence[float], rng: np.random.Generator) -> list
     truth. Runs in this process (one OpenGL context).
     """
     from rasc.geometry.transforms import transform_points
+    from rasc.sim import DEFAULT_SUPERSAMPLE
     from rasc.sim.scene import StereoHeadSim, T_base_from_world_facing
     from rasc.vision.camera import detect_corners
 
@@ -191,7 +193,8 @@ def render_and_detect(depths: Sequence[float], rng: np.random.Generator) -> list
                         "angles_rad": cmd_rad + rng.normal(0.0, sigma, 4), "p_base": p_base,
                         "corner_rms": {}}
                 for eye in EYES:
-                    image = sim.render_grey(eye)
+                    # as a dataset's images are rendered (RenderOptions' default)
+                    image = sim.render_grey(eye, supersample=DEFAULT_SUPERSAMPLE)
                     uv = detect_corners(image, BOARD, method="saddle")
                     if uv is None:
                         raise DegenerateDataError(

@@ -64,6 +64,9 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+from rasc.sim import DEFAULT_SUPERSAMPLE  # noqa: E402
+
 NOISE_PX = 0.05
 RENDER_NOISE = 2.0            # grey levels
 #: ``--jitter``: every capture places the target anew, at a distance (m) drawn uniformly
@@ -333,6 +336,54 @@ def summarise(setup, sets, by_set: dict[str, list[dict]], rendered: bool,
     return rows, lines
 
 
+#: ``rasc plan``'s summary quantities (rasc.plan.summarise) from the per-component rows:
+#: name → the components whose σ add in quadrature
+SUMMARY_QUANTITIES = {"hand-eye rotation": ("rotx", "roty", "rotz"),
+                      "hand-eye translation": ("tx", "ty", "tz"),
+                      "axis distance": ("axis_distance",), "axis angle": ("axis_angle",)}
+
+
+def summary_quantities(rows: list[dict], column: str = "predicted") -> list[dict]:
+    """Per position set, eye and :data:`SUMMARY_QUANTITIES` entry: the predicted σ (the
+    rows' ``column``: ``predicted``, ``predicted_split`` or ``predicted_view``) and the
+    measured σ, each the root sum of squares of its components' σ (as
+    :func:`rasc.plan.summarise` sums them), and their ratio."""
+    out = []
+    for name in dict.fromkeys(r["positions"] for r in rows):
+        for eye in EYES:
+            mine = {r["parameter"]: r for r in rows
+                    if r["positions"] == name and r["eye"] == eye}
+            for quantity, parts in SUMMARY_QUANTITIES.items():
+                if not all(p in mine and column in mine[p] for p in parts):
+                    continue
+                pred = float(np.sqrt(sum(mine[p][column] ** 2 for p in parts)))
+                meas = float(np.sqrt(sum(mine[p]["measured_std"] ** 2 for p in parts)))
+                out.append({"positions": name, "eye": eye, "quantity": quantity,
+                            "predicted": pred, "measured": meas, "ratio": meas / pred})
+    return out
+
+
+def summary_lines(rows: list[dict]) -> list[str]:
+    """How many of ``rasc plan``'s summary quantities the prediction puts within ±25 %,
+    per prediction the rows carry, with each quantity's count and ratio range."""
+    lines = []
+    for column, label in (("predicted", "one pooled σ̂"),
+                          ("predicted_split", "each kind of view's own noise"),
+                          ("predicted_view", "each pose view's own noise")):
+        q = summary_quantities(rows, column)
+        if not q:
+            continue
+        within = [abs(x["ratio"] - 1) <= 0.25 for x in q]
+        parts = []
+        for quantity in SUMMARY_QUANTITIES:
+            r = [x["ratio"] for x in q if x["quantity"] == quantity]
+            k = sum(abs(v - 1) <= 0.25 for v in r)
+            parts.append(f"{quantity} {k} of {len(r)} ({min(r):.2f}–{max(r):.2f})")
+        lines.append(f"rasc plan's summary quantities, predicted with {label}: "
+                     f"{sum(within)} of {len(q)} within ±25 % — " + "; ".join(parts))
+    return lines
+
+
 def markdown(rows: list[dict]) -> str:
     split = any("predicted_split" in r for r in rows)
     head = ["positions", "eye", "parameter", "n", "predicted σ", "measured σ ± se",
@@ -368,10 +419,10 @@ def main(argv=None) -> int:
                    help="the target, as rasc render --target (default: the stock chessboard)")
     p.add_argument("--jitter", action="store_true",
                    help="each capture with the target at another distance (JITTER_DISTANCES)")
-    p.add_argument("--supersample", type=int, default=1, metavar="S",
+    p.add_argument("--supersample", type=int, default=DEFAULT_SUPERSAMPLE, metavar="S",
                    help="render every image at S times the size and average it down "
-                        "(RenderOptions.supersample: the render's systematic corner errors "
-                        "shrink)")
+                        "(RenderOptions.supersample, default %(default)s; 1: the plain "
+                        "render, whose systematic corner errors are twice as large)")
     p.add_argument("--summary-only", action="store_true",
                    help="summarise the captures recorded so far, capture nothing")
     args = p.parse_args(argv)
@@ -431,6 +482,7 @@ def main(argv=None) -> int:
     header = list(rows[0])
     write_text_atomic(folder / "summary.csv",
                       csv_text(header, [[r[k] for k in header] for r in rows]))
+    lines += summary_lines(rows)
     text = "\n".join(lines) + "\n\n" + markdown(rows) + "\n"
     write_text_atomic(folder / "summary.md", text)
     print(text)

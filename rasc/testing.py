@@ -28,11 +28,11 @@ Fixtures
     (``.truth``, ``.T_cam_from_gaze(eye)``, ``.pose_views(eye)``), ``.path``,
     ``.options`` and ``.key``; ``.ground_truth`` is the truth file's path
     (:class:`GroundTruthFile`: used as the document it was in rasc 0.2.0, it warns).
-    Default: :class:`rasc.sim.render.RenderOptions` defaults (58 images, ~4 s the first
-    time). Parametrise indirectly with a dict of RenderOptions
-    fields (and ``model_path``; ``units``, an imperfect head as ``rasc render --unit``
-    takes it; ``target``, a chessboard or ChArUco board as ``rasc render --target``
-    takes it).
+    Default: :class:`rasc.sim.render.RenderOptions` defaults (58 images, supersampled 2×:
+    about 6 s the first time, 2 s of it the supersampling). Parametrise indirectly with
+    a dict of RenderOptions fields (and ``model_path``; ``units``, an imperfect head as
+    ``rasc render --unit`` takes it; ``target``, a chessboard or ChArUco board as
+    ``rasc render --target`` takes it).
 ``rasc_render``
     The factory behind it: ``rasc_render(intrinsics_views=10, seed=3) -> Dataset``,
     ``rasc_render(target="charuco:12x9,0.06,0.045", units={"tilt_axis_offset_mm":

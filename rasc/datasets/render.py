@@ -27,9 +27,12 @@ def render_what(options: Any, model_path: str | os.PathLike | None = None,
     (None, the ideal units, the model's board, ``supersample`` 1, a camera degradation
     or a continuous-motion field at its default (:data:`rasc.sim.render.DEGRADATIONS`,
     :data:`~rasc.sim.render.CONTINUOUS`) adds nothing, so the
-    keys of the stock head and board are those of before)."""
+    keys of the stock head and board are those of before). ``supersample`` is left out
+    at 1, the plain render (the keys of before the option), not at its default (2): the
+    default's renders have a key of their own, and a plain render is never served for a
+    supersampled one."""
     opts = dict(options) if isinstance(options, dict) else asdict(options)
-    if opts.get("supersample", 1) == 1:     # the default adds nothing: the keys of before
+    if opts.get("supersample", 1) == 1:     # the plain render adds nothing: keys of before
         opts.pop("supersample", None)
     from rasc.sim.render import CONTINUOUS, DEGRADATIONS, continuous_of, degradations_of
 

@@ -37,6 +37,7 @@ from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import finite_number, finite_numbers, read_text_file
 from rasc.progress import progress
+from rasc.sim import DEFAULT_SUPERSAMPLE
 from rasc.sim.motion import (
     DEFAULT_EXPOSURE,
     DEFAULT_FRAME_RATE,
@@ -131,7 +132,9 @@ class RenderOptions:
     image_noise: float = 0.0        # grey levels
     blur: float = 0.0               # pixels
     distortion: tuple[float, ...] = ()  # lens distortion (OpenCV k1 k2 p1 p2 k3), both eyes
-    supersample: int = 1            # render S times the size, averaged over S x S pixels
+    # render S times the size, averaged over S x S pixels (1: the plain render); the
+    # default, 2, is chosen in docs/results/supersample.md (rasc.sim.DEFAULT_SUPERSAMPLE)
+    supersample: int = DEFAULT_SUPERSAMPLE
     # the degradations real cameras show (docs/topics/degradations.md); each off at its
     # default, and a field at its default is left out of the ground truth's
     # render_options and of the cache key (DEGRADATIONS): the renders of before
@@ -798,7 +801,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                                 "target_distance": options.distance,
                                 "noise_sigma": options.image_noise,
                                 "blur_sigma": options.blur, "dist": dist.tolist()}
-        if options.supersample != 1:    # absent at 1: the files of before, byte for byte
+        if options.supersample != 1:    # absent: 1, the plain render (files before 2026-11-28)
             gt["render_options"]["supersample"] = options.supersample
         gt["render_options"].update(degradations_of(options))  # each absent at its default
         gt["render_options"].update(continuous_of(options))    # each absent at its default

@@ -12,6 +12,7 @@ from typing import Any
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.io import finite_number
+from rasc.sim import DEFAULT_SUPERSAMPLE
 from rasc.sim.motion import (
     DEFAULT_EXPOSURE,
     DEFAULT_FRAME_RATE,
@@ -299,9 +300,10 @@ PARAMS: dict[str, Param] = {
                             "a positions file (relative to the spec, as rasc plan writes and "
                             "rasc render --poses reads) replacing the layout, positions and "
                             "motion_deg grid"),
-    "supersample": Param(_supersample, 1, "render",
+    "supersample": Param(_supersample, DEFAULT_SUPERSAMPLE, "render",
                          "render each image at S times the size, S x S pixels averaged "
-                         "into one (RenderOptions.supersample; 1 = plain renders)"),
+                         "into one (RenderOptions.supersample, whose default this is; "
+                         "1 = plain renders)"),
     # the camera degradations (rasc.sim.render.DEGRADATIONS; docs/topics/degradations.md)
     "full_well": Param(_render_bound("MAX_FULL_WELL", "electrons"), 0.0, "render",
                        "sensor shot noise: electrons at grey level 255 (0 = none)"),

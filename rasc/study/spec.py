@@ -67,8 +67,9 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   identity holds the positions themselves, not the file's name;
 - ``supersample`` (render, an integer from 1 to
   :data:`rasc.sim.render.MAX_SUPERSAMPLE`): each image rendered at S times the size and
-  averaged over S x S pixels (:attr:`rasc.sim.render.RenderOptions.supersample`; corners
-  closer to the renderer's truth, renders slower; docs/topics/datasets.md);
+  averaged over S x S pixels (:attr:`rasc.sim.render.RenderOptions.supersample`, whose
+  default, 2, is this parameter's; 1 is the plain render; corners closer to the
+  renderer's truth, renders slower; docs/topics/datasets.md);
 - the camera degradations (render; :data:`rasc.sim.render.DEGRADATIONS`, each off at its
   default; docs/topics/degradations.md): ``full_well`` (sensor shot noise, electrons at
   grey level 255) and ``read_noise`` (electrons RMS), ``vignetting`` (fraction of light

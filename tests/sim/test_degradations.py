@@ -217,7 +217,9 @@ def test_defaults_change_no_byte_no_truth_and_no_key(tmp_path):
     from rasc.datasets.keys import cache_key
     from rasc.datasets.render import render_key, render_what
 
-    options = RenderOptions(seed=3, intrinsics_views=5, image_noise=2.0, blur=0.7)
+    # the plain render (supersample 1, the default before 2026-11-28): the key of before
+    options = RenderOptions(seed=3, intrinsics_views=5, image_noise=2.0, blur=0.7,
+                            supersample=1)
     before = asdict(options)
     for k in (*DEGRADATIONS, *CONTINUOUS):     # the fields added since, at their defaults
         del before[k]
@@ -229,7 +231,7 @@ def test_defaults_change_no_byte_no_truth_and_no_key(tmp_path):
     for k, v in (("full_well", 500.0), ("vignetting", 0.2), ("jpeg_quality", 50),
                  ("focus_distance", 2.0), ("motion_blur", 3.0)):
         changed = RenderOptions(seed=3, intrinsics_views=5, image_noise=2.0, blur=0.7,
-                                **{k: v})
+                                supersample=1, **{k: v})
         assert render_what(changed)["options"][k] == v
         assert render_key(changed) != render_key(options)
 

@@ -1,7 +1,9 @@
 """Supersampled renders (``RenderOptions.supersample``, ``rasc render --supersample``;
 issue 32): rendered at S times the size and averaged over S x S pixels, the detected
-corners come closer to the renderer's truth without a shift, and S = 1 is the plain
-render of before (its images, ground truth and cache keys unchanged).
+corners come closer to the renderer's truth without a shift; S = 1 is the plain render
+of before (its images, ground truth and cache keys unchanged), and the default
+(``rasc.sim.DEFAULT_SUPERSAMPLE``, 2 since 2026-11-28) is one value that RenderOptions,
+``rasc render`` and the study parameter share, with a cache key of its own.
 """
 
 from __future__ import annotations
@@ -10,12 +12,14 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco
 
+import json  # noqa: E402
 from dataclasses import asdict  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from rasc.errors import InputError  # noqa: E402
+from rasc.sim import DEFAULT_SUPERSAMPLE  # noqa: E402
 from rasc.sim.render import MAX_SUPERSAMPLE, RenderOptions  # noqa: E402
 from rasc.vision.board import Board  # noqa: E402
 
@@ -44,11 +48,15 @@ def _corner_errors(sim, board, supersample: int) -> np.ndarray:
 
 @pytest.mark.slow
 def test_supersampled_corners_are_closer_to_the_truth_and_unshifted():
+    """The default's renders (RenderOptions().supersample, 2) against the plain render's
+    (1), on the same views: the corner error the default was chosen for."""
     from rasc.sim.scene import StereoHeadSim
 
+    default = RenderOptions().supersample
+    assert default > 1
     board = Board((9, 6), 0.05)
     with StereoHeadSim(board=board) as sim:
-        e1, e2 = _corner_errors(sim, board, 1), _corner_errors(sim, board, 2)
+        e1, e2 = _corner_errors(sim, board, 1), _corner_errors(sim, board, default)
     rms1, rms2 = (float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))) for e in (e1, e2))
     # measured on these 10 views: 0.0197 px at S = 1, 0.0102 px at S = 2 (ratio 0.52);
     # 0.75 leaves room for another OpenGL and still needs a clear gain
@@ -116,34 +124,57 @@ def test_rasc_render_refuses_a_bad_supersample_writing_nothing(tmp_path, capsys,
 
 
 def test_cache_key_of_supersample_1_is_the_key_of_before():
-    """The render key hashes the options without ``supersample`` at 1 (the dict of
-    before the field existed); another S is another key."""
+    """The render key hashes the options without ``supersample`` at 1 (the plain render:
+    the dict of before the field existed); any other S, the default among them, is
+    another key, so a cached plain render is never served for the default's."""
     from rasc.datasets.keys import cache_key
     from rasc.datasets.render import render_key, render_what
 
-    options = RenderOptions(seed=3, intrinsics_views=5)
+    options = RenderOptions(seed=3, intrinsics_views=5, supersample=1)
     before = asdict(options)
     del before["supersample"]
     assert render_what(options)["options"] == render_what(before)["options"]
     assert render_key(options) == cache_key("render-folder", {"options": render_what(
         before)["options"], "model": None})
-    assert render_key(RenderOptions(seed=3, intrinsics_views=5, supersample=2)) \
-        != render_key(options)
+    default = RenderOptions(seed=3, intrinsics_views=5)
+    assert render_what(default)["options"]["supersample"] == DEFAULT_SUPERSAMPLE == 2
+    keys = {render_key(RenderOptions(seed=3, intrinsics_views=5, supersample=s))
+            for s in range(1, MAX_SUPERSAMPLE + 1)}
+    assert len(keys) == MAX_SUPERSAMPLE and render_key(default) in keys - {
+        render_key(options)}
+
+
+def test_the_default_is_one_value_for_python_the_command_and_a_study(tmp_path, capsys):
+    """RenderOptions' default is what ``rasc render`` renders without --supersample (the
+    ground truth records it) and what a study cell renders without the parameter."""
+    from rasc.study.spec import PARAMS
+
+    assert RenderOptions().supersample == PARAMS["supersample"].default \
+        == DEFAULT_SUPERSAMPLE
+    out = tmp_path / "ds"
+    status, _, err = run_rasc(["render", "--out", out, "--intrinsics-views", "3",
+                               "--poses", "0,0;8,8;-8,0", "--quiet"], capsys)
+    assert status == 0, err
+    truth = json.loads((out / "ground_truth.json").read_text())
+    assert truth["render_options"]["supersample"] == DEFAULT_SUPERSAMPLE
 
 
 def test_study_parameter_is_checked_and_its_default_keeps_the_cells(tmp_path):
+    """The default (2) written out leaves a cell's identity, key and seeds as a spec
+    without it (a spec's draws do not move with the default); 1 is a cell of its own."""
     from rasc.study import load_spec
 
     head = "seed = 5\nsamples = 2\nmethods = ['rasc']\n"
-    base, same, double = (tmp_path / f"{n}.toml" for n in "abc")
+    base, same, plain = (tmp_path / f"{n}.toml" for n in "abc")
     base.write_text(head + "[axes]\nnoise_level = [1, 2]\n")
-    same.write_text(head + "[fixed]\nsupersample = 1\n[axes]\nnoise_level = [1, 2]\n")
-    double.write_text(head + "[fixed]\nsupersample = 2\n[axes]\nnoise_level = [1, 2]\n")
-    a, b, c = (load_spec(p) for p in (base, same, double))
+    same.write_text(head + "[fixed]\nsupersample = 2\n[axes]\nnoise_level = [1, 2]\n")
+    plain.write_text(head + "[fixed]\nsupersample = 1\n[axes]\nnoise_level = [1, 2]\n")
+    a, b, c = (load_spec(p) for p in (base, same, plain))
     assert [x.key for x in b.cells()] == [x.key for x in a.cells()]
     assert [x.seed_words for x in b.cells()] == [x.seed_words for x in a.cells()]
     assert {x.key for x in c.cells()}.isdisjoint(x.key for x in a.cells())
-    assert all(x.render_value("supersample") == 2 for x in c.cells())
+    assert all(x.render_value("supersample") == 2 for x in a.cells())
+    assert all(x.render_value("supersample") == 1 for x in c.cells())
     bad = tmp_path / "bad.toml"
     bad.write_text(head + f"[fixed]\nsupersample = {MAX_SUPERSAMPLE + 1}\n")
     with pytest.raises(InputError, match=rf"bad.toml: fixed.supersample: expected an integer "
