@@ -49,6 +49,12 @@ class SyntheticHead:
     T_cam_from_gaze: dict[str, np.ndarray]
     T_ptu_from_base: dict[str, np.ndarray]
     unit: dict[str, PanTiltUnit]
+    #: eye → lens model (:data:`rasc.geometry.lens.LENS_MODELS`); None: pinhole for both
+    lens: dict[str, str] | None = None
+
+    def lens_model(self, eye: str) -> str:
+        """The eye's lens model (``"pinhole"`` unless :attr:`lens` names another)."""
+        return "pinhole" if self.lens is None else self.lens[eye]
 
     def T_cam_from_base(self, eye: str, pan: float, tilt: float) -> np.ndarray:
         """The camera's pose in the base frame at readings (pan, tilt), radians (eq. 1–2)."""
@@ -78,6 +84,82 @@ def default_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
                          T_cam_from_gaze=T_cg, T_ptu_from_base=T_pb, unit=units)
 
 
+#: The fisheye head of :func:`fisheye_head`: focal length (px) and k1-k4 (cv2.fisheye).
+#: f = 420 px on 1280×960: the image's half-width is 640/420 = 1.52 rad of θ_d, so the
+#: field of view is about 170° across, 130° up-down (the lens's distortion included).
+FISHEYE_FOCAL_PX = 420.0
+FISHEYE_DIST = (0.02, -0.01, 0.003, -0.0005)
+
+
+def fisheye_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
+                 focal_px: float = FISHEYE_FOCAL_PX, dist=FISHEYE_DIST) -> SyntheticHead:
+    """:func:`default_head` with a fisheye lens (OpenCV's equidistant model) on both eyes:
+    focal length ``focal_px`` (default 420 px: about 170° × 130° on 1280×960),
+    coefficients ``dist`` (k1 k2 k3 k4)."""
+    head = default_head(unit)
+    K = {eye: np.array([[focal_px, 0, k[0, 2]], [0, focal_px, k[1, 2]], [0, 0, 1]])
+         for eye, k in head.K.items()}
+    return SyntheticHead(K=K, dist={eye: np.asarray(dist, float) for eye in EYES},
+                         T_cam_from_gaze=head.T_cam_from_gaze,
+                         T_ptu_from_base=head.T_ptu_from_base, unit=head.unit,
+                         lens={eye: "fisheye" for eye in EYES})
+
+
+#: Intrinsics views through a lens other than the pinhole (:func:`_wide_intrinsics_poses`):
+#: the board's centre on the ray of a pixel drawn over this central fraction of the image
+#: (a wide lens must be seen to its edges), 0.25-0.6 m away, facing the camera's centre
+#: tilted by 20-45°, kept whole with a 10 px margin.
+WIDE_PIXEL_SPAN = 0.9
+WIDE_DISTANCE_M = (0.25, 0.6)
+WIDE_TILT_DEG = (20.0, 45.0)
+WIDE_MARGIN_PX = 10.0
+
+
+def _wide_intrinsics_poses(rng, board: Board, K, dist, model: str, n: int) -> list[np.ndarray]:
+    """``n`` intrinsics views for a wide lens (:data:`WIDE_PIXEL_SPAN`): the centre's pixel
+    uniform over the image (so that the views cover the field to its edges), the board
+    turned to face the camera along that ray, then tilted 20-45° about a random axis in
+    its plane and turned in-plane by up to ±30°; whole, in front, inside the image."""
+    w, h = IMAGE_SIZE
+    lo, hi = (1 - WIDE_PIXEL_SPAN) / 2, (1 + WIDE_PIXEL_SPAN) / 2
+    centre = board.centre()
+    P = board.object_points()
+    poses = []
+    for _ in range(400 * n):
+        if len(poses) == n:
+            break
+        uv = np.array([[rng.uniform(lo * w, hi * w), rng.uniform(lo * h, hi * h)]])
+        d = rng.uniform(*WIDE_DISTANCE_M)
+        psi = rng.uniform(0, 2 * np.pi)
+        tilt = np.radians(rng.uniform(*WIDE_TILT_DEG))
+        turn = np.radians(rng.uniform(-30.0, 30.0))
+        try:
+            ray = lens.undistort_pixels(uv, K, dist, model=model)[0]
+        except Exception:                     # noqa: BLE001 (outside the lens's model)
+            continue
+        ray = np.linalg.solve(K, np.r_[ray, 1.0])
+        ray /= np.linalg.norm(ray)
+        # face the camera along the ray: the board's z (into the board) along the ray
+        axis = np.cross([0.0, 0.0, 1.0], ray)
+        s_ = np.linalg.norm(axis)
+        R_face = np.eye(3) if s_ < 1e-12 else \
+            matrix_from_rotvec(axis / s_ * np.arctan2(s_, ray[2]))
+        R = R_face @ matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) \
+            @ matrix_from_rotvec([0.0, 0.0, turn])
+        T = make_transform(R, d * ray - R @ centre)
+        p_cam = P @ T[:3, :3].T + T[:3, 3]
+        if np.any(p_cam[:, 2] <= 0.05):
+            continue
+        c = lens.project_points(p_cam, K, dist, model=model)
+        m = WIDE_MARGIN_PX
+        if np.all((c[:, 0] >= m) & (c[:, 0] <= w - 1 - m) & (c[:, 1] >= m)
+                  & (c[:, 1] <= h - 1 - m)):
+            poses.append(T)
+    if len(poses) < n:
+        raise RuntimeError(f"cannot place {n} whole boards in the {w}x{h} image")
+    return poses
+
+
 def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                    noise_px: float = 0.03, n_intrinsics: int = 20,
                    poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
@@ -103,14 +185,16 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
 
     def project(eye, T_cw):
         p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
+        model = head.lens_model(eye)
         if not partial:
-            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye], model=model)
             return uv + rng.normal(0.0, noise_px, uv.shape)
         # a target seen in part: the corners inside the image, NaN the rest
         front = p_cam[:, 2] > 0.05
         uv = np.full((len(P), 2), np.nan)
         if front.any():
-            uv[front] = lens.project_points(p_cam[front], head.K[eye], head.dist[eye])
+            uv[front] = lens.project_points(p_cam[front], head.K[eye], head.dist[eye],
+                                            model=model)
         uv = uv + rng.normal(0.0, noise_px, uv.shape)
         w, h = IMAGE_SIZE
         with np.errstate(invalid="ignore"):
@@ -129,8 +213,13 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                                   role=role, **reading))
 
     for eye in EYES:
-        for k, T_cw in enumerate(intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE,
-                                                         n_intrinsics, head.dist[eye])):
+        if head.lens_model(eye) == "pinhole":
+            placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
+                                            head.dist[eye])
+        else:
+            placed = _wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
+                                            head.lens_model(eye), n_intrinsics)
+        for k, T_cw in enumerate(placed):
             add(f"intrinsics/{eye}_{k:03d}.png", project(eye, T_cw), eye, "intrinsics")
     for eye in EYES:
         for k, (pan_deg, tilt_deg) in enumerate(poses_deg):
