@@ -86,6 +86,9 @@ CALIB_FLAGS = {
 #: iteration, no skew (as the pinhole models)
 FISHEYE_FLAGS = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
 FISHEYE_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+#: the coefficients held at each stage of the fisheye calibration (:func:`_calibrate_fisheye`)
+FISHEYE_STAGES = (cv2.fisheye.CALIB_FIX_K2 | cv2.fisheye.CALIB_FIX_K3 | cv2.fisheye.CALIB_FIX_K4,
+                  cv2.fisheye.CALIB_FIX_K3 | cv2.fisheye.CALIB_FIX_K4, 0)
 
 #: The model the wrong-lens check (:func:`is_wrong_lens`) fits beside the
 #: chosen one: a pinhole model against the fisheye, the fisheye against OpenCV's five
@@ -287,13 +290,21 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
 def _calibrate_fisheye(names, obj, img, image_size):
     """cv2.fisheye.calibrate with its input shapes ((1, N, 3) and (1, N, 2) float64 per
     view) and its failures (cv2.error on a view it cannot fit, or an ill-conditioned
-    problem) as one :class:`DegenerateDataError` line."""
+    problem) as one :class:`DegenerateDataError` line.
+
+    In stages (:data:`FISHEYE_STAGES`): k1 alone from OpenCV's own start, then k1 k2 and
+    then all four from the stage before. In one go from OpenCV's start the fit diverged
+    on detected corners of a 170° lens (12 views, corners within 0.23 px: RMS 144 px, a
+    board behind the camera), where the stages reached 0.036 px."""
     obj_f = [np.ascontiguousarray(o, dtype=np.float64).reshape(1, -1, 3) for o in obj]
     img_f = [np.ascontiguousarray(i, dtype=np.float64).reshape(1, -1, 2) for i in img]
+    size = tuple(int(v) for v in image_size)
+    K, D = np.zeros((3, 3)), np.zeros(4)
     try:
-        rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(
-            obj_f, img_f, tuple(int(v) for v in image_size), np.zeros((3, 3)), np.zeros(4),
-            flags=FISHEYE_FLAGS, criteria=FISHEYE_CRITERIA)
+        for k, fixed in enumerate(FISHEYE_STAGES):
+            flags = FISHEYE_FLAGS | fixed | (cv2.fisheye.CALIB_USE_INTRINSIC_GUESS if k else 0)
+            rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(
+                obj_f, img_f, size, K, D, flags=flags, criteria=FISHEYE_CRITERIA)
     except cv2.error as exc:
         lines = [ln for ln in str(exc).splitlines() if ln.strip()]
         why = lines[-1].split(") ", 1)[-1].strip() if lines else "no detail"
