@@ -493,7 +493,10 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
     seen = seen_mask(c)
     if not seen.all():             # a partial view: the corners it shows, by id
         obj, c = obj[seen], c[seen]
-    if lens == "pinhole":
+    # OpenCV's own path for the pinhole models (the rational one too), the fisheye through
+    # the lens core
+    own = lens != "pinhole"
+    if not own:
         pts, K_pnp, d_pnp = c, K, dist
     else:
         x, y = (c[:, 0] - K[0, 2] - K[0, 1] * (c[:, 1] - K[1, 2]) / K[1, 1]) / K[0, 0], \
@@ -509,7 +512,7 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
         obj, pts, K_pnp, d_pnp, rvec, tvec,
         criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12))
     T = T_from_rvec_tvec(rvec, tvec)
-    if lens != "pinhole" and np.all(obj @ T[2, :3] + T[2, 3] > 0):
+    if own and np.all(obj @ T[2, :3] + T[2, 3] > 0):
         T = _refine_pose_pixels(T, obj, c, K, dist, lens)
     # the corners seen must lie in front of the camera (not the board's origin: a large
     # board seen in part at a wide pan may have its corner 0 behind the image plane)

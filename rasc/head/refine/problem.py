@@ -28,12 +28,26 @@ from rasc.head.refine.model import (
 class _Problem(_JacobianMixin):
     """Parameter layout, residuals and Jacobian structure of one refinement."""
 
-    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]]):
+    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]],
+                 dist_held: tuple[str, ...] = ()):
         self.obs = obs
-        # the lens model, all its coefficients' names, those estimated (the others are 0)
+        # the lens model, all its coefficients' names, those estimated (the others are 0,
+        # but those ``dist_held``, which keep the intrinsics' value: a rational model's
+        # coefficient the corners cannot determine, :func:`_identifiable`)
         self.lens = DIST_MODELS[obs.dist_model][0]
         self.coef_names = lens_models.LENS_MODELS[self.lens]
-        self.dist_idx = tuple(self.coef_names.index(n) for n in DIST_PARAMS[obs.dist_model])
+        self.dist_idx = tuple(self.coef_names.index(n) for n in DIST_PARAMS[obs.dist_model]
+                              if n not in dist_held)
+        self.dist_held = tuple(dist_held)
+        self.dist_fixed = {}
+        for eye in EYES:
+            fixed = np.zeros(len(self.coef_names))
+            given = np.asarray(obs.eyes[eye].dist, float).ravel()[:len(fixed)]
+            for n in dist_held:
+                i = self.coef_names.index(n)
+                if i < len(given):
+                    fixed[i] = given[i]
+            self.dist_fixed[eye] = fixed
         P = obs.board_points
         # length scale for translations: the median camera-to-board distance
         depths = [T[2, 3] for e in obs.eyes.values()
@@ -185,7 +199,7 @@ class _Problem(_JacobianMixin):
             c = self.eye_cols[eye]
             i = c["start"]
             fx, fy, cx, cy = p[i:i + 4]
-            d = np.zeros(len(self.coef_names))
+            d = self.dist_fixed[eye].copy()
             for k, j in enumerate(self.dist_idx):
                 d[j] = p[i + 4 + k]
             j = i + c["n_intr"]
