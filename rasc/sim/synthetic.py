@@ -105,6 +105,25 @@ def fisheye_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
                          lens={eye: "fisheye" for eye in EYES})
 
 
+#: The wide rational lens of :func:`rational_head` (OpenCV's k1 k2 p1 p2 k3 k4 k5 k6) at
+#: :data:`RATIONAL_FOCAL_PX`: the radial factor falls from 1 to 0.62 at 63° off axis,
+#: about 130° across the image's diagonal. The rational model is meant for such lenses:
+#: on a 60° lens its numerator and denominator trade (OpenCV's estimate ran to k2 ≈ 100
+#: on the default head with k4-k6 added, and the refinement could not start from it).
+RATIONAL_DIST = (0.5, 0.1, 2e-4, -1e-4, 0.0, 0.8, 0.2, 0.0)
+RATIONAL_FOCAL_PX = 600.0
+
+
+def rational_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
+                  focal_px: float = RATIONAL_FOCAL_PX, dist=RATIONAL_DIST) -> SyntheticHead:
+    """:func:`default_head` with a wide pinhole lens of OpenCV's rational model: focal
+    length ``focal_px`` (default 600 px), coefficients ``dist`` (8)."""
+    head = default_head(unit, dist=dist)
+    for K in head.K.values():
+        K[0, 0] = K[1, 1] = focal_px
+    return head
+
+
 #: Intrinsics views through a lens other than the pinhole (:func:`_wide_intrinsics_poses`):
 #: the board's centre on the ray of a pixel drawn over this central fraction of the image
 #: (a wide lens must be seen to its edges), 0.25-0.6 m away, facing the camera's centre

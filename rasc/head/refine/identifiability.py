@@ -51,6 +51,10 @@ IDENTIFIABILITY_SINE = 1e-6
 #: corners cannot determine is held at the intrinsics' value (cv2.calibrateCamera's),
 #: for both eyes.
 DIST_CANDIDATES = {"rational": ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")}
+#: ... and held when its column is within this sine of the others' span: stricter than
+#: :data:`IDENTIFIABILITY_SINE`, since the covariance (JᵀJ)⁻¹ squares the conditioning (at
+#: 1e-6 a rational calibration's k1 came out with a negative variance, measured)
+DIST_IDENTIFIABILITY_SINE = 1e-3
 DIST_REASON = ("the rational model's coefficients trade with each other on these views: "
                "held at the intrinsics' value")
 
@@ -123,7 +127,7 @@ def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
             r -= Q @ (Q.T @ r)
             rs.append(r)
             sines.append(float(np.linalg.norm(r)) if d[j] > 0 else 0.0)
-        if min(sines) < IDENTIFIABILITY_SINE:
+        if min(sines) < DIST_IDENTIFIABILITY_SINE:
             dropped += [{"eye": eye, "parameter": n, "reason": DIST_REASON, "sine": sine}
                         for eye, sine in zip(EYES, sines, strict=True)]
             continue
