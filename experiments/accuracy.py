@@ -689,6 +689,25 @@ def lens_cell_passes(r: CellResult) -> tuple[bool, str]:
     return True, "ok"
 
 
+def lens_markdown_table(results: list[CellResult]) -> str:
+    """The lens cells' table: lens, dist_model, the verdict, the lens warning, the
+    hand-eye errors, χ²/n and the rule."""
+    lines = ["| lens | dist_model | verdict | lens warned | hand-eye L / R (deg) | "
+             "hand-eye L / R (mm) | χ²/n | rule |", "|" + " --- |" * 8]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = lens_cell_passes(r)
+        rot = " / ".join(f"{s.errors.get(f'{e} hand-eye rotation (deg)', float('nan')):.3f}"
+                         for e in ("left", "right"))
+        mm = " / ".join(f"{s.errors.get(f'{e} hand-eye translation (mm)', float('nan')):.3f}"
+                        for e in ("left", "right"))
+        lines.append(f"| {c['lens']} | {c['dist_model']}{' (wrong)' if c.get('wrong') else ''}"
+                     f" | {r.verdict} | {'yes' if lens_warned(r) else 'no'} | {rot} | {mm} | "
+                     f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
+                     f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- tables
 
 def pooled_z(results: list[CellResult]) -> dict[str, tuple[int, float, float]]:
