@@ -22,7 +22,6 @@ from rasc.sim.synthetic import corner_dataset, fisheye_head, rational_head
 from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics, is_wrong_lens
 
 
-
 def _intrinsics_views(ds, eye="left"):
     return {e.file: ds.corners[e.file] for e in ds.select(eye, "intrinsics")}
 

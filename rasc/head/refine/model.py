@@ -112,7 +112,8 @@ def observations_from_calibration(cal, board) -> HeadObservations:
         intr = r.intrinsics
         used = list(intr.T_cam_from_world)
         eyes[eye] = EyeObservations(
-            K=intr.K, dist=np.asarray(intr.dist, float).ravel().copy(), image_size=tuple(intr.image_size),
+            K=intr.K, dist=np.asarray(intr.dist, float).ravel().copy(),
+            image_size=tuple(intr.image_size),
             intrinsics={n: r.corners["intrinsics"][n] for n in used},
             T_cam_from_world_intrinsics=dict(intr.T_cam_from_world),
             pose={f: r.corners["pose"][f] for f in r.pose_files},
