@@ -136,12 +136,21 @@ def test_rational_lens_calibrates_with_k1_to_k6():
         assert e.dist.shape == (8,) and e.lens == "pinhole"
         params = cal.refinement.parameters[eye]
         assert {"k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"} <= set(params)
-        # the distortion is reproduced (the coefficients trade off, the distortion does
-        # not): over the image (±1, ±0.75 normalised), within 0.5 px of the truth's
+        # every coefficient estimated with a σ, or held (at the intrinsics' value) where
+        # the corners cannot determine it
+        for c in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"):
+            assert (params[c]["std"] or 0) > 0 or params[c].get("held"), (c, params[c])
+        # the lens is reproduced (the coefficients trade off, the projection does not):
+        # over the image (±1, ±0.75 normalised, 63° off axis at the corners) within 2 px
+        # of the truth's (measured 0.45 and 1.4 px, at the grid's corners; K's own σ
+        # is 0.3-0.4 px)
         xy = np.stack(np.meshgrid(np.linspace(-1.0, 1.0, 9), np.linspace(-0.75, 0.75, 7)),
                       -1).reshape(-1, 2)
-        d = lens.distort_normalized(xy, e.dist) - lens.distort_normalized(xy, head.dist[eye])
-        assert head.K[eye][0, 0] * np.abs(d).max() < 0.5, head.K[eye][0, 0] * np.abs(d).max()
+        p = np.c_[xy, np.ones(len(xy))]
+        d = lens.project_points(p, e.K, e.dist) - lens.project_points(p, head.K[eye],
+                                                                      head.dist[eye])
+        assert np.abs(d).max() < 2.0, np.abs(d).max()
+    assert cal.refinement.rms_after < 0.16
     errs = _handeye_errors(cal, head)
     assert max(e["rotation_deg"] for e in errs.values()) < 0.1
     assert max(e["translation"] for e in errs.values()) < 2e-3
