@@ -244,8 +244,8 @@ def test_default_view_is_the_image_of_before(sim):
     sim.set_angles("right", np.radians(3.0), 0.0)
     options = RenderOptions(image_noise=3.0, blur=0.8, seed=5)
     now = view_image(sim, "right", {}, np.random.default_rng(5), options)
-    before = dg.degrade(sim.render_grey("right"), np.random.default_rng(5), blur_sigma=0.8,
-                        noise_sigma=3.0)
+    before = dg.degrade(sim.render_grey("right", supersample=options.supersample),
+                        np.random.default_rng(5), blur_sigma=0.8, noise_sigma=3.0)
     np.testing.assert_array_equal(now, before)
 
 
