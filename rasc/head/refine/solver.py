@@ -14,6 +14,7 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.head.refine.identifiability import _identifiable
 from rasc.head.refine.model import (
+    DIST_MODELS,
     DIST_PARAMS,
     GAUGE,
     UNIT_DEFAULTS,
@@ -269,7 +270,10 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         K={eye: np.array([[s[eye]["K"][0], 0, s[eye]["K"][2]], [0, s[eye]["K"][1],
                                                                  s[eye]["K"][3]], [0, 0, 1.0]])
            for eye in EYES},
-        dist={eye: s[eye]["dist"] for eye in EYES},
+        # the stored length of the dataset's dist_model (5 for the pinhole models but the
+        # rational one's 8; the fisheye's 4)
+        dist={eye: s[eye]["dist"][:DIST_MODELS[obs.dist_model][2]].copy() for eye in EYES},
+        lens={eye: prob.lens for eye in EYES},
         T_cam_from_gaze={eye: s[eye]["T_cam_from_gaze"] for eye in EYES},
         unit={eye: unit_from_parameters(s[eye]["unit"]) for eye in EYES},
         T_ptuL_from_ptuR=s["T_ptuL_from_ptuR"], parameters=params,
