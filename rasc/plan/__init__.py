@@ -370,10 +370,11 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     chain ``T_cam_from_board = (R, t)``, so its column is a camera-frame twist (ω, v) per
     image: d pc = ω × pc + v, with ``[ω]x = dR Rᵀ`` and ``v = dt − ω × t`` from the
     central difference (dR, dt) of the chain of every image at once. Per corner the
-    pixel's derivative with respect to [intrinsics, twist] is a 2×12 matrix
+    pixel's derivative with respect to [intrinsics, twist] is a 2×(ni + 6) matrix (ni
+    intrinsics: 6 for a pinhole's fx fy cx cy k1 k2, 8 for a fisheye's k1..k4)
     (:meth:`rasc.head.refine._Problem._project`'s analytic derivatives: the intrinsics
     columns, and ``d pixel / d pc`` with the twist's rows ``pc × J_a`` and ``J_a``);
-    its Gram matrix Z_cᵀZ_c (12×12, summed over the image's seen corners) and the
+    its Gram matrix Z_cᵀZ_c (summed over the image's seen corners) and the
     image's twist map S_c give ``A_c = T_cᵀ Z_cᵀ Z_c T_c``, T_c = diag(I, S_c). The same
     numbers as :func:`_blocks_reference` (the refinement's sparse Jacobian, forward
     differences) to the latter's difference error (~1e-6 relative;
@@ -423,9 +424,9 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
             S[:, :3, k] = w
             S[:, 3:, k] = dt - np.cross(w, ch0["t"])
         q = ni + len(chain_cols)
-        T = np.zeros((len(sel), 12, q))
+        T = np.zeros((len(sel), ni + 6, q))                      # [intrinsics, twist]
         T[:, np.arange(ni), np.arange(ni)] = 1.0
-        T[:, 6:, ni:] = S
+        T[:, ni:, ni:] = S
         idx = np.array([where[j] for j in intr_cols + chain_cols])
         for lo_ in range(0, len(sel), _BLOCK_IMAGES):
             part = sel[lo_:lo_ + _BLOCK_IMAGES]
@@ -438,7 +439,7 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
                                 np.cross(pc[:, :, None, :], J), J], axis=-1)
             Z[~prob.mask[part]] = 0.0
             Z = Z.reshape(len(part), -1, Z.shape[-1])
-            M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, 12, 12)
+            M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, ni+6, ni+6)
             Tb = T[blk]
             cidx = np.array([int(prob.img_name[i][1:]) for i in part])
             A[ei][np.ix_(cidx, idx, idx)] += Tb.transpose(0, 2, 1) @ M @ Tb
@@ -1004,6 +1005,13 @@ def check_planned_lens(head, where: str = "plan") -> None:
                              "planner models k1 k2 p1 p2 k3 and cannot plan for it")
 
 
+def _padded(dist, n: int) -> np.ndarray:
+    """A lens's coefficients with the missing ones zero, at least ``n`` of them
+    (``np.resize`` would repeat them: k1 k2 p1 p2 became k1 k2 p1 p2 k1)."""
+    d = np.asarray(dist, float).ravel()
+    return np.r_[d, np.zeros(max(0, n - d.size))]
+
+
 def head_from_calibration(path) -> Any:
     """The head of a ``rasc calibrate`` JSON (or a rasc-head document) as the planner's
     head model. Refused (InputError naming the file) for a lens the planner does not model
@@ -1018,7 +1026,7 @@ def head_from_calibration(path) -> Any:
                                        lens={e: getattr(h, e).lens for e in EYES}), str(path))
     return SyntheticHead(
         K={e: np.asarray(getattr(h, e).K, float) for e in EYES},
-        dist={e: np.resize(np.asarray(getattr(h, e).dist, float), 5) for e in EYES},
+        dist={e: _padded(getattr(h, e).dist, 5) for e in EYES},
         T_cam_from_gaze={e: np.asarray(getattr(h, e).T_cam_from_gaze, float) for e in EYES},
         T_ptu_from_base={e: np.asarray(getattr(h, e).T_ptu_from_base, float) for e in EYES},
         unit={e: getattr(h, e).unit for e in EYES})

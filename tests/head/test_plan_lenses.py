@@ -109,3 +109,25 @@ def test_a_lens_the_prediction_does_not_model_is_refused():
     with pytest.raises(InputError, match=r"rational terms \(k4..k6 = 0.3, 0, 0\)"):
         check_planned_lens(rational)
     check_planned_lens(default_head())                   # the pinhole: planned
+
+
+@pytest.mark.parametrize("dist", [[-0.2, 0.05, 0.001, -0.002], [], [-0.2, 0.05, 0.001,
+                                                                    -0.002, 0.01]])
+def test_a_calibrations_coefficients_reach_the_planner_as_they_are(tmp_path, dist):
+    """head_from_calibration pads a calibration's coefficients with zeros (it repeated
+    them: a 4-coefficient lens was planned with k3 = k1)."""
+    import json
+    from dataclasses import replace
+
+    from lens_rig import lens_head
+
+    from rasc.plan import head_from_calibration
+
+    head = lens_head("pinhole")
+    head = replace(head, left=replace(head.left, dist=np.array(dist)))
+    path = tmp_path / "head.json"
+    path.write_text(json.dumps(head.to_dict()))
+    planned = head_from_calibration(path)
+    want = np.r_[dist, np.zeros(5 - len(dist))]
+    assert np.array_equal(planned.dist["left"], want)
+    assert np.array_equal(planned.dist["right"], head.right.dist)
