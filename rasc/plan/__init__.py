@@ -532,6 +532,7 @@ class Information:
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
         from rasc.sim.render import intrinsics_board_poses
         from rasc.sim.scene import T_base_from_world_facing
+        from rasc.sim.synthetic import _wide_intrinsics_poses as wide_intrinsics_poses
 
         head, board = setup.head, setup.board
         check_planned_lens(head)
@@ -562,9 +563,13 @@ class Information:
         for eye in EYES:
             unit, T_cg, T_pb = gauge[eye]
             intr, T_intr = {}, {}
-            for k, T_cw in enumerate(intrinsics_board_poses(
-                    rng, board, head.K[eye], setup.image_size, setup.n_intrinsics,
-                    head.dist[eye])):
+            if lens_model(head, eye) == "pinhole":
+                placed = intrinsics_board_poses(rng, board, head.K[eye], setup.image_size,
+                                                setup.n_intrinsics, head.dist[eye])
+            else:                   # a wide lens is seen to its edges (rasc.sim.synthetic)
+                placed = wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
+                                               lens_model(head, eye), setup.n_intrinsics)
+            for k, T_cw in enumerate(placed):
                 intr[f"i{k:03d}"] = _project(head, eye, T_cw, P, setup.image_size)
                 T_intr[f"i{k:03d}"] = T_cw
             eyes[eye] = EyeObservations(
@@ -576,7 +581,7 @@ class Information:
                 T_cam_from_world_pose=dict(zip(names_c, T_cw_all[eye][ok], strict=True)),
                 T_cam_from_gaze=T_cg)
         obs = HeadObservations(board_points=P, eyes=eyes, T_ptuL_from_ptuR=T_pLpR,
-                               dist_model="k1k2")
+                               dist_model=PLANNED_LENSES[lens_model(head, "left")])
         prob = _Problem(obs, {eye: list(PLAN_UNIT_PARAMETERS) for eye in EYES})
         _at_the_head(prob, {eye: gauge[eye][0] for eye in EYES},
                      gauge["left"][2] @ T_bw)
@@ -863,7 +868,8 @@ def triangulation_std(info: Information, cov: np.ndarray, setup: PlanSetup,
             eyes[eye] = EyeCalibration(
                 K=np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]]), dist=s[eye]["dist"],
                 T_cam_from_gaze=s[eye]["T_cam_from_gaze"], T_ptu_from_base=T_pb[eye],
-                image_size=tuple(setup.image_size), unit=unit_from_parameters(s[eye]["unit"]))
+                image_size=tuple(setup.image_size), unit=unit_from_parameters(s[eye]["unit"]),
+                lens=lens_model(setup.head, eye))
         return HeadCalibration(**eyes)
 
     true = head_at(np.zeros(len(keep_idx)))
@@ -983,26 +989,30 @@ def image_size_of_calibration(path) -> tuple[int, int]:
     return sizes["left"]
 
 
-#: the lens models the planner's prediction holds (the whole-head refinement it
-#: predicts with, :mod:`rasc.head.refine`, models a pinhole lens, k1 k2 estimated)
-PLANNED_LENSES = ("pinhole",)
+#: the lens models the planner's prediction holds, each with the refinement's
+#: ``dist_model`` it predicts with (:data:`rasc.geometry.lens.DIST_MODELS`): a pinhole's
+#: k1 k2 (``rasc calibrate``'s default), a fisheye's k1..k4 (``--dist-model fisheye``)
+PLANNED_LENSES = {"pinhole": "k1k2", "fisheye": "fisheye"}
 
 
 def check_planned_lens(head, where: str = "plan") -> None:
     """InputError (one line) when a head's lens is one the prediction does not model:
-    a lens model other than :data:`PLANNED_LENSES`, or OpenCV's rational terms k4..k6,
-    which the planner's head (5 coefficients) cannot hold."""
+    a lens model other than :data:`PLANNED_LENSES`, eyes of two models, or OpenCV's
+    rational terms k4..k6, which the planner's pinhole (5 coefficients) cannot hold."""
+    models = {eye: lens_model(head, eye) for eye in EYES}
     for eye in EYES:
-        model = lens_model(head, eye)
+        model = models[eye]
         if model not in PLANNED_LENSES:
-            raise InputError(f"{where}: the {eye} eye's lens is {model}: the planner predicts "
-                             "with the whole-head refinement's pinhole model and cannot plan "
-                             "for it")
+            raise InputError(f"{where}: the {eye} eye's lens is {model}: the planner "
+                             f"predicts with {', '.join(PLANNED_LENSES)} lenses only")
         dist = np.asarray(head.dist[eye], float).ravel()
-        if np.any(dist[5:] != 0.0):
+        if model == "pinhole" and np.any(dist[5:] != 0.0):
             raise InputError(f"{where}: the {eye} eye's lens has OpenCV's rational terms "
                              f"(k4..k6 = {', '.join(f'{v:g}' for v in dist[5:])}): the "
                              "planner models k1 k2 p1 p2 k3 and cannot plan for it")
+    if models["left"] != models["right"]:
+        raise InputError(f"{where}: the eyes' lens models differ (left {models['left']}, "
+                         f"right {models['right']}); the planner predicts for a pair of one")
 
 
 def _padded(dist, n: int) -> np.ndarray:
@@ -1024,12 +1034,16 @@ def head_from_calibration(path) -> Any:
     h = load_calibration(path)
     check_planned_lens(SimpleNamespace(dist={e: getattr(h, e).dist for e in EYES},
                                        lens={e: getattr(h, e).lens for e in EYES}), str(path))
+    lenses = {e: getattr(h, e).lens for e in EYES}
+    # each model's full coefficients (a pinhole's OpenCV five, a fisheye's four)
+    n = {"pinhole": 5, "fisheye": 4}
     return SyntheticHead(
         K={e: np.asarray(getattr(h, e).K, float) for e in EYES},
-        dist={e: _padded(getattr(h, e).dist, 5) for e in EYES},
+        dist={e: _padded(getattr(h, e).dist, n[lenses[e]]) for e in EYES},
         T_cam_from_gaze={e: np.asarray(getattr(h, e).T_cam_from_gaze, float) for e in EYES},
         T_ptu_from_base={e: np.asarray(getattr(h, e).T_ptu_from_base, float) for e in EYES},
-        unit={e: getattr(h, e).unit for e in EYES})
+        unit={e: getattr(h, e).unit for e in EYES},
+        lens=None if set(lenses.values()) == {"pinhole"} else lenses)
 
 
 def simulated_head(units: dict | None = None) -> Any:
