@@ -31,14 +31,16 @@ ROOMS = (
          "this table"),
     Room("rasc/geometry/", 1, "`transforms` (rigid transforms, exp/log through scipy, the one "
          "transform check), `kinematics` (eq. 3 and the general unit), `frames` (the frame "
-         "tables), `lens` (OpenCV's lens model in numpy), `triangulation` (eq. 15–19)"),
+         "tables), `lens` (the lens models in numpy: OpenCV's pinhole with radial-tangential or rational distortion, and its fisheye), `triangulation` (eq. 15–19)"),
     Room("rasc/handeye/", 2, "`paper` (RASC's eq. 6–10 written plainly: the reference), "
          "`solver` (the entry points: `solve_rasc`, the batched form, `diagnose`), "
          "`_kernels`, `_checks`, `_linalg` (the speed work and the input and degeneracy "
          "checks, private), `result` (thresholds, result types); "
          "`advice`, `li`, `opencv`, `methods` (every method by name, plugins, the "
          "jackknife), `inverse`, `noise` (eq. 13–14), `document` (the `rasc-handeye/1` "
-         "reader)"),
+         "reader, still positions or two timestamped streams), `time_offset` (hand-eye "
+         "from two pose streams with the clocks' offset and its σ), `pose_streams` "
+         "(seeded streams with a known truth)"),
     Room("rasc/vision/", 2, "`board` (the targets), `images` (image files, grey, PNG), "
          "`subpixel` (cornerSubPix's rule, saddle points), `detect` (corner detection), "
          "`aprilgrid` (its detector), `camera` (intrinsics, extrinsics; re-exports images "

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rasc import formats
 from rasc.errors import InputError
 from rasc.geometry.kinematics import T_gaze_from_ptu
 from rasc.handeye.corruption import TRUE_T_CAM_FROM_GAZE, TRUE_T_PTU_FROM_WORLD
@@ -74,7 +75,7 @@ class PoseStreams:
                 if angles else
                 [{"time": float(t), "T_gaze_from_ptu": G.tolist()}
                  for t, G in zip(self.unit_times, self.T_gaze_from_ptu, strict=True)])
-        return {"format": "rasc-handeye/1", "angle_unit": "deg", "length_unit": "m",
+        return {"format": formats.HANDEYE.tag, "angle_unit": "deg", "length_unit": "m",
                 "positions": [{"time": float(t), "T_cam_from_world": T.tolist()}
                               for t, T in zip(self.times, self.T_cam_from_world,
                                               strict=True)],

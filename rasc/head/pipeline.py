@@ -15,6 +15,7 @@ ground-truth file, :func:`errors_against_truth` compares the result with it.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -589,8 +590,11 @@ def _time_offset_outcome(cal: Calibration, res, options: CalibrationOptions, dat
             if stale and cal.seed is not None:
                 cal.seed["closed_form_warnings"] = stale
                 cal.warnings = [w for w in cal.warnings if w not in stale]
-            log(f"time offset δ (encoder clock − camera clock) {1000 * d['value_s']:.3f} ± "
-                f"{1000 * d['std_s']:.3f} ms")
+            ms, std_ms = 1000 * d["value_s"], 1000 * d["std_s"]
+            # σ to two significant digits, δ to the same place (at least 3 decimals)
+            places = 3 if not std_ms > 0 else max(3, 1 - math.floor(math.log10(std_ms)))
+            log(f"time offset δ (encoder clock − camera clock) {ms:.{places}f} ± "
+                f"{std_ms:.{places}f} ms")
         elif d["tested"]:
             why = res.parameters["head"]["time_offset"].get("held", "")
             if options.time_offset_mode == "estimate":
