@@ -85,28 +85,38 @@ def regular_stamps(t: np.ndarray) -> np.ndarray | None:
     # late first stamp does not move it)
     phase = np.angle(np.mean(np.exp(2j * np.pi * (t[:m] - t[0]) / T)))
     a = float(t[0] + T * phase / (2 * np.pi))
-    for last in (False, False, True):
-        while True:
-            k = np.round((t[:m] - a) / T)
-            # samples that share their number with a neighbour (off by nearly half a
-            # period where the line is still rough) stay out of this fit
-            own = np.ones(m, bool)
-            own[1:] &= np.diff(k) >= 1
-            own[:-1] &= np.diff(k) >= 1
-            if own.sum() < 4:
-                return None
-            A = np.column_stack([np.ones(own.sum()), k[own]])
-            (a, T), *_ = np.linalg.lstsq(A, t[:m][own], rcond=None)
-            if m == n or T <= 0:
-                break
-            m = min(m + m // 4, n)  # a quarter more: the line's error there is small
-        if last:
+    while True:
+        a, T = _fit_line(t[:m], a, T)
+        if a is None:
+            return None
+        if m == n:
             break
+        m = min(m + m // 4, n)      # a quarter more: the line's error there is small
+    for _ in range(2):              # the whole stream's line, its numbers again
+        a, T = _fit_line(t, a, T)
+        if a is None:
+            return None
     k = np.round((t - a) / T)
     if T <= 0 or np.any(np.diff(k) < 1):
         return None
     fit = a + T * k
     return fit if np.all(np.diff(fit) > 0) else None
+
+
+def _fit_line(t: np.ndarray, a: float, T: float) -> tuple[float | None, float]:
+    """The line (a, T) through (k, t), k = round((t − a)/T) by the line given; samples
+    that share their number with a neighbour (off by nearly half a period where the line
+    is still rough) stay out of the fit. (None, T) when fewer than 4 are left or the
+    period comes out ≤ 0."""
+    k = np.round((t - a) / T)
+    own = np.ones(len(t), bool)
+    own[1:] &= np.diff(k) >= 1
+    own[:-1] &= np.diff(k) >= 1
+    if own.sum() < 4:
+        return None, T
+    A = np.column_stack([np.ones(own.sum()), k[own]])
+    (a, T), *_ = np.linalg.lstsq(A, t[own], rcond=None)
+    return (float(a), float(T)) if T > 0 else (None, T)
 
 
 def roughness(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:

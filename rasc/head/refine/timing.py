@@ -14,6 +14,12 @@ image time crosses a sample, and its position error, h²/8 · |acceleration|, is
 (0.14 px at f = 1150 px) for a 100 Hz stream accelerating at 10 rad/s²; the spline's is
 O(h⁴) (below 1e-7 rad there) and its velocity continuous. At 100–1000 Hz the samples are
 1–10 ms apart, the offset to be found to 1 ms: the interpolant matters.
+
+**Stamp jitter** (:mod:`rasc.vision.joint_stream`, "Timestamp jitter"): the stream's
+spline runs through its regular stamps where the given ones jitter about a constant
+rate; what is left of the stamps' error, the regular stamps' common offset (their mean
+jitter, indistinguishable from δ) and any timing noise of stamps kept as given, enters
+δ's σ by :func:`stamp_covariance`.
 """
 
 from __future__ import annotations
