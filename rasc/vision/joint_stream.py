@@ -25,10 +25,12 @@ a linear interpolation's h²/8·|acceleration|.
 sample when it handles it, a little late by a varying amount: a spline through the
 stamps as they are passes exactly through every (stamp, reading) pair, so its angles
 carry the jitter × the angular speed as noise (0.5 ms at 20°/s: 0.01°, 0.2 px). The
-stream therefore tries the **regular stamps** ``t0 + k·T`` (:func:`regular_stamps`: the
-line fitted to the stamps against their sample numbers k, a missing sample a skipped k)
-and keeps them when they make the readings clearly smoother than the stamps as given
-(:func:`roughness`: the readings between every other sample predicted from their
+stream therefore tries **regular stamps** ``t0 + k·T``: the line fitted to the stamps
+against their sample numbers k, a missing sample a skipped k (:func:`regular_stamps`),
+and the line through the samples' places in the stream, for stamps that jitter by half
+a period or more, where no number is certain (:func:`numbered_stamps`). It keeps the
+smoother of the two where it makes the readings clearly smoother than the stamps as
+given (:func:`roughness`: the readings between every other sample predicted from their
 neighbours; :data:`SMOOTHER`): readings taken at a constant rate lie on a smooth curve
 at their true times, and the regular stamps are those times up to a line's error. A
 stream whose readings are smoothest at their own stamps (a variable rate, accurate
@@ -101,6 +103,22 @@ def regular_stamps(t: np.ndarray) -> np.ndarray | None:
         return None
     fit = a + T * k
     return fit if np.all(np.diff(fit) > 0) else None
+
+
+def numbered_stamps(t: np.ndarray) -> np.ndarray | None:
+    """The stamps ``t`` (n,) as a constant-rate driver that missed no sample meant them:
+    the least-squares line ``t0 + i·T`` through (i, t_i), i the sample's place in the
+    stream. For stamps that jitter by half a period or more, where no sample's number is
+    certain (:func:`regular_stamps` fails or misnumbers); a missing sample shows as a
+    step in the residual, and the roughness test then keeps the stamps as given. None
+    for fewer than 8 samples."""
+    n = len(t)
+    if n < 8:
+        return None
+    i = np.arange(n, dtype=float)
+    A = np.column_stack([np.ones(n), i])
+    (a, T), *_ = np.linalg.lstsq(A, t, rcond=None)
+    return a + T * i if T > 0 else None
 
 
 def _fit_line(t: np.ndarray, a: float, T: float) -> tuple[float | None, float]:
@@ -182,9 +200,10 @@ class EyeStream:
         object.__setattr__(self, "tilt", pt[:, 1].copy())
         r_given = roughness(t, pt)
         stamps, noise = t, r_given[1]
-        fit = regular_stamps(t)
-        if fit is not None:
-            r_fit = roughness(fit, pt)
+        fits = [(roughness(f, pt), f) for f in (regular_stamps(t), numbered_stamps(t))
+                if f is not None]
+        if fits:
+            r_fit, fit = min(fits, key=lambda rf: rf[0][0])
             if SMOOTHER * r_fit[0] < r_given[0]:
                 stamps, noise = fit, r_fit[1]
                 object.__setattr__(self, "offset_std_s",
