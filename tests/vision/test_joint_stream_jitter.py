@@ -114,7 +114,7 @@ def test_stamps_jittering_by_a_period_are_numbered():
 def test_timing_noise_of_stamps_kept_as_given():
     """A stream at a variable rate (2-8 ms between samples) whose stamps jitter by
     0.3 ms: no regular stamps fit it, the stamps stay as given, and the stream reports
-    their timing noise within 0.7-1.5x of the RMS of the jitter drawn, (measured 1.06x), which δ's σ then
+    their timing noise within 0.7-1.5x of the RMS of the jitter drawn (measured 1.06x), which δ's σ then
     counts."""
     traj = Trajectory(np.radians(np.asarray(PAPER_POSES_DEG, float)), 20)
     rng = np.random.default_rng(11)
