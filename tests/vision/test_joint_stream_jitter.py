@@ -114,8 +114,8 @@ def test_stamps_jittering_by_a_period_are_numbered():
 def test_timing_noise_of_stamps_kept_as_given():
     """A stream at a variable rate (2-8 ms between samples) whose stamps jitter by
     0.3 ms: no regular stamps fit it, the stamps stay as given, and the stream reports
-    their timing noise within 0.7-1.5x of the RMS of the jitter drawn (measured 1.06x), which δ's σ then
-    counts."""
+    their timing noise within 0.7-1.5x of the RMS of the jitter drawn (measured 1.06x),
+    which δ's σ then counts."""
     traj = Trajectory(np.radians(np.asarray(PAPER_POSES_DEG, float)), 20)
     rng = np.random.default_rng(11)
     true_t = -0.3 + np.cumsum(rng.uniform(0.002, 0.008, int((traj.duration + 0.6) / 0.005)))
