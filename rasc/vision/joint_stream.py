@@ -41,6 +41,12 @@ roughness measures it (seconds, RMS: the readings' scatter about the curve along
 motion over their angular speed), and ``EyeStream.offset_std_s`` the σ of the regular
 stamps' offset (their mean jitter shifts the whole stream, as a time offset would): the
 refinement adds both to the time offset's σ (:mod:`rasc.head.refine.timing`).
+
+Why not a smoothing spline (:func:`scipy.interpolate.make_smoothing_spline`, λ by GCV),
+measured on the bench's streams (9 positions, 20 and 60°/s, 100–1000 Hz): without jitter
+its angles were 1e-4° off the truth where the spline through the samples is exact
+(1e-15°), with jitter only about 3x closer than that spline (the regular stamps: 17-200x),
+and it took 0.7–1.4 s per angle at 100–200 Hz.
 """
 
 from __future__ import annotations
