@@ -43,10 +43,11 @@ stamps' offset (their mean jitter shifts the whole stream, as a time offset woul
 refinement adds both to the time offset's σ (:mod:`rasc.head.refine.timing`).
 
 Why not a smoothing spline (:func:`scipy.interpolate.make_smoothing_spline`, λ by GCV),
-measured on the bench's streams (9 positions, 20 and 60°/s, 100–1000 Hz): without jitter
-its angles were 1e-4° off the truth where the spline through the samples is exact
-(1e-15°), with jitter only about 3x closer than that spline (the regular stamps: 17-200x),
-and it took 0.7–1.4 s per angle at 100–200 Hz.
+measured on the bench's streams (the paper's 9 positions at 20°/s, 100 and 200 Hz):
+without jitter its angles at the frame times were 7e-5 to 1e-4° off the truth where the
+spline through the samples is exact (1e-15°); with 0.1–1 ms of jitter only 2–4x closer
+than that spline (the regular stamps: 9–220x, over 100–1000 Hz and 20 and 60°/s); and
+it took 0.7–1.4 s per angle.
 """
 
 from __future__ import annotations
