@@ -90,7 +90,7 @@ def stamp_covariance(prob, J, G_inv: np.ndarray) -> np.ndarray:
     rows_of = prob._rows_of_images()
     r_idx, c_idx, v_idx, var = [], [], [], []
     for ei, eye in enumerate(EYES):
-        v = float(prob.streams[eye].timing_noise_s) ** 2
+        v = float(getattr(prob.streams[eye], "timing_noise_s", 0.0)) ** 2
         if v <= 0:
             continue
         for i in prob.pose_images[ei]:
@@ -106,6 +106,6 @@ def stamp_covariance(prob, J, G_inv: np.ndarray) -> np.ndarray:
                            shape=(J.shape[0], len(var)))
         A = G_inv @ np.asarray((J.T @ Jt).toarray())
         out += (A * np.array(var)) @ A.T
-    off = max(float(prob.streams[eye].offset_std_s) for eye in EYES)
+    off = max(float(getattr(prob.streams[eye], "offset_std_s", 0.0)) for eye in EYES)
     out[j, j] += (off / scale) ** 2
     return out
