@@ -26,7 +26,7 @@ from rasc.head.refine.model import (
     unit_from_parameters,
 )
 from rasc.head.refine.problem import _Problem
-from rasc.head.refine.timing import MAX_TIME_OFFSET_S
+from rasc.head.refine.timing import MAX_TIME_OFFSET_S, stamp_covariance
 
 #: Reject corners farther than this many robust standard deviations (either coordinate)
 #: and farther than REJECT_FLOOR_PX: below a tenth of a pixel a residual is the
@@ -233,7 +233,11 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     J = prob.jacobian(x)
     G = (J.T @ J).toarray()
     D = np.sqrt(np.diag(G))
-    cov_x = np.linalg.inv(G / np.outer(D, D)) / np.outer(D, D) * sigma ** 2
+    G_inv = np.linalg.inv(G / np.outer(D, D)) / np.outer(D, D)
+    cov_x = G_inv * sigma ** 2
+    if prob.time_col is not None:
+        # and what the joint stream's stamps add, which the corners' σ does not count
+        cov_x = cov_x + stamp_covariance(prob, J, G_inv)
     cov = cov_x * np.outer(prob.scale, prob.scale)
     std = np.sqrt(np.diag(cov))
     p = prob.p0 + prob.scale * x
