@@ -68,7 +68,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="Gaussian blur, pixels (default 0)")
     p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
                    help="lens distortion applied by warping the renders (OpenCV model), "
-                        "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
+                        "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-'); "
+                        "with --lens fisheye its K1,K2,K3,K4; 8 numbers: the rational model")
+    p.add_argument("--lens", default="pinhole", choices=("pinhole", "fisheye"),
+                   help="the cameras' lens model: pinhole (radial-tangential distortion, "
+                        "default) or fisheye (OpenCV's equidistant cv2.fisheye model); "
+                        "docs/topics/lenses.md")
+    p.add_argument("--fov", type=float, default=0.0, metavar="DEG",
+                   help="the lens's horizontal field of view across the image width, "
+                        "degrees (up to 180 for a fisheye; default 0: the model cameras' "
+                        "own focal length); a wide lens is rendered from several views")
     p.add_argument("--supersample", type=int, default=1, metavar="S",
                    help="render each image at S times the width and height and average "
                         "each S x S block into one pixel: corners closer to the truth, "
@@ -127,7 +136,7 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "vignetting": "--vignetting", "motion_blur": "--motion-blur",
          "motion_angle": "--motion-angle", "focus_distance": "--focus-distance",
          "f_number": "--f-number", "focal_length_mm": "--focal-length",
-         "jpeg_quality": "--jpeg-quality"}
+         "jpeg_quality": "--jpeg-quality", "lens": "--lens", "fov": "--fov"}
 
 
 def _urdf_head(args: argparse.Namespace, out: Path):
@@ -177,6 +186,7 @@ def run(args: argparse.Namespace) -> int:
         motion_blur=args.motion_blur, motion_angle=args.motion_angle,
         focus_distance=args.focus_distance, f_number=args.f_number,
         focal_length_mm=args.focal_length, jpeg_quality=args.jpeg_quality,
+        lens=args.lens, fov=args.fov,
     ).validate(FLAGS)
     units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")

@@ -4,13 +4,16 @@ MuJoCo renders pinhole cameras only, and one pinhole render cannot hold a wide l
 image: a fisheye of 150° would need an ideal image ``tan(75°)·f`` wide, and one of 180°
 an infinite one. So the image of a lens is put together from several pinhole views from
 the camera's own centre, turned towards the faces of a cube (front, left, right, up,
-down; back when a ray needs it): every output pixel's ray (the lens model's inverse,
-:func:`pixel_rays`) is sent to the face it points at most directly and read there with
-bilinear interpolation. Each face is rendered only over the rays it serves, with a
-margin, at a resolution at least :data:`VIEW_QUALITY` times the finest the output needs
-there, so the seams between faces do not show (tests/sim/test_lens_render.py measures
-it). With ``supersample`` S the output is built at S times its size and averaged over
-S × S blocks, as :meth:`rasc.sim.scene.StereoHeadSim.render_camera` does.
+down; back when a ray needs it): every output sub-pixel's ray (the lens model's
+inverse, :func:`pixel_rays`) is sent to the face it points at most directly and read
+there with bilinear interpolation (two faces blended over :data:`BLEND_PX` across their
+seam). Each face is rendered only over the rays it serves, with a margin, as fine as
+the sub-pixels need there (:data:`VIEW_QUALITY`). The output is built at S times its
+size and averaged over S × S blocks, as
+:meth:`rasc.sim.scene.StereoHeadSim.render_camera` does for ``supersample`` S, with S
+at least :data:`MIN_SUBPIXELS`: then the corners detected on a 150° fisheye are as
+close to the truth as on the stock pinhole's renders, and the seams between the faces do
+not show (tests/sim/test_lens_render.py measures both).
 
 A point ``P`` in the camera frame lands where ``rasc.geometry.lens.project_points(P, K,
 dist, model=)`` puts it: the truth of every corner comes from the lens core, as for the
@@ -26,13 +29,24 @@ import numpy as np
 from rasc.errors import InputError, RascError
 from rasc.geometry import lens as lens_core
 
-#: each face is rendered this many times finer than the output needs there (the smallest
-#: step between neighbouring output pixels in the face's image). Measured with the 9x6
-#: board 0.8 m ahead of a 150° fisheye on 1280x960 (f = 489 px), detected corners
-#: against the truth: 0.061 px RMS at 1, 0.065 at 1.5, 0.176 at 3. A finer view read at
-#: points is sharper than the output pixel and aliases; the lens's supersample
-#: (averaging S x S sub-pixels) is what makes it finer: 0.031 px at 1 with S = 2.
+#: each face is rendered this many times finer than the output's sub-pixels need where
+#: they need the most (the smallest step between neighbouring sub-pixels in the face's
+#: image). Finer views alias, being read at points: measured with one sub-pixel per
+#: pixel, the 9x6 board 0.8 m ahead of a 150° fisheye on 1280x960 (f = 489 px), 0.061 px
+#: RMS at 1, 0.065 at 1.5, 0.176 at 3
 VIEW_QUALITY = 1.0
+#: through a lens every output pixel averages at least this many sub-pixels each way
+#: (supersample 1 renders as 2). The views are read at points, and a view finer than the
+#: output there aliases: measured with a 7x4 board of 40 mm squares on 640x480 renders
+#: of a 150° fisheye (tests/sim/test_lens_render.py, seeds 0-2), 1 sub-pixel gives
+#: 0.032-0.035 px RMS, and corners on a seam 1.3-1.5 times the error of the same corners
+#: off every seam; 2 sub-pixels give 0.018-0.021 px (the stock pinhole's S = 1 pose
+#: views: 0.017-0.019 px) and 0.98-1.14 on the seams
+MIN_SUBPIXELS = 2
+#: output pixels over which two faces are blended across their seam (0: a step).
+#: Measured as MIN_SUBPIXELS (seeds 0-2): corners on a seam against the same corners off
+#: it 0.98-1.14 blended over 6 px, 1.09-1.21 without
+BLEND_PX = 6.0
 #: pixels of margin around the rays a face serves (bilinear reads one pixel beyond)
 VIEW_MARGIN_PX = 3
 #: the largest face image rendered (width or height, pixels)
@@ -140,31 +154,59 @@ class LensView:
     model : "pinhole" or "fisheye"
     supersample : int — build the output at S times its size, then average S × S blocks
     quality : float — :data:`VIEW_QUALITY`
+    turn : array-like, shape (3, 3), optional — the cube turned by this rotation (camera
+        frame): the seams between the faces fall elsewhere in the image (a test compares
+        the same corners on and off a seam)
+    blend_px : float — :data:`BLEND_PX`
     """
 
     def __init__(self, K, dist, size: tuple[int, int], model: str = "pinhole",
-                 supersample: int = 1, quality: float = VIEW_QUALITY) -> None:
+                 supersample: int = 1, quality: float = VIEW_QUALITY, turn=None,
+                 blend_px: float = None) -> None:
+        blend_px = BLEND_PX if blend_px is None else float(blend_px)
         self.size = (int(size[0]), int(size[1]))
-        self.supersample = S = int(supersample)
+        #: sub-pixels averaged per pixel each way: the supersample, at least
+        #: MIN_SUBPIXELS
+        self.supersample = S = max(int(supersample), MIN_SUBPIXELS)
         w, h = S * self.size[0], S * self.size[1]
         rays, ok = pixel_rays(scaled_K(K, S), dist, (w, h), model)
         self.ok = ok.ravel()
         names = list(FACES)
-        axes = np.stack([FACES[n][:, 2] for n in names])            # (6, 3)
-        face = np.argmax(rays @ axes.T, axis=2)                      # (h, w)
+        turn = np.eye(3) if turn is None else np.asarray(turn, dtype=float)
+        faces = {n: turn @ R for n, R in FACES.items()}
+        self.faces = faces
+        axes = np.stack([faces[n][:, 2] for n in names])            # (6, 3)
+        cos = rays @ axes.T                                          # (h, w, 6)
+        order = np.argsort(-cos, axis=2)
+        face, other = order[..., 0], order[..., 1]
+        #: the face each output (sub-)pixel reads, an index into FACES (-1: no ray)
+        self.face = np.where(ok, face, -1).astype(np.int8)
+        # across a seam the two faces are blended over blend_px output pixels (a ramp,
+        # not a step, between two renders' rasterisations): the other face's weight
+        # falls from 1/2 at the seam to 0 at blend_px / 2 from it
+        weight = np.zeros((h, w))
+        if blend_px > 0:
+            gap = np.take_along_axis(cos, face[..., None], 2)[..., 0] \
+                - np.take_along_axis(cos, other[..., None], 2)[..., 0]
+            gy, gx = np.gradient(gap)
+            dist_px = gap / np.maximum(np.hypot(gx, gy), 1e-15)
+            weight = 0.5 * np.clip(1.0 - dist_px / (0.5 * blend_px * S), 0.0, 1.0)
+            weight[~ok] = 0.0
         views = []
         for i, name in enumerate(names):
-            mine = (face == i) & ok
-            if not mine.any():
+            main = (face == i) & ok
+            side = (other == i) & (weight > 0)
+            mine = main | side
+            if not main.any():
                 continue
-            R = FACES[name]
+            R = faces[name]
             q = rays @ R                                             # in the face's axes
             with np.errstate(divide="ignore", invalid="ignore"):
                 a, b = q[..., 0] / q[..., 2], q[..., 1] / q[..., 2]
             # the finest step between neighbouring output pixels in the face's image
             steps = []
             for axis in (0, 1):
-                both = mine & np.roll(mine, -1, axis)
+                both = main & np.roll(main, -1, axis)
                 if axis == 0:
                     both[-1, :] = False
                 else:
@@ -172,28 +214,26 @@ class LensView:
                 da = np.hypot(np.roll(a, -1, axis) - a, np.roll(b, -1, axis) - b)[both]
                 if da.size:
                     steps.append(da.min())
-            step = min(steps) if steps else 1e-3
-            f = quality / step
+            f = quality / (min(steps) if steps else 1e-3)
             a0, a1, b0, b1 = a[mine].min(), a[mine].max(), b[mine].min(), b[mine].max()
-            views.append((name, R, mine.ravel(), a[mine], b[mine], f,
+            index = np.flatnonzero(mine)
+            wt = np.where(main, 1.0 - weight, weight).ravel()[index]
+            views.append((name, R, index, wt, a.ravel()[index], b.ravel()[index], f,
                           (a0, a1, b0, b1)))
         m = VIEW_MARGIN_PX
-        # one renderer size for all faces: each face at least as fine as it needs
-        vw = max(math.ceil((v[6][1] - v[6][0]) * v[5]) + 2 * m + 1 for v in views)
-        vh = max(math.ceil((v[6][3] - v[6][2]) * v[5]) + 2 * m + 1 for v in views)
+        # one renderer for all faces, each face at its own scale in its top-left part
+        vw = max(math.ceil((v[7][1] - v[7][0]) * v[6]) + 2 * m + 1 for v in views)
+        vh = max(math.ceil((v[7][3] - v[7][2]) * v[6]) + 2 * m + 1 for v in views)
         if max(vw, vh) > MAX_VIEW_PX:
             raise RascError(f"the lens needs views of {vw}x{vh} px to render at this size "
                             f"and supersample (more than {MAX_VIEW_PX}); use a smaller "
                             "supersample or field of view")
         self.view_size = (vw, vh)
         self.views = []
-        for name, R, mine, a, b, _, (a0, a1, b0, b1) in views:
-            fx = (vw - 1 - 2 * m) / max(a1 - a0, 1e-9)
-            fy = (vh - 1 - 2 * m) / max(b1 - b0, 1e-9)
-            K_view = np.array([[fx, 0.0, m - fx * a0], [0.0, fy, m - fy * b0],
-                               [0.0, 0.0, 1.0]])
-            coords = np.stack([fy * b + K_view[1, 2], fx * a + K_view[0, 2]])  # (row, col)
-            self.views.append((name, R, K_view, np.flatnonzero(mine), coords))
+        for name, R, index, wt, a, b, f, (a0, _, b0, _) in views:
+            K_view = np.array([[f, 0.0, m - f * a0], [0.0, f, m - f * b0], [0.0, 0.0, 1.0]])
+            coords = np.stack([f * b + K_view[1, 2], f * a + K_view[0, 2]])  # (row, col)
+            self.views.append((name, R, K_view, index, wt, coords))
 
     def render(self, sim, eye: str) -> np.ndarray:
         """The ``eye``'s image through the lens at the simulator's current state: 8-bit
@@ -205,9 +245,10 @@ class LensView:
         w, h = self.size
         S = self.supersample
         out = np.zeros(S * w * S * h)
-        for _, R, K_view, index, coords in self.views:
+        for _, R, K_view, index, weight, coords in self.views:
             grey = to_grey(sim.render_view(eye, R, K_view, self.view_size), order="rgb")
-            out[index] = map_coordinates(grey.astype(float), coords, order=1, mode="nearest")
+            out[index] += weight * map_coordinates(grey.astype(float), coords, order=1,
+                                                   mode="nearest")
         out = out.reshape(S * h, S * w)
         if S > 1:
             out = out.reshape(h, S, w, S).mean(axis=(1, 3))
