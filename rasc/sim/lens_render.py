@@ -29,19 +29,21 @@ import numpy as np
 from rasc.errors import InputError, RascError
 from rasc.geometry import lens as lens_core
 
-#: each face is rendered this many times finer than the output's sub-pixels need where
-#: they need the most (the smallest step between neighbouring sub-pixels in the face's
-#: image). Finer views alias, being read at points: measured with one sub-pixel per
-#: pixel, the 9x6 board 0.8 m ahead of a 150° fisheye on 1280x960 (f = 489 px), 0.061 px
-#: RMS at 1, 0.065 at 1.5, 0.176 at 3
-VIEW_QUALITY = 1.0
+#: each face's pixels per step between neighbouring output sub-pixels where they are
+#: closest in its image (0.5: about the output's own pixel density, each output pixel's
+#: 2 x 2 sub-pixels read bilinearly from it). Views finer than their reading alias, being
+#: read at points: measured on the 640x480 renders of tests/sim/test_lens_render.py
+#: (seeds 0-4), 0.5 gives 0.017-0.018 px RMS and seam/off 1.05-1.17, 1 gives
+#: 0.018-0.021 px and 0.98-1.18 for four times the rendered pixels; with one sub-pixel
+#: per pixel 1, 1.5 and 3 gave 0.061, 0.065 and 0.176 px (the 9x6 board 0.8 m ahead of a
+#: 150° fisheye on 1280x960)
+VIEW_QUALITY = 0.5
 #: through a lens every output pixel averages at least this many sub-pixels each way
-#: (supersample 1 renders as 2). The views are read at points, and a view finer than the
-#: output there aliases: measured with a 7x4 board of 40 mm squares on 640x480 renders
-#: of a 150° fisheye (tests/sim/test_lens_render.py, seeds 0-2), 1 sub-pixel gives
-#: 0.032-0.035 px RMS, and corners on a seam 1.3-1.5 times the error of the same corners
-#: off every seam; 2 sub-pixels give 0.018-0.021 px (the stock pinhole's S = 1 pose
-#: views: 0.017-0.019 px) and 0.98-1.14 on the seams
+#: (supersample 1 renders as 2). Measured with a 7x4 board of 40 mm squares on 640x480
+#: renders of a 150° fisheye (tests/sim/test_lens_render.py, seeds 0-2, views at the
+#: sub-pixels' density): 1 sub-pixel gives 0.032-0.035 px RMS, and corners on a seam
+#: 1.3-1.5 times the error of the same corners off every seam; 2 sub-pixels give
+#: 0.018-0.021 px (the stock pinhole's S = 1 pose views: 0.017-0.019 px) and 0.98-1.14
 MIN_SUBPIXELS = 2
 #: output pixels over which two faces are blended across their seam (0: a step).
 #: Measured as MIN_SUBPIXELS (seeds 0-2): corners on a seam against the same corners off
@@ -131,6 +133,31 @@ def pixel_rays(K: np.ndarray, dist, size: tuple[int, int], model: str = "pinhole
     return rays.reshape(h, w, 3), ok.reshape(h, w)
 
 
+def _finest_step(rays: np.ndarray, main: np.ndarray, R: np.ndarray,
+                 every: int = 4) -> float:
+    """The smallest distance, in the normalised image of the view ``R``, between the rays
+    of neighbouring pixels (along rows and columns) of the pixels ``main`` (h, w), on a
+    lattice of every ``every``-th pixel."""
+    h, w = main.shape
+    vv, uu = np.mgrid[0:h - 1:every, 0:w - 1:every]
+    pick = main[vv, uu] & main[vv + 1, uu] & main[vv, uu + 1]
+    if not pick.any():
+        vv, uu = np.nonzero(main[:-1, :-1] & main[1:, :-1] & main[:-1, 1:])
+        pick = np.ones(len(vv), bool)
+        if not pick.any():
+            return 1e-3
+    v, u = vv[pick], uu[pick]
+
+    def ab(r):
+        q = r @ R
+        return q[:, :2] / q[:, 2:]
+
+    here = ab(rays[v, u])
+    step = np.minimum(np.linalg.norm(ab(rays[v, u + 1]) - here, axis=1),
+                      np.linalg.norm(ab(rays[v + 1, u]) - here, axis=1))
+    return float(step.min())
+
+
 def scaled_K(K: np.ndarray, S: int) -> np.ndarray:
     """The camera matrix of an image S times larger whose S × S block means are the image
     of ``K`` (pixel centres at integers: c → S·(c + 0.5) − 0.5)."""
@@ -175,65 +202,59 @@ class LensView:
         turn = np.eye(3) if turn is None else np.asarray(turn, dtype=float)
         faces = {n: turn @ R for n, R in FACES.items()}
         self.faces = faces
-        axes = np.stack([faces[n][:, 2] for n in names])            # (6, 3)
-        cos = rays @ axes.T                                          # (h, w, 6)
-        order = np.argsort(-cos, axis=2)
-        face, other = order[..., 0], order[..., 1]
+        # in the cube's frame a face is an axis and a sign: the face a ray reads is its
+        # largest component's, the face across the nearest seam its second largest's
+        by_axis = {(int(np.argmax(np.abs(R[:, 2]))), int(np.sign(R[:, 2].sum()))): n
+                   for n, R in FACES.items()}
+        code = np.array([[names.index(by_axis[(k, -1)]), names.index(by_axis[(k, 1)])]
+                         for k in range(3)])
+        flat = rays.reshape(-1, 3)
+        comp = flat @ turn                                   # components in the cube's axes
+        mag = np.abs(comp)
+        rows = np.arange(len(comp))
+        k1 = np.argmax(mag, axis=1)
+        mag2 = mag.copy()
+        mag2[rows, k1] = -1.0
+        k2 = np.argmax(mag2, axis=1)
+        face = code[k1, (comp[rows, k1] > 0).astype(int)]
+        other = code[k2, (comp[rows, k2] > 0).astype(int)]
         #: the face each output (sub-)pixel reads, an index into FACES (-1: no ray)
-        self.face = np.where(ok, face, -1).astype(np.int8)
+        self.face = np.where(ok, face.reshape(h, w), -1).astype(np.int8)
         # across a seam the two faces are blended over blend_px output pixels (a ramp,
         # not a step, between two renders' rasterisations): the other face's weight
         # falls from 1/2 at the seam to 0 at blend_px / 2 from it
-        weight = np.zeros((h, w))
+        weight = np.zeros(h * w)
         if blend_px > 0:
-            gap = np.take_along_axis(cos, face[..., None], 2)[..., 0] \
-                - np.take_along_axis(cos, other[..., None], 2)[..., 0]
+            gap = (mag[rows, k1] - mag[rows, k2]).reshape(h, w)
             gy, gx = np.gradient(gap)
             dist_px = gap / np.maximum(np.hypot(gx, gy), 1e-15)
-            weight = 0.5 * np.clip(1.0 - dist_px / (0.5 * blend_px * S), 0.0, 1.0)
-            weight[~ok] = 0.0
-        views = []
+            weight = (0.5 * np.clip(1.0 - dist_px / (0.5 * blend_px * S), 0.0, 1.0)).ravel()
+            weight[~self.ok] = 0.0
+        del comp, mag, mag2
+        m = VIEW_MARGIN_PX
+        self.views = []
         for i, name in enumerate(names):
-            main = (face == i) & ok
-            side = (other == i) & (weight > 0)
-            mine = main | side
+            main = (face == i) & self.ok
             if not main.any():
                 continue
+            mine = main | ((other == i) & (weight > 0))
             R = faces[name]
-            q = rays @ R                                             # in the face's axes
-            with np.errstate(divide="ignore", invalid="ignore"):
-                a, b = q[..., 0] / q[..., 2], q[..., 1] / q[..., 2]
-            # the finest step between neighbouring output pixels in the face's image
-            steps = []
-            for axis in (0, 1):
-                both = main & np.roll(main, -1, axis)
-                if axis == 0:
-                    both[-1, :] = False
-                else:
-                    both[:, -1] = False
-                da = np.hypot(np.roll(a, -1, axis) - a, np.roll(b, -1, axis) - b)[both]
-                if da.size:
-                    steps.append(da.min())
-            f = quality / (min(steps) if steps else 1e-3)
-            a0, a1, b0, b1 = a[mine].min(), a[mine].max(), b[mine].min(), b[mine].max()
             index = np.flatnonzero(mine)
-            wt = np.where(main, 1.0 - weight, weight).ravel()[index]
-            views.append((name, R, index, wt, a.ravel()[index], b.ravel()[index], f,
-                          (a0, a1, b0, b1)))
-        m = VIEW_MARGIN_PX
-        # one renderer for all faces, each face at its own scale in its top-left part
-        vw = max(math.ceil((v[7][1] - v[7][0]) * v[6]) + 2 * m + 1 for v in views)
-        vh = max(math.ceil((v[7][3] - v[7][2]) * v[6]) + 2 * m + 1 for v in views)
-        if max(vw, vh) > MAX_VIEW_PX:
-            raise RascError(f"the lens needs views of {vw}x{vh} px to render at this size "
-                            f"and supersample (more than {MAX_VIEW_PX}); use a smaller "
-                            "supersample or field of view")
-        self.view_size = (vw, vh)
-        self.views = []
-        for name, R, index, wt, a, b, f, (a0, _, b0, _) in views:
+            q = flat[index] @ R                              # in the face's axes
+            a, b = q[:, 0] / q[:, 2], q[:, 1] / q[:, 2]
+            f = quality / _finest_step(rays, main.reshape(h, w), R)
+            a0, a1, b0, b1 = a.min(), a.max(), b.min(), b.max()
+            # its own size, rounded up to 32 px (the eyes' faces share renderers)
+            size = tuple(32 * math.ceil((math.ceil(e * f) + 2 * m + 1) / 32)
+                         for e in (a1 - a0, b1 - b0))
+            if max(size) > MAX_VIEW_PX:
+                raise RascError(f"the lens needs a view of {size[0]}x{size[1]} px to render "
+                                f"at this size and supersample (more than {MAX_VIEW_PX}); "
+                                "use a smaller supersample or a wider field of view")
             K_view = np.array([[f, 0.0, m - f * a0], [0.0, f, m - f * b0], [0.0, 0.0, 1.0]])
             coords = np.stack([f * b + K_view[1, 2], f * a + K_view[0, 2]])  # (row, col)
-            self.views.append((name, R, K_view, index, wt, coords))
+            wt = np.where(main[index], 1.0 - weight[index], weight[index])
+            self.views.append((name, R, K_view, size, index, wt, coords))
 
     def render(self, sim, eye: str) -> np.ndarray:
         """The ``eye``'s image through the lens at the simulator's current state: 8-bit
@@ -245,8 +266,8 @@ class LensView:
         w, h = self.size
         S = self.supersample
         out = np.zeros(S * w * S * h)
-        for _, R, K_view, index, weight, coords in self.views:
-            grey = to_grey(sim.render_view(eye, R, K_view, self.view_size), order="rgb")
+        for _, R, K_view, size, index, weight, coords in self.views:
+            grey = to_grey(sim.render_view(eye, R, K_view, size), order="rgb")
             out[index] += weight * map_coordinates(grey.astype(float), coords, order=1,
                                                    mode="nearest")
         out = out.reshape(S * h, S * w)

@@ -291,7 +291,7 @@ class StereoHeadSim:
                  units: dict[str, UnitBuild] | None = None) -> None:
         mujoco = import_mujoco()
         self._renderer = None
-        self._view_renderer = None
+        self._view_renderers: dict = {}       # render_view's, by size
         self._board = board
         #: the URDF head this simulator renders (:mod:`rasc.sim.urdf`), or None
         self.urdf = None
@@ -904,20 +904,18 @@ class StereoHeadSim:
         w, h = (int(v) for v in size)
         R = np.asarray(R_cam_from_view, dtype=float)
         K_view = np.asarray(K_view, dtype=float)
-        if self._view_renderer is not None and \
-                (self._view_renderer.width, self._view_renderer.height) != (w, h):
-            self._view_renderer.close()
-            self._view_renderer = None
-        if self._view_renderer is None:
+        renderer = self._view_renderers.get((w, h))
+        if renderer is None:
             g = self.model.vis.global_
             g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
             try:
-                self._view_renderer = mujoco.Renderer(self.model, height=h, width=w)
+                renderer = mujoco.Renderer(self.model, height=h, width=w)
             except Exception as exc:
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else \
                     type(exc).__name__
                 raise RascError(f"cannot render a lens view offscreen at {w}x{h} "
                                 f"({first}); use a smaller supersample") from None
+            self._view_renderers[(w, h)] = renderer
         self.forward()
         m, d = self.model, self.data
         saved = (m.cam_sensorsize[cam].copy(), m.cam_intrinsic[cam].copy(),
@@ -930,12 +928,12 @@ class StereoHeadSim:
             m.cam_intrinsic[cam] = (K_view[0, 0], K_view[1, 1], w / 2 - 0.5 - K_view[0, 2],
                                     h / 2 - 0.5 - K_view[1, 2])
             d.cam_xmat[cam] = (R_scene_from_mj @ _CV_FROM_MJ @ R @ _CV_FROM_MJ).ravel()
-            self._view_renderer.update_scene(d, camera=name)
-            scene = self._view_renderer.scene
+            renderer.update_scene(d, camera=name)
+            scene = renderer.scene
             for light in scene.lights[:scene.nlight]:
                 if light.headlight:        # along the eye's own axis, as in its render
                     light.dir = -R_scene_from_mj[:, 2]
-            return self._view_renderer.render().copy()
+            return renderer.render().copy()
         finally:
             m.cam_sensorsize[cam], m.cam_intrinsic[cam], d.cam_xmat[cam] = saved
 
@@ -944,9 +942,9 @@ class StereoHeadSim:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        if getattr(self, "_view_renderer", None) is not None:
-            self._view_renderer.close()
-            self._view_renderer = None
+        for renderer in getattr(self, "_view_renderers", {}).values():
+            renderer.close()
+        self._view_renderers = {}
 
     def __enter__(self) -> StereoHeadSim:
         return self

@@ -19,14 +19,14 @@ BOARD = ((7, 4), 0.04)
 DISTANCE_M = 0.45
 #: RMS of the corner error over all corners of the views below (px), detector "saddle".
 #: Measured on these 640x480 renders (f = 244 px, squares of 19-23 px; every pixel
-#: averages 2 x 2 sub-pixels, rasc.sim.lens_render.MIN_SUBPIXELS): 0.018-0.021 px over
+#: averages 2 x 2 sub-pixels, rasc.sim.lens_render.MIN_SUBPIXELS): 0.017-0.018 px over
 #: 252 corners for seeds 0-4, the level of the stock pinhole's S = 1 pose views
-#: (0.017-0.019 px); 0.035 px is 1.7x the worst measured. With 1 sub-pixel it was
+#: (0.017-0.019 px); 0.035 px is twice the worst measured. With 1 sub-pixel it was
 #: 0.032-0.035 px. The truth through the wrong lens (the pinhole model with the same K)
 #: is pixels away, so the test tells a wrong truth apart.
 RMS_TOL_PX = 0.035
 #: corners whose detector window (±6 px) straddles a seam against the same corners read
-#: off every seam (the cube turned 45° about the axis): measured on/off 0.98-1.18 for
+#: off every seam (the cube turned 45° about the axis): measured on/off 1.05-1.17 for
 #: seeds 0-4 over 57-64 corners (1.27-1.47 with 1 sub-pixel, where the faces alias at
 #: their edges); their RMS may exceed the others' by at most this factor
 SEAM_FACTOR = 1.4
