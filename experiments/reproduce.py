@@ -60,6 +60,8 @@ EXPERIMENTS = (
     ("e8_wide", "E8 — beyond the paper: wide motions with a ChArUco board"),
     ("e9_outliers", "E9 — beyond the paper: bad positions and unknown scale"),
     ("e10_depth", "E10 — beyond the paper: depth at any gaze against the depth buffer"),
+    ("e11_lenses", "E11 — beyond the paper: calibration accuracy against field of view and "
+                   "lens model"),
 )
 
 
@@ -172,8 +174,9 @@ EARLY = ("e7_model_mismatch",)
 #: while another finishes a long one), by their wall times measured on the 2-core bench
 #: machine (quick: E6b 3.2 s, E1 2.5, E6a 1.7, E4 1.7, E3 1.5, E5 1.3, E2 0.8; the full
 #: protocol's order is nearly the same; E10, added later, about 9 s quick and 30 s full,
-#: goes first). Only the order changes, never a result.
-LONGEST_FIRST = ("e10_depth", "e6b_shootout", "e1_noise", "e6a_pixel_noise", "e4_triangulation",
+#: goes first, and E11, about 18 s quick, before it). Only the order changes, never a
+#: result.
+LONGEST_FIRST = ("e11_lenses", "e10_depth", "e6b_shootout", "e1_noise", "e6a_pixel_noise", "e4_triangulation",
                  "e3_quality", "e5_base_to_ptu", "e2_home_view")
 
 #: what the pool's forkserver imports once (numpy, scipy, OpenCV, mujoco, matplotlib,
