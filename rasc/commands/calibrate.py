@@ -48,7 +48,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="corner detector (default saddle: classic + saddle-point refinement)")
     p.add_argument("--dist-model", default=calopts.default("dist_model"),
                    choices=calopts.DIST_MODEL_NAMES,
-                   help="lens distortion model (default k1k2)")
+                   help="lens model (default k1k2): pinhole with k1 k2 (k1k2), k1 k2 p1 p2 "
+                        "k3 (opencv5), OpenCV's rational k1-k6 p1 p2 (rational) or none; "
+                        "fisheye: OpenCV's equidistant k1-k4 (docs/topics/lenses.md)")
     p.add_argument("--keep-outliers", action="store_true",
                    help="keep intrinsics views flagged as outliers")
     p.add_argument("--mounts", metavar="FILE",

@@ -65,6 +65,31 @@ LENS_MODELS = {
 #: Accepted numbers of coefficients per model.
 MODEL_N_COEFFS = {"pinhole": N_COEFFS, "fisheye": (0, 4)}
 
+#: The calibration's distortion models (``dist_model``, ``rasc calibrate --dist-model``):
+#: name → (the lens model of :data:`LENS_MODELS`, the coefficients the calibration
+#: estimates, the length of the ``dist`` vector it stores). The one table the intrinsics
+#: (:mod:`rasc.vision.camera`, which adds OpenCV's flags), the options
+#: (:mod:`rasc.head.options`, its names) and the whole-head refinement
+#: (:mod:`rasc.head.refine`, its parameters) read.
+DIST_MODELS = {
+    "opencv5": ("pinhole", ("k1", "k2", "p1", "p2", "k3"), 5),
+    "k1k2": ("pinhole", ("k1", "k2"), 5),
+    "none": ("pinhole", (), 5),
+    # OpenCV's rational model (CALIB_RATIONAL_MODEL): k4-k6 in the radial denominator
+    "rational": ("pinhole", ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"), 8),
+    # OpenCV's cv2.fisheye (equidistant, Kannala-Brandt)
+    "fisheye": ("fisheye", ("k1", "k2", "k3", "k4"), 4),
+}
+
+
+def dist_model_lens(dist_model: str) -> str:
+    """The lens model (:data:`LENS_MODELS`) of a calibration's ``dist_model``."""
+    if dist_model not in DIST_MODELS:
+        raise InputError(f"dist_model: unknown {dist_model!r} (use one of "
+                         f"{', '.join(DIST_MODELS)})")
+    return DIST_MODELS[dist_model][0]
+
+
 #: The fisheye model's angle from the optical axis must stay below this (radians): at
 #: 90° the normalised coordinates are infinite.
 FISHEYE_MAX_THETA = np.pi / 2 - 1e-9

@@ -88,7 +88,7 @@ class EyeFit:
 
 def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
             K: np.ndarray, dist: np.ndarray, T_cam_from_gaze: np.ndarray,
-            T_cam_from_world: np.ndarray, unit=None) -> EyeFit:
+            T_cam_from_world: np.ndarray, unit=None, lens_model: str = "pinhole") -> EyeFit:
     """The model-fit check for one eye.
 
     Parameters
@@ -100,6 +100,7 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
     T_cam_from_gaze : (4, 4) the closed form's hand-eye
     T_cam_from_world : (n, 4, 4) each view's own extrinsics (the free fit)
     unit : PanTiltUnit, optional; default the paper's (eq. 3)
+    lens_model : the lens model of ``dist`` (:data:`rasc.geometry.lens.LENS_MODELS`)
 
     Returns
     -------
@@ -121,7 +122,7 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
 
     def project(T_cw):
         pc = np.einsum("nij,kj->nki", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
-        return lens.project_points(pc[seen], K, dist)
+        return lens.project_points(pc[seen], K, dist, model=lens_model)
 
     free = project(np.asarray(T_cam_from_world, float)) - want
     rss_free = float(np.sum(free ** 2))
@@ -150,7 +151,8 @@ def calibration_fit(cal, board_points: np.ndarray) -> dict[str, EyeFit]:
     for eye, r in cal.eyes.items():
         corners = np.array([r.corners["pose"][f] for f in r.pose_files])
         out[eye] = eye_fit(corners, board_points, r.pan_tilt, r.intrinsics.K, r.intrinsics.dist,
-                           r.handeye.T_cam_from_gaze, r.T_cam_from_world)
+                           r.handeye.T_cam_from_gaze, r.T_cam_from_world,
+                           lens_model=r.intrinsics.lens)
     return out
 
 
@@ -165,3 +167,4 @@ def misfit_warning(fits: dict[str, EyeFit]) -> str | None:
     return (f"the paper's pan-tilt model (eq. 3) does not fit the pose views: {parts}, "
             f"above the {MISFIT_F_WARN:g} the corner noise explains; the unit's axes "
             f"probably miss each other or its encoders are off: {REMEDY}")
+

@@ -26,8 +26,9 @@ if TYPE_CHECKING:
 MODELS = ("paper", "general")
 #: corner detectors (rasc.vision.camera.DETECTORS; a test checks they agree)
 DETECTORS = ("classic", "saddle", "sb")
-#: lens models (the keys of rasc.vision.camera.DIST_MODELS; a test checks they agree)
-DIST_MODEL_NAMES = ("opencv5", "k1k2", "none")
+#: lens models (the keys of rasc.geometry.lens.DIST_MODELS, the one table of each one's
+#: lens and coefficients; a test checks they agree)
+DIST_MODEL_NAMES = ("opencv5", "k1k2", "none", "rational", "fisheye")
 #: encoder scales under the general model (rasc.head.refine.SCALES says what each costs)
 SCALES_MODES = ("auto", "estimate", "hold")
 
@@ -45,9 +46,13 @@ class CalibrationOptions:
         calibration records its closed form beside the refined result
         (``refinement.seed``).
     detector : {"classic", "saddle", "sb"}
-    dist_model : {"opencv5", "k1k2", "none"}
+    dist_model : {"opencv5", "k1k2", "none", "rational", "fisheye"}
         k1 k2 by default: with 20 views the full five-term model over-fits (measured on
         renders: pose extrinsics 0.046° worst with "opencv5" against 0.012° with "k1k2").
+        "rational": OpenCV's rational model (k1-k6, p1 p2); "fisheye": OpenCV's
+        equidistant fisheye model (k1-k4), for lenses of 120° and more
+        (docs/topics/lenses.md). A lens the chosen model does not fit is warned
+        (:func:`rasc.vision.camera.is_wrong_lens`).
     exclude_outliers : bool
         Drop intrinsics views flagged as outliers.
     T_ptuL_from_ptuR_measured : ndarray (4, 4) or None

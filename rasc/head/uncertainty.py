@@ -38,6 +38,7 @@ import numpy as np
 
 from rasc import formats
 from rasc.errors import InputError
+from rasc.geometry import lens as lens_models
 from rasc.geometry.frames import EYES
 from rasc.head.model import EyeCalibration, HeadCalibration
 from rasc.io import finite_number
@@ -48,7 +49,8 @@ PIXEL_STEP = 1e-3
 #: central-difference step of a calibration parameter, in its standard deviations
 PARAMETER_STEP_STD = 1e-2
 
-DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
+#: every lens model's distortion coefficients (pinhole k1-k6 p1 p2; the fisheye's k1-k4)
+DIST_NAMES = lens_models.LENS_MODELS["pinhole"]
 UNIT_NAMES = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_axis_y", "tilt_point_x",
               "tilt_point_y", "tilt_point_z", "pan_offset", "tilt_offset")
 FORMAT = formats.HEAD_COVARIANCE.tag
@@ -158,7 +160,9 @@ def perturbed_head(head: HeadCalibration, names, delta) -> HeadCalibration:
     for eye in EYES:
         e = getattr(head, eye)
         a = np.asarray(e.unit.tilt_axis, float)
-        parts[eye] = {"K": e.K.copy(), "dist": np.r_[e.dist, np.zeros(max(0, 5 - len(e.dist)))],
+        coef = lens_models.LENS_MODELS[e.lens]
+        parts[eye] = {"K": e.K.copy(), "coef": coef,
+                      "dist": np.r_[e.dist, np.zeros(len(coef) - len(e.dist))],
                       "R_cg": e.T_cam_from_gaze[:3, :3].copy(),
                       "t_cg": e.T_cam_from_gaze[:3, 3].copy(),
                       "unit": {"pan_scale": e.unit.pan_scale, "tilt_scale": e.unit.tilt_scale,
@@ -189,8 +193,8 @@ def perturbed_head(head: HeadCalibration, names, delta) -> HeadCalibration:
         if rest in ("fx", "fy", "cx", "cy"):
             i, j = {"fx": (0, 0), "fy": (1, 1), "cx": (0, 2), "cy": (1, 2)}[rest]
             p["K"][i, j] += d
-        elif rest in DIST_NAMES:
-            p["dist"][DIST_NAMES.index(rest)] += d
+        elif rest in p["coef"]:
+            p["dist"][p["coef"].index(rest)] += d
         elif rest.startswith("T_cam_from_gaze.rot"):
             rot[group]["xyz".index(rest[-1])] += d
         elif rest.startswith("T_cam_from_gaze.t"):
@@ -219,12 +223,18 @@ def perturbed_head(head: HeadCalibration, names, delta) -> HeadCalibration:
                                        u["tilt_point_z"]),
                            pan_offset=u["pan_offset"], tilt_offset=u["tilt_offset"],
                            pan_scale=u["pan_scale"], tilt_scale=u["tilt_scale"])
-        # the eye's own length, unless a term beyond it was changed (then OpenCV's five)
+        # the eye's own length, unless a term beyond it was changed (then the shortest
+        # length the lens model accepts that holds it)
         L = p["n_dist"]
-        dist = p["dist"] if L >= 5 or np.any(p["dist"][L:]) else p["dist"][:L]
+        if np.any(p["dist"][L:]):
+            last = int(np.flatnonzero(p["dist"])[-1]) + 1
+            if e.lens == "pinhole":
+                last = max(last, 5)          # OpenCV's five, as before the rational model
+            L = min(n for n in lens_models.MODEL_N_COEFFS[e.lens] if n >= last)
+        dist = p["dist"][:L]
         eyes[eye] = EyeCalibration(K=p["K"], dist=dist, T_cam_from_gaze=T_cg,
                                    T_ptu_from_base=T_pb[eye], image_size=e.image_size,
-                                   unit=unit, std=e.std)
+                                   unit=unit, std=e.std, lens=e.lens)
     return HeadCalibration(**eyes)
 
 

@@ -129,11 +129,11 @@ def report_data(head, dataset, detector: str = "saddle",
         for f, c in det.corners.items():
             seen = seen_mask(c)
             try:
-                T_cw, _ = estimate_extrinsics(c, board, e.K, e.dist)
+                T_cw, _ = estimate_extrinsics(c, board, e.K, e.dist, lens=e.lens)
             except RascError as exc:
                 data.skipped.append(f"{eye} intrinsics {f}: {exc}")
                 continue
-            uv = project_board(board, T_cw, e.K, e.dist)[seen]
+            uv = project_board(board, T_cw, e.K, e.dist, e.lens)[seen]
             ids = np.flatnonzero(seen)
             data.views.append(ViewResiduals(eye, "intrinsics", f, c[seen], uv - c[seen], ids,
                                             out_of(eye, f, ids)))
@@ -160,7 +160,7 @@ def report_data(head, dataset, detector: str = "saddle",
         full = np.full((board.n_corners, 2), np.nan)
         full[ids] = c
         try:
-            T_cw, _ = estimate_extrinsics(full, board, e.K, e.dist)
+            T_cw, _ = estimate_extrinsics(full, board, e.K, e.dist, lens=e.lens)
         except RascError:
             continue
         T_bw = invert_transform(e.T_cam_from_base(pan, tilt)) @ T_cw

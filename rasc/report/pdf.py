@@ -213,6 +213,13 @@ def _head(fig, head, unit: str | None) -> None:
     fig.suptitle("The calibrated head", fontsize=13)
 
 
+def _lens_row(doc: dict, eye: str) -> str:
+    """The eye's lens model and the calibration's dist_model, one row."""
+    lens_model = ((doc.get("head") or {}).get(eye) or {}).get("lens", "pinhole")
+    dm = (doc.get("options") or {}).get("dist_model", "?")
+    return f"lens {lens_model} (dist_model {dm})"
+
+
 def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
     from rasc.head.refine.model import parameter_unit
 
@@ -222,7 +229,8 @@ def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
     params = ref.get("parameters") or {}
     for group in (*EYES, "head"):
         out = []
-        order = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "T_", "unit.")
+        order = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6", "T_",
+                 "unit.")
         for name, p in sorted((params.get(group) or {}).items(), key=lambda kv: (
                 next((i for i, o in enumerate(order) if kv[0].startswith(o)), 99), kv[0])):
             if p.get("value") is None and p.get("std") is None:
@@ -243,6 +251,8 @@ def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
                 out.append(f"{name:34s} {val:>14s} ± {std} {u if u != '1' else ''}".rstrip())
             if p.get("held"):
                 out[-1] += "  (held)"
+        if group in EYES:     # the lens model its distortion terms belong to
+            out.insert(0, _lens_row(doc, group))
         rows[group] = out
     undetermined = []
     for d in ref.get("not_identifiable") or []:
@@ -252,7 +262,8 @@ def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
             e = (doc.get("eyes") or {}).get(eye) or {}
             K = np.array(e.get("K", np.eye(3)))
             hu = e.get("handeye_uncertainty") or {}
-            rows[eye] = [f"fx {K[0, 0]:.6g}  fy {K[1, 1]:.6g}  cx {K[0, 2]:.6g}  "
+            rows[eye] = [_lens_row(doc, eye),
+                         f"fx {K[0, 0]:.6g}  fy {K[1, 1]:.6g}  cx {K[0, 2]:.6g}  "
                          f"cy {K[1, 2]:.6g} px (no σ: model paper)",
                          f"dist {np.round(e.get('dist', []), 6).tolist()}",
                          f"hand-eye jackknife σ: {_fmt(hu.get('rotation_deg'), 'deg')}, "

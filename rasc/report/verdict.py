@@ -19,6 +19,10 @@ other failed checks' messages). The thresholds:
   an eye whose pose views the paper's unit does not explain (:func:`rasc.head.fit.is_misfit`:
   F above 5 and the one-board fit's excess RMS above half the per-view RMS; the general
   model answers that misfit, so there it is shown, not judged).
+* the lens model (:func:`rasc.vision.camera.is_wrong_lens`): an eye whose intrinsics
+  views the chosen ``dist_model`` fits more than twice as badly as another lens model
+  (the fisheye against a pinhole model, or the reverse) — a fisheye calibrated as a
+  pinhole, or a pinhole as a fisheye.
 * :data:`CHECK_REJECTED_FRACTION` (5 %): corners the refinement rejected as outliers; a
   few are glints, many mean bad detections or a moving board.
 * :data:`CHECK_FOCAL_REL_STD` (1 %): the relative standard deviation of a focal length;
@@ -220,6 +224,19 @@ def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None,
                                                   _num(fit.get("rms_free_px"))),
                                     f"the paper's unit does not explain the {eye} pose views "
                                     f"(F = {F:.3g}): calibrate with --model general"))
+    for eye, e in (doc.get("eyes") or {}).items():
+        lc = e.get("lens_check") if isinstance(e, dict) else None
+        if isinstance(lc, dict) and _num(lc.get("alternative_rms_px")) is not None \
+                and _num(lc.get("rms_px")) is not None:
+            from rasc.vision.camera import is_wrong_lens, lens_check_rms
+
+            rms_lc, alt_lc = lens_check_rms(lc), _num(lc.get("alternative_rms_px"))
+            checks.append(Check(f"{eye}.lens", rms_lc, alt_lc, "check",
+                                not is_wrong_lens(rms_lc, alt_lc),
+                                f"the {eye} lens model {lc.get('dist_model')!r} fits the "
+                                f"intrinsics views to {rms_lc:.3g} px where "
+                                f"{lc.get('alternative')!r} fits them to {alt_lc:.3g} px: "
+                                f"calibrate with --dist-model {lc.get('alternative')}"))
     for eye, c in (coverage or {}).items():
         checks.append(Check(f"{eye}.coverage", c, CHECK_COVERAGE, "check", c >= CHECK_COVERAGE,
                             f"the {eye} intrinsics corners touch {100 * c:.0f} % of the image "

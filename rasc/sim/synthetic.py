@@ -49,6 +49,12 @@ class SyntheticHead:
     T_cam_from_gaze: dict[str, np.ndarray]
     T_ptu_from_base: dict[str, np.ndarray]
     unit: dict[str, PanTiltUnit]
+    #: eye → lens model (:data:`rasc.geometry.lens.LENS_MODELS`); None: pinhole for both
+    lens: dict[str, str] | None = None
+
+    def lens_model(self, eye: str) -> str:
+        """The eye's lens model (``"pinhole"`` unless :attr:`lens` names another)."""
+        return "pinhole" if self.lens is None else self.lens[eye]
 
     def T_cam_from_base(self, eye: str, pan: float, tilt: float) -> np.ndarray:
         """The camera's pose in the base frame at readings (pan, tilt), radians (eq. 1–2)."""
@@ -78,6 +84,82 @@ def default_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
                          T_cam_from_gaze=T_cg, T_ptu_from_base=T_pb, unit=units)
 
 
+#: The fisheye head of :func:`fisheye_head`: focal length (px) and k1-k4 (cv2.fisheye).
+#: f = 420 px on 1280×960: the image's half-width is 640/420 = 1.52 rad of θ_d, so the
+#: field of view is about 170° across, 130° up-down (the lens's distortion included).
+FISHEYE_FOCAL_PX = 420.0
+FISHEYE_DIST = (0.02, -0.01, 0.003, -0.0005)
+
+
+def fisheye_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
+                 focal_px: float = FISHEYE_FOCAL_PX, dist=FISHEYE_DIST) -> SyntheticHead:
+    """:func:`default_head` with a fisheye lens (OpenCV's equidistant model) on both eyes:
+    focal length ``focal_px`` (default 420 px: about 170° × 130° on 1280×960),
+    coefficients ``dist`` (k1 k2 k3 k4)."""
+    head = default_head(unit)
+    K = {eye: np.array([[focal_px, 0, k[0, 2]], [0, focal_px, k[1, 2]], [0, 0, 1]])
+         for eye, k in head.K.items()}
+    return SyntheticHead(K=K, dist={eye: np.asarray(dist, float) for eye in EYES},
+                         T_cam_from_gaze=head.T_cam_from_gaze,
+                         T_ptu_from_base=head.T_ptu_from_base, unit=head.unit,
+                         lens={eye: "fisheye" for eye in EYES})
+
+
+#: Intrinsics views through a lens other than the pinhole (:func:`_wide_intrinsics_poses`):
+#: the board's centre on the ray of a pixel drawn over this central fraction of the image
+#: (a wide lens must be seen to its edges), 0.25-0.6 m away, facing the camera's centre
+#: tilted by 20-45°, kept whole with a 10 px margin.
+WIDE_PIXEL_SPAN = 0.9
+WIDE_DISTANCE_M = (0.25, 0.6)
+WIDE_TILT_DEG = (20.0, 45.0)
+WIDE_MARGIN_PX = 10.0
+
+
+def _wide_intrinsics_poses(rng, board: Board, K, dist, model: str, n: int) -> list[np.ndarray]:
+    """``n`` intrinsics views for a wide lens (:data:`WIDE_PIXEL_SPAN`): the centre's pixel
+    uniform over the image (so that the views cover the field to its edges), the board
+    turned to face the camera along that ray, then tilted 20-45° about a random axis in
+    its plane and turned in-plane by up to ±30°; whole, in front, inside the image."""
+    w, h = IMAGE_SIZE
+    lo, hi = (1 - WIDE_PIXEL_SPAN) / 2, (1 + WIDE_PIXEL_SPAN) / 2
+    centre = board.centre()
+    P = board.object_points()
+    poses = []
+    for _ in range(400 * n):
+        if len(poses) == n:
+            break
+        uv = np.array([[rng.uniform(lo * w, hi * w), rng.uniform(lo * h, hi * h)]])
+        d = rng.uniform(*WIDE_DISTANCE_M)
+        psi = rng.uniform(0, 2 * np.pi)
+        tilt = np.radians(rng.uniform(*WIDE_TILT_DEG))
+        turn = np.radians(rng.uniform(-30.0, 30.0))
+        try:
+            ray = lens.undistort_pixels(uv, K, dist, model=model)[0]
+        except Exception:                     # noqa: BLE001 (outside the lens's model)
+            continue
+        ray = np.linalg.solve(K, np.r_[ray, 1.0])
+        ray /= np.linalg.norm(ray)
+        # face the camera along the ray: the board's z (into the board) along the ray
+        axis = np.cross([0.0, 0.0, 1.0], ray)
+        s_ = np.linalg.norm(axis)
+        R_face = np.eye(3) if s_ < 1e-12 else \
+            matrix_from_rotvec(axis / s_ * np.arctan2(s_, ray[2]))
+        R = R_face @ matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) \
+            @ matrix_from_rotvec([0.0, 0.0, turn])
+        T = make_transform(R, d * ray - R @ centre)
+        p_cam = P @ T[:3, :3].T + T[:3, 3]
+        if np.any(p_cam[:, 2] <= 0.05):
+            continue
+        c = lens.project_points(p_cam, K, dist, model=model)
+        m = WIDE_MARGIN_PX
+        if np.all((c[:, 0] >= m) & (c[:, 0] <= w - 1 - m) & (c[:, 1] >= m)
+                  & (c[:, 1] <= h - 1 - m)):
+            poses.append(T)
+    if len(poses) < n:
+        raise RuntimeError(f"cannot place {n} whole boards in the {w}x{h} image")
+    return poses
+
+
 def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                    noise_px: float = 0.03, n_intrinsics: int = 20,
                    poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
@@ -103,14 +185,16 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
 
     def project(eye, T_cw):
         p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
+        model = head.lens_model(eye)
         if not partial:
-            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye], model=model)
             return uv + rng.normal(0.0, noise_px, uv.shape)
         # a target seen in part: the corners inside the image, NaN the rest
         front = p_cam[:, 2] > 0.05
         uv = np.full((len(P), 2), np.nan)
         if front.any():
-            uv[front] = lens.project_points(p_cam[front], head.K[eye], head.dist[eye])
+            uv[front] = lens.project_points(p_cam[front], head.K[eye], head.dist[eye],
+                                            model=model)
         uv = uv + rng.normal(0.0, noise_px, uv.shape)
         w, h = IMAGE_SIZE
         with np.errstate(invalid="ignore"):
@@ -129,8 +213,13 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                                   role=role, **reading))
 
     for eye in EYES:
-        for k, T_cw in enumerate(intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE,
-                                                         n_intrinsics, head.dist[eye])):
+        if head.lens_model(eye) == "pinhole":
+            placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
+                                            head.dist[eye])
+        else:
+            placed = _wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
+                                            head.lens_model(eye), n_intrinsics)
+        for k, T_cw in enumerate(placed):
             add(f"intrinsics/{eye}_{k:03d}.png", project(eye, T_cw), eye, "intrinsics")
     for eye in EYES:
         for k, (pan_deg, tilt_deg) in enumerate(poses_deg):
@@ -150,3 +239,140 @@ def __getattr__(name: str):
                       "holding the corners", DeprecationWarning, stacklevel=2)
         return Dataset
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+# ------------------------------------------------------------------ painted images
+
+def _sample_rays(K, dist, model: str, size: tuple[int, int], s: int):
+    """The normalised rays (x, y) of the s×s samples of every pixel (centres at
+    ``u − 1/2 + (k + 1/2)/s``), shape (h·s, w·s) each, and where the lens model defines
+    them (``ok``). The fisheye's inverse is one-dimensional (θ from θ_d, increasing up to
+    the model's fold): a fine table, then one Newton step; a pinhole lens by
+    :func:`rasc.geometry.lens.distortion_remap`."""
+    w, h = size
+    K = np.asarray(K, float)
+    Ks = np.array([[s * K[0, 0], s * K[0, 1], s * K[0, 2] + (s - 1) / 2],
+                   [0.0, s * K[1, 1], s * K[1, 2] + (s - 1) / 2], [0, 0, 1.0]])
+    if model != "fisheye":
+        mx, my = lens.distortion_remap(Ks, dist, (w * s, h * s), model=model)
+        ok = ~((mx == -1.0) & (my == -1.0))
+        y = (my.astype(float) - Ks[1, 2]) / Ks[1, 1]
+        x = (mx.astype(float) - Ks[0, 2] - Ks[0, 1] * y) / Ks[0, 0]
+        return x, y, ok
+    k = np.zeros(4) if dist is None or len(dist) == 0 else np.asarray(dist, float)
+    vv, uu = np.mgrid[0:h * s, 0:w * s].astype(float)
+    yd = (vv - Ks[1, 2]) / Ks[1, 1]
+    xd = (uu - Ks[0, 2] - Ks[0, 1] * yd) / Ks[0, 0]
+    rd = np.hypot(xd, yd)
+    theta = np.linspace(0.0, lens.FISHEYE_MAX_THETA - 1e-3, 200001)
+    t2 = theta * theta
+    td = theta * (1 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
+    rising = np.flatnonzero(np.diff(td) <= 0)
+    stop = rising[0] + 1 if rising.size else len(theta)
+    th = np.interp(rd, td[:stop], theta[:stop])
+    ok = rd < td[stop - 1]
+    th2 = th * th
+    f = th * (1 + th2 * (k[0] + th2 * (k[1] + th2 * (k[2] + th2 * k[3])))) - rd
+    df = 1 + th2 * (3 * k[0] + th2 * (5 * k[1] + th2 * (7 * k[2] + th2 * 9 * k[3])))
+    th = th - f / df
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(rd > 1e-12, np.tan(th) / np.where(rd > 0, rd, 1.0), 1.0)
+    return xd * scale, yd * scale, ok
+
+
+def board_image(board: Board, T_cam_from_world: np.ndarray, rays, supersample: int = 2,
+                K=None, dist=None, model: str = "pinhole") -> np.ndarray:
+    """A chessboard painted through a lens: grey uint8 (h, w), the board's squares
+    (the one between corners (0, 0) and (1, 1) black), its white quiet zone, a mid-grey
+    background; each pixel the mean of its ``supersample``² samples (``rays``:
+    :func:`_sample_rays`). Exact geometry for any lens model, no rendering: for
+    testing the image door (detection, ``rasc calibrate``) where MuJoCo is not needed.
+    With ``K`` and ``dist`` (the lens ``model``'s) only the pixels around the board's
+    projected outline are painted (the rest is background), which is faster."""
+    x_all, y_all, ok_all = rays
+    s = supersample
+    H, W = x_all.shape[0] // s, x_all.shape[1] // s
+    out = np.full((H, W), 128.0)
+    R, t = T_cam_from_world[:3, :3], T_cam_from_world[:3, 3]
+    u0, u1, v0, v1 = 0, W, 0, H
+    q0, r0, q1, r1 = board.quiet_box()
+    if K is not None:
+        e = np.linspace(0.0, 1.0, 33)
+        edge = np.concatenate([np.stack([q0 + (q1 - q0) * e, np.full_like(e, r0)], 1),
+                               np.stack([q0 + (q1 - q0) * e, np.full_like(e, r1)], 1),
+                               np.stack([np.full_like(e, q0), r0 + (r1 - r0) * e], 1),
+                               np.stack([np.full_like(e, q1), r0 + (r1 - r0) * e], 1)])
+        p = np.c_[edge, np.zeros(len(edge))] @ R.T + t
+        if np.all(p[:, 2] > 1e-3):
+            uv = lens.project_points(p, K, dist, model=model)
+            u0, v0 = (max(0, int(np.floor(c)) - 3) for c in uv.min(axis=0))
+            u1 = min(W, int(np.ceil(uv[:, 0].max())) + 4)
+            v1 = min(H, int(np.ceil(uv[:, 1].max())) + 4)
+            if u1 <= u0 or v1 <= v0:
+                return out.astype(np.uint8)
+    win = np.s_[v0 * s:v1 * s, u0 * s:u1 * s]
+    x, y, ok = x_all[win], y_all[win], ok_all[win]
+    n = R[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = (n @ t) / (n[0] * x + n[1] * y + n[2])
+    hit = ok & np.isfinite(lam) & (lam > 0)
+    lam = np.where(hit, lam, 0.0)
+    # the point on the board plane, in the board's frame: q = Rᵀ(λ d − t)
+    px, py, pz = lam * x - t[0], lam * y - t[1], lam - t[2]
+    a = R[0, 0] * px + R[1, 0] * py + R[2, 0] * pz
+    b = R[0, 1] * px + R[1, 1] * py + R[2, 1] * pz
+    sq = board.square_size
+    x0, y0, x1, y1 = board.face()
+    i, j = np.floor(a / sq), np.floor(b / sq)
+    value = np.full(a.shape, 128.0)
+    quiet = hit & (a >= q0) & (a < q1) & (b >= r0) & (b < r1)
+    value[quiet] = 235.0
+    face = hit & (a >= x0) & (a < x1) & (b >= y0) & (b < y1)
+    value[face & ((i + j) % 2 == 0)] = 20.0
+    h, w = value.shape[0] // s, value.shape[1] // s
+    out[v0:v1, u0:u1] = value.reshape(h, s, w, s).mean(axis=(1, 3))
+    return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
+def image_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
+                  n_intrinsics: int = 20, poses_deg=PAPER_POSES_DEG,
+                  target_distance: float = 1.0, board: Board = BOARD,
+                  supersample: int = 2) -> Dataset:
+    """:func:`corner_dataset`'s views painted as images (:func:`board_image`) through
+    each eye's lens: a :class:`rasc.vision.dataset.Dataset` of images in memory
+    (:func:`rasc.vision.dataset.write_dataset` writes it as a folder for ``rasc
+    calibrate``), the board poses those of ``corner_dataset`` with the same seed; its
+    ``truth`` is the head."""
+    head = head or default_head()
+    corners = corner_dataset(head, seed=seed, noise_px=0.0, n_intrinsics=n_intrinsics,
+                             poses_deg=poses_deg, target_distance=target_distance,
+                             board=board)
+    rng = np.random.default_rng(seed)
+    T_bw = T_base_from_world_facing(board, distance=target_distance)
+    poses: dict[str, np.ndarray] = {}
+    for eye in EYES:
+        if head.lens_model(eye) == "pinhole":
+            placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
+                                            head.dist[eye])
+        else:
+            placed = _wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
+                                            head.lens_model(eye), n_intrinsics)
+        for k, T_cw in enumerate(placed):
+            poses[f"intrinsics/{eye}_{k:03d}.png"] = T_cw
+    images, pixels = [], {}
+    for e in corners.images:
+        if e.role == "pose":
+            poses[e.file] = head.T_cam_from_base(e.eye, e.pan, e.tilt) @ T_bw
+    rays = {eye: _sample_rays(head.K[eye], head.dist[eye], head.lens_model(eye), IMAGE_SIZE,
+                              supersample) for eye in EYES}
+    for e in corners.images:
+        pixels[e.file] = board_image(board, poses[e.file], rays[e.eye], supersample,
+                                     head.K[e.eye], head.dist[e.eye], head.lens_model(e.eye))
+        entry = {"file": e.file, "eye": e.eye, "role": e.role}
+        if e.role == "pose":
+            entry.update(pan=float(np.degrees(e.pan)), tilt=float(np.degrees(e.tilt)),
+                         view=e.view)
+        images.append(entry)
+    ds = Dataset.in_memory(board, images, pixels, angle_unit="deg")
+    ds.truth = head
+    return ds

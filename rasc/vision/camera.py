@@ -20,7 +20,8 @@ import cv2
 import numpy as np
 
 from rasc.errors import DegenerateDataError, InputError
-from rasc.geometry.transforms import make_transform
+from rasc.geometry import lens as _lens
+from rasc.geometry.transforms import make_transform, matrix_from_rotvec
 from rasc.vision import images as _images
 from rasc.vision.board import (  # noqa: F401  (Board, MIN_INTRINSICS_VIEWS re-exported)
     MIN_INTRINSICS_VIEWS,
@@ -68,13 +69,32 @@ image_size = _images.image_size
 MIN_ORIENTATION_SPREAD_DEG = 5.0
 
 
-DIST_MODELS = {
-    # name: calibrateCamera flags. Every model returns five coefficients (k1 k2 p1 p2 k3).
+#: The distortion models (``dist_model``): name → (lens model, the coefficients estimated,
+#: the stored length of ``dist``), :data:`rasc.geometry.lens.DIST_MODELS`, the one table.
+DIST_MODELS = _lens.DIST_MODELS
+
+#: OpenCV's flags for each pinhole ``dist_model`` (cv2.calibrateCamera); ``"fisheye"`` is
+#: calibrated by cv2.fisheye.calibrate with :data:`FISHEYE_FLAGS`.
+CALIB_FLAGS = {
     "opencv5": 0,
     "k1k2": cv2.CALIB_FIX_K3 | cv2.CALIB_ZERO_TANGENT_DIST,
     "none": (cv2.CALIB_FIX_K1 | cv2.CALIB_FIX_K2 | cv2.CALIB_FIX_K3
              | cv2.CALIB_ZERO_TANGENT_DIST),
+    "rational": cv2.CALIB_RATIONAL_MODEL,
 }
+#: cv2.fisheye.calibrate's flags: the per-view extrinsics re-estimated at every
+#: iteration, no skew (as the pinhole models)
+FISHEYE_FLAGS = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW
+FISHEYE_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+#: the coefficients held at each stage of the fisheye calibration (:func:`_calibrate_fisheye`)
+FISHEYE_STAGES = (cv2.fisheye.CALIB_FIX_K2 | cv2.fisheye.CALIB_FIX_K3 | cv2.fisheye.CALIB_FIX_K4,
+                  cv2.fisheye.CALIB_FIX_K3 | cv2.fisheye.CALIB_FIX_K4, 0)
+
+#: The model the wrong-lens check (:func:`is_wrong_lens`) fits beside the
+#: chosen one: a pinhole model against the fisheye, the fisheye against OpenCV's five
+#: coefficients ("none" is not checked: the user says there is no distortion).
+LENS_CHECK_ALTERNATIVE = {"opencv5": "fisheye", "k1k2": "fisheye", "rational": "fisheye",
+                          "fisheye": "opencv5"}
 
 
 # ------------------------------------------------------------------------ intrinsics
@@ -93,8 +113,13 @@ def rvec_tvec_from_T(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def project_board(board: Board, T_cam_from_world: np.ndarray, K: np.ndarray,
-                  dist: np.ndarray) -> np.ndarray:
-    """Pixel positions (N, 2) of the board's corners seen from ``T_cam_from_world``."""
+                  dist: np.ndarray, lens: str = "pinhole") -> np.ndarray:
+    """Pixel positions (N, 2) of the board's corners seen from ``T_cam_from_world``
+    through the lens model ``lens`` (:data:`rasc.geometry.lens.LENS_MODELS`)."""
+    if lens != "pinhole":
+        T = np.asarray(T_cam_from_world, float)
+        p_cam = board.object_points() @ T[:3, :3].T + T[:3, 3]
+        return _lens.project_points(p_cam, K, dist, model=lens)
     rvec, tvec = rvec_tvec_from_T(T_cam_from_world)
     uv, _ = cv2.projectPoints(board.object_points(), rvec, tvec, np.asarray(K, float),
                               np.asarray(dist, float))
@@ -102,10 +127,10 @@ def project_board(board: Board, T_cam_from_world: np.ndarray, K: np.ndarray,
 
 
 def reprojection_rms(corners: np.ndarray, board: Board, T_cam_from_world: np.ndarray,
-                     K: np.ndarray, dist: np.ndarray) -> float:
+                     K: np.ndarray, dist: np.ndarray, lens: str = "pinhole") -> float:
     """sqrt(Σ‖uv − û‖² / N): OpenCV's calibrateCamera RMS definition, for one view (over
     the corners seen: NaN rows of a partial view are left out)."""
-    d = project_board(board, T_cam_from_world, K, dist) - corners
+    d = project_board(board, T_cam_from_world, K, dist, lens) - corners
     seen = seen_mask(corners)
     if not seen.all():
         d = d[seen]
@@ -116,7 +141,8 @@ def reprojection_rms(corners: np.ndarray, board: Board, T_cam_from_world: np.nda
 class IntrinsicsResult:
     """Output of :func:`calibrate_intrinsics`.
 
-    K (3, 3); dist (5,) k1 k2 p1 p2 k3; rms: OpenCV's overall RMS (px) over the views
+    K (3, 3); dist: the coefficients of :attr:`lens` (k1 k2 p1 p2 k3 for the pinhole
+    models but the rational one's k1 k2 p1 p2 k3 k4 k5 k6; the fisheye's k1 k2 k3 k4); rms: OpenCV's overall RMS (px) over the views
     used; per_view_rms: name → RMS (px) of each view used; T_cam_from_world: name → (4, 4);
     outliers: names flagged by the robust rule (threshold ``outlier_threshold`` px);
     excluded: names left out of this calibration; initial: the calibration with every view
@@ -134,6 +160,14 @@ class IntrinsicsResult:
     dist_model: str
     excluded: list[str] = field(default_factory=list)
     initial: IntrinsicsResult | None = None
+    #: the wrong-lens check (:func:`_lens_check`): the chosen model's RMS over every view
+    #: against another lens model's on the same views; None when not checked
+    lens_check: dict | None = None
+
+    @property
+    def lens(self) -> str:
+        """The lens model of :attr:`dist_model` (``"pinhole"`` or ``"fisheye"``)."""
+        return DIST_MODELS[self.dist_model][0]
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the intrinsics, their RMS per view, the outliers and the per-view
@@ -143,6 +177,10 @@ class IntrinsicsResult:
              "outlier_threshold": self.outlier_threshold, "image_size": list(self.image_size),
              "dist_model": self.dist_model, "excluded": list(self.excluded),
              "T_cam_from_world": {k: v.tolist() for k, v in self.T_cam_from_world.items()}}
+        if self.lens != "pinhole":
+            d["lens"] = self.lens
+        if self.lens_check is not None:
+            d["lens_check"] = dict(self.lens_check)
         if self.initial is not None:
             d["initial"] = self.initial.to_dict()
         return d
@@ -221,19 +259,80 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
     obj = [obj_all if m.all() else obj_all[m] for m in masks]
     img = [(c if m.all() else c[m]).astype(np.float32).reshape(-1, 1, 2)
            for c, m in zip(corners, masks, strict=True)]
-    flags = DIST_MODELS[dist_model]
-    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(
-        obj, img, tuple(int(v) for v in image_size), None, None, flags=flags)
+    lens_model, _, n_dist = DIST_MODELS[dist_model]
+    if lens_model == "fisheye":
+        rms, K, dist, rvecs, tvecs = _calibrate_fisheye(names, obj, img, image_size)
+    else:
+        rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(
+            obj, img, tuple(int(v) for v in image_size), None, None,
+            flags=CALIB_FLAGS[dist_model])
     K = np.asarray(K, dtype=np.float64)
-    dist = np.asarray(dist, dtype=np.float64).ravel()[:5]
+    dist = np.asarray(dist, dtype=np.float64).ravel()[:n_dist]
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(dist)) and np.isfinite(rms)):
         raise DegenerateDataError(
             f"calibrate_intrinsics: OpenCV returned NaN for {len(names)} views; add views of "
             "the board tilted 20–45° about different axes")
     T = {n: T_from_rvec_tvec(r, t) for n, r, t in zip(names, rvecs, tvecs, strict=True)}
-    per_view = {n: reprojection_rms(c, board, T[n], K, dist)
-                for n, c in zip(names, corners, strict=True)}
+    try:
+        per_view = {n: reprojection_rms(c, board, T[n], K, dist, lens_model)
+                    for n, c in zip(names, corners, strict=True)}
+    except InputError:        # a fitted board behind the camera: the fit failed
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: the {dist_model} calibration of {len(names)} views put a "
+            "board behind the camera; check the views and the lens model") from None
+    if lens_model == "fisheye":     # OpenCV's fisheye RMS is not calibrateCamera's
+        n_pts = sum(len(i) for i in img)
+        rms = float(np.sqrt(sum(per_view[n] ** 2 * len(i)
+                                for n, i in zip(names, img, strict=True)) / n_pts))
     return float(rms), K, dist, T, per_view
+
+
+def _calibrate_fisheye(names, obj, img, image_size):
+    """cv2.fisheye.calibrate with its input shapes ((1, N, 3) and (1, N, 2) float64 per
+    view) and its failures (cv2.error on a view it cannot fit, or an ill-conditioned
+    problem) as one :class:`DegenerateDataError` line.
+
+    In stages (:data:`FISHEYE_STAGES`): k1 alone from OpenCV's own start, then k1 k2 and
+    then all four from the stage before. In one go from OpenCV's start the fit diverged
+    on detected corners of a 170° lens (12 views, corners within 0.23 px: RMS 144 px, a
+    board behind the camera), where the stages reached 0.036 px."""
+    obj_f = [np.ascontiguousarray(o, dtype=np.float64).reshape(1, -1, 3) for o in obj]
+    img_f = [np.ascontiguousarray(i, dtype=np.float64).reshape(1, -1, 2) for i in img]
+    size = tuple(int(v) for v in image_size)
+    K, D = np.zeros((3, 3)), np.zeros(4)
+    try:
+        for k, fixed in enumerate(FISHEYE_STAGES):
+            flags = FISHEYE_FLAGS | fixed | (cv2.fisheye.CALIB_USE_INTRINSIC_GUESS if k else 0)
+            rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(
+                obj_f, img_f, size, K, D, flags=flags, criteria=FISHEYE_CRITERIA)
+    except cv2.error as exc:
+        lines = [ln for ln in str(exc).splitlines() if ln.strip()]
+        why = lines[-1].split(") ", 1)[-1].strip() if lines else "no detail"
+        raise DegenerateDataError(
+            f"calibrate_intrinsics: cv2.fisheye.calibrate failed on {len(names)} views "
+            f"({why}); check that the lens is a fisheye (else use another --dist-model) and "
+            "that the views show the board whole, tilted 20-45° about different axes") from None
+    return rms, K, D, rvecs, tvecs
+
+
+def _lens_check(names, corners, board, image_size, dist_model, rms):
+    """The wrong-lens check's numbers (:func:`is_wrong_lens`): the chosen model's RMS
+    over ``names`` against that of :data:`LENS_CHECK_ALTERNATIVE` fitted to the same
+    views; None for a model not checked ("none"). An RMS at or below
+    :data:`WRONG_LENS_EXCESS_PX` cannot be warned, whatever the other model gives: the
+    other model is then not fitted (``alternative_rms_px`` None, saving its time)."""
+    alt = LENS_CHECK_ALTERNATIVE.get(dist_model)
+    if alt is None:
+        return None
+    if not rms > WRONG_LENS_EXCESS_PX:
+        return {"dist_model": dist_model, "rms_px": rms, "alternative": alt,
+                "alternative_rms_px": None}
+    try:
+        alt_rms = _calibrate_once(names, corners, board, image_size, alt)[0]
+    except (DegenerateDataError, InputError):
+        alt_rms = None            # the other model cannot be fitted: no evidence against
+    return {"dist_model": dist_model, "rms_px": rms, "alternative": alt,
+            "alternative_rms_px": alt_rms}
 
 
 @_opencv_threads(1)
@@ -249,7 +348,9 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
         180° relabelling gives the same K, dist and RMS: each view has its own pose).
     board : Board
     image_size : (width, height) in pixels
-    dist_model : "opencv5" (k1 k2 p1 p2 k3), "k1k2" (p1 = p2 = k3 = 0) or "none" (all 0)
+    dist_model : "opencv5" (k1 k2 p1 p2 k3), "k1k2" (p1 = p2 = k3 = 0), "none" (all 0),
+        "rational" (OpenCV's rational model, k1 k2 p1 p2 k3 k4 k5 k6) or "fisheye"
+        (cv2.fisheye's equidistant model, k1 k2 k3 k4): :data:`DIST_MODELS`
     outlier_rms : per-view RMS (px) above which a view is an outlier; None → the robust
         rule :func:`outlier_threshold`.
     exclude_outliers : re-calibrate without the outliers; the result then holds the
@@ -284,13 +385,14 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
             "focal length is undetermined; add views with the board tilted 20–45° about "
             "different axes")
     rms, K, dist, T, per_view = _calibrate_once(names, corners, board, (w, h), dist_model)
+    check = _lens_check(names, corners, board, (w, h), dist_model, rms)
     threshold = float(outlier_rms) if outlier_rms is not None else \
         outlier_threshold(np.array(list(per_view.values())))
     outliers = [n for n in names if per_view[n] > threshold]
     result = IntrinsicsResult(K=K, dist=dist, rms=rms, per_view_rms=per_view,
                               T_cam_from_world=T, outliers=outliers,
                               outlier_threshold=threshold, image_size=(w, h),
-                              dist_model=dist_model)
+                              dist_model=dist_model, lens_check=check)
     if not exclude_outliers or not outliers:
         return result
     keep = {n: c for n, c in zip(names, corners, strict=True) if n not in outliers}
@@ -303,20 +405,80 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
     return IntrinsicsResult(K=K2, dist=dist2, rms=rms2, per_view_rms=per_view2,
                             T_cam_from_world=T2, outliers=outliers,
                             outlier_threshold=threshold, image_size=(w, h),
-                            dist_model=dist_model, excluded=list(outliers), initial=result)
+                            dist_model=dist_model, excluded=list(outliers), initial=result,
+                            lens_check=check)
+
+
+# ------------------------------------------------------------------ the lens check
+
+#: The wrong-lens check: the intrinsics of every eye are fitted with the chosen
+#: ``dist_model`` and with another lens model
+#: (:data:`LENS_CHECK_ALTERNATIVE`: a pinhole model against the
+#: fisheye, the fisheye against OpenCV's five coefficients) on the same views. The
+#: chosen model is wrong when its RMS is above this many times the other's and above it
+#: by :data:`WRONG_LENS_EXCESS_PX` (see :func:`is_wrong_lens` for the measurements).
+WRONG_LENS_RMS_RATIO = 2.0
+#: ... and the chosen model's RMS exceeds the other's by at least this much (px, in
+#: quadrature: sqrt(rms² − rms_other²)): a difference of a few hundredths of a pixel
+#: between two good fits of a noise-free image is not a wrong lens.
+WRONG_LENS_EXCESS_PX = 0.1
+
+WRONG_LENS_REMEDY = "calibrate with --dist-model"
+
+
+def is_wrong_lens(rms: float | None, alternative_rms: float | None) -> bool:
+    """The chosen lens model does not fit the intrinsics views that another one does:
+    its RMS above :data:`WRONG_LENS_RMS_RATIO` times the other's and above it by
+    :data:`WRONG_LENS_EXCESS_PX` in quadrature (False when either is unknown)."""
+    if rms is None or alternative_rms is None or not np.isfinite(rms) \
+            or not np.isfinite(alternative_rms):
+        return False
+    return bool(rms > WRONG_LENS_RMS_RATIO * alternative_rms
+                and rms ** 2 - alternative_rms ** 2 > WRONG_LENS_EXCESS_PX ** 2)
+
+
+def lens_check_rms(check: dict) -> float | None:
+    """The chosen model's RMS of a lens check: the better of the intrinsics'
+    (``rms_px``) and the whole-head refinement's (``refined_rms_px``, when refined)."""
+    vals = [v for v in (check.get("rms_px"), check.get("refined_rms_px"))
+            if isinstance(v, int | float) and np.isfinite(v)]
+    return min(vals) if vals else None
+
+
+def wrong_lens_warning(check: dict | None) -> str | None:
+    """One line for the user when an eye's lens check (the intrinsics result's
+    ``lens_check``) finds the chosen model wrong (:func:`is_wrong_lens` of
+    :func:`lens_check_rms` against the other model's RMS), else None."""
+    if not check:
+        return None
+    rms = lens_check_rms(check)
+    if not is_wrong_lens(rms, check.get("alternative_rms_px")):
+        return None
+    chosen, alt = check["dist_model"], check["alternative"]
+    return (f"the lens model {chosen!r} leaves the intrinsics views at "
+            f"{rms:.3g} px RMS where the {alt!r} model fits them to "
+            f"{check['alternative_rms_px']:.3g} px: the lens is probably "
+            f"{'a fisheye' if alt == 'fisheye' else 'not a fisheye'}; "
+            f"{WRONG_LENS_REMEDY} {alt}")
 
 
 # ------------------------------------------------------------------------ extrinsics
 
 @_opencv_threads(1)
 def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
-                        dist: np.ndarray) -> tuple[np.ndarray, float]:
+                        dist: np.ndarray, lens: str = "pinhole") -> tuple[np.ndarray, float]:
     """Board pose with intrinsics fixed (docs/METHOD.md §7): IPPE, then Levenberg–Marquardt
     refinement.
+
+    A lens other than the pinhole (``lens="fisheye"``): the corners are undistorted to
+    normalised coordinates by the lens model (:func:`rasc.geometry.lens.undistort_normalized`),
+    IPPE and LM run there with an identity camera and no distortion, and the pose is then
+    refined on the pixels through the lens (least squares, the same RMS as below).
 
     Parameters
     ----------
     corners : (N, 2) canonical order; board : Board; K : (3, 3); dist : (k,) OpenCV order
+    lens : the lens model of ``dist`` (:data:`rasc.geometry.lens.LENS_MODELS`)
 
     Returns
     -------
@@ -331,19 +493,50 @@ def estimate_extrinsics(corners: np.ndarray, board: Board, K: np.ndarray,
     seen = seen_mask(c)
     if not seen.all():             # a partial view: the corners it shows, by id
         obj, c = obj[seen], c[seen]
-    ok, rvec, tvec = cv2.solvePnP(obj, c, K, dist, flags=cv2.SOLVEPNP_IPPE)
+    # OpenCV's own path for the pinhole models (the rational one too), the fisheye through
+    # the lens core
+    own = lens != "pinhole"
+    if not own:
+        pts, K_pnp, d_pnp = c, K, dist
+    else:
+        x, y = (c[:, 0] - K[0, 2] - K[0, 1] * (c[:, 1] - K[1, 2]) / K[1, 1]) / K[0, 0], \
+            (c[:, 1] - K[1, 2]) / K[1, 1]
+        pts = _lens.undistort_normalized(np.stack([x, y], axis=1), dist, model=lens)
+        K_pnp, d_pnp = np.eye(3), np.zeros(0)
+    ok, rvec, tvec = cv2.solvePnP(obj, pts, K_pnp, d_pnp, flags=cv2.SOLVEPNP_IPPE)
     if not ok or not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
         raise DegenerateDataError(
             "estimate_extrinsics: no pose fits these corners (collinear or coincident?); "
             "use a view where the whole board is seen")
     rvec, tvec = cv2.solvePnPRefineLM(
-        obj, c, K, dist, rvec, tvec,
+        obj, pts, K_pnp, d_pnp, rvec, tvec,
         criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-12))
     T = T_from_rvec_tvec(rvec, tvec)
+    if own and np.all(obj @ T[2, :3] + T[2, 3] > 0):
+        T = _refine_pose_pixels(T, obj, c, K, dist, lens)
     # the corners seen must lie in front of the camera (not the board's origin: a large
     # board seen in part at a wide pan may have its corner 0 behind the image plane)
     if not np.all(obj @ T[2, :3] + T[2, 3] > 0):
         raise DegenerateDataError("estimate_extrinsics: the fitted board lies behind the camera; "
                                   "check the corners and intrinsics")
-    d = project_board(board, T, K, dist)[seen] - c
+    d = project_board(board, T, K, dist, lens)[seen] - c
     return T, float(np.sqrt(np.sum(d * d) / len(d)))
+
+
+def _refine_pose_pixels(T0, obj, uv, K, dist, lens):
+    """The pose ``T0`` refined on the pixels ``uv`` of ``obj`` through the lens model
+    (Levenberg–Marquardt on a small rotation and the translation)."""
+    from scipy.optimize import least_squares
+
+    R0 = T0[:3, :3]
+
+    def residuals(p):
+        R = matrix_from_rotvec(p[:3]) @ R0
+        pc = obj @ R.T + p[3:]
+        if np.any(pc[:, 2] <= 0):
+            return np.full(2 * len(obj), 1e6)
+        return (_lens.project_points(pc, K, dist, model=lens) - uv).ravel()
+
+    res = least_squares(residuals, np.r_[np.zeros(3), T0[:3, 3]], method="lm",
+                        xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    return make_transform(matrix_from_rotvec(res.x[:3]) @ R0, res.x[3:])

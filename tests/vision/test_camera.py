@@ -471,7 +471,7 @@ def test_intrinsics_degenerate_and_bad_input():
     with pytest.raises(InputError, match="view 'v02'.*NaN"):
         calibrate_intrinsics(bad, BOARD, (640, 480))
     with pytest.raises(InputError, match="dist_model"):
-        calibrate_intrinsics(views, BOARD, (640, 480), dist_model="fisheye")
+        calibrate_intrinsics(views, BOARD, (640, 480), dist_model="double-sphere")
     with pytest.raises(InputError, match="image_size"):
         calibrate_intrinsics(views, BOARD, (640, 0))
     # too few after excluding outliers

@@ -11,6 +11,7 @@ import numpy as np
 
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import PanTiltUnit
+from rasc.geometry.lens import DIST_MODELS, LENS_MODELS
 
 #: Candidate unit parameters per eye, in the order they are admitted (observable ones
 #: first): a later candidate is tested against the span of those kept before it.
@@ -21,8 +22,12 @@ UNIT_PARAMETERS = ("pan_scale", "tilt_scale", "tilt_axis_x", "tilt_point_y",
                    "tilt_point_x", "tilt_point_z", "tilt_axis_y", "pan_offset", "tilt_offset")
 
 
-DIST_PARAMS = {"k1k2": (0, 1), "opencv5": (0, 1, 2, 3, 4), "none": ()}
-DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
+#: dist_model → the distortion coefficients the refinement estimates (by name, of the
+#: model's lens: :data:`rasc.geometry.lens.DIST_MODELS`, the one table)
+DIST_PARAMS = {name: est for name, (_, est, _) in DIST_MODELS.items()}
+#: every distortion coefficient's name, of any lens model (pinhole k1-k6 p1 p2; the
+#: fisheye's are k1-k4)
+DIST_NAMES = LENS_MODELS["pinhole"]
 
 #: The unit of every refined parameter, by its name within its group (an eye's, or the
 #: head's ``T_ptuL_from_ptuR``): "length" is the dataset's length unit (that of
@@ -64,7 +69,8 @@ class EyeObservations:
 
     Attributes
     ----------
-    K : (3, 3); dist : (5,) k1 k2 p1 p2 k3; image_size : (width, height)
+    K : (3, 3); dist : (k,) the coefficients of the dataset's lens model (pinhole:
+    OpenCV's order, missing ones zero; fisheye: k1 k2 k3 k4); image_size : (width, height)
     intrinsics : dict name → corners (N, 2): the intrinsics views used
     T_cam_from_world_intrinsics : dict name → (4, 4): their initial board poses
     pose : dict file → corners (N, 2): the pose views
@@ -106,7 +112,7 @@ def observations_from_calibration(cal, board) -> HeadObservations:
         intr = r.intrinsics
         used = list(intr.T_cam_from_world)
         eyes[eye] = EyeObservations(
-            K=intr.K, dist=_dist5(intr.dist), image_size=tuple(intr.image_size),
+            K=intr.K, dist=np.asarray(intr.dist, float).ravel().copy(), image_size=tuple(intr.image_size),
             intrinsics={n: r.corners["intrinsics"][n] for n in used},
             T_cam_from_world_intrinsics=dict(intr.T_cam_from_world),
             pose={f: r.corners["pose"][f] for f in r.pose_files},
@@ -163,6 +169,7 @@ class RefinementResult:
         (kept corners)
     sigma : noise per coordinate (px) from the residuals; images : per-image residuals
     residuals : dict eye → (M, 2) final residuals of its kept corners, for plots
+    lens : dict eye → the lens model of ``dist`` (:data:`rasc.geometry.lens.LENS_MODELS`)
     covariance : (n, n) of the estimated parameters (natural units), names : their names
     """
 
@@ -193,6 +200,7 @@ class RefinementResult:
     identifiability: tuple | None = None   # (free, dropped) over all candidates
     covariance: np.ndarray | None = None
     names: list[str] = field(default_factory=list)
+    lens: dict[str, str] = field(default_factory=lambda: {eye: "pinhole" for eye in EYES})
 
     def std(self, eye: str) -> dict[str, float | None]:
         """Name → standard deviation of one eye's parameters (None: not identifiable)."""

@@ -9,11 +9,12 @@ from typing import Any
 import numpy as np
 
 from rasc.errors import InputError
+from rasc.geometry import lens as lens_models
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform, make_transform
 from rasc.head.refine.jacobian import _JacobianMixin
 from rasc.head.refine.model import (
-    DIST_NAMES,
+    DIST_MODELS,
     DIST_PARAMS,
     UNIT_DEFAULTS,
     HeadObservations,
@@ -27,9 +28,26 @@ from rasc.head.refine.model import (
 class _Problem(_JacobianMixin):
     """Parameter layout, residuals and Jacobian structure of one refinement."""
 
-    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]]):
+    def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]],
+                 dist_held: tuple[str, ...] = ()):
         self.obs = obs
-        self.dist_idx = DIST_PARAMS[obs.dist_model]
+        # the lens model, all its coefficients' names, those estimated (the others are 0,
+        # but those ``dist_held``, which keep the intrinsics' value: a rational model's
+        # coefficient the corners cannot determine, :func:`_identifiable`)
+        self.lens = DIST_MODELS[obs.dist_model][0]
+        self.coef_names = lens_models.LENS_MODELS[self.lens]
+        self.dist_idx = tuple(self.coef_names.index(n) for n in DIST_PARAMS[obs.dist_model]
+                              if n not in dist_held)
+        self.dist_held = tuple(dist_held)
+        self.dist_fixed = {}
+        for eye in EYES:
+            fixed = np.zeros(len(self.coef_names))
+            given = np.asarray(obs.eyes[eye].dist, float).ravel()[:len(fixed)]
+            for n in dist_held:
+                i = self.coef_names.index(n)
+                if i < len(given):
+                    fixed[i] = given[i]
+            self.dist_fixed[eye] = fixed
         P = obs.board_points
         # length scale for translations: the median camera-to-board distance
         depths = [T[2, 3] for e in obs.eyes.values()
@@ -50,8 +68,11 @@ class _Problem(_JacobianMixin):
             start = len(names)
             for k, n in enumerate(("fx", "fy", "cx", "cy")):
                 add(f"{eye}.{n}", (e.K[0, 0], e.K[1, 1], e.K[0, 2], e.K[1, 2])[k], 100.0)
+            dist = np.zeros(len(self.coef_names))
+            given = np.asarray(e.dist, float).ravel()[:len(dist)]
+            dist[:len(given)] = given
             for i in self.dist_idx:
-                add(f"{eye}.{DIST_NAMES[i]}", e.dist[i], 1.0)
+                add(f"{eye}.{self.coef_names[i]}", dist[i], 1.0)
             n_intr = len(names) - start
             for k in range(3):
                 add(f"{eye}.T_cam_from_gaze.rot{'xyz'[k]}", 0.0, 0.1)
@@ -178,7 +199,7 @@ class _Problem(_JacobianMixin):
             c = self.eye_cols[eye]
             i = c["start"]
             fx, fy, cx, cy = p[i:i + 4]
-            d = np.zeros(5)
+            d = self.dist_fixed[eye].copy()
             for k, j in enumerate(self.dist_idx):
                 d[j] = p[i + 4 + k]
             j = i + c["n_intr"]
@@ -241,7 +262,7 @@ class _Problem(_JacobianMixin):
         return {"R": R, "t": t, "RA": RA_all, "Rb": Rb, "w": b[poses, :3][img_pose],
                 "s": s, "img_eye": img_eye,
                 "Kp": np.array([s[eye]["K"] for eye in EYES])[img_eye],      # (n, 4)
-                "D": np.array([s[eye]["dist"] for eye in EYES])[img_eye]}    # (n, 5)
+                "D": np.array([s[eye]["dist"] for eye in EYES])[img_eye]}    # (n, k)
 
     def _project(self, x: np.ndarray, sel: np.ndarray, ch: dict[str, Any],
                  derivatives: bool = False, board: bool = True):
@@ -257,43 +278,34 @@ class _Problem(_JacobianMixin):
         R, t = ch["R"], ch["t"]
         pc = np.einsum("nij,kj->nki", R, self.P) + t[:, None, :]
         x_, y_ = pc[..., 0] / pc[..., 2], pc[..., 1] / pc[..., 2]
-        Kp, D = ch["Kp"], ch["D"]                                   # (n, 4), (n, 5)
-        k1, k2, p1, p2, k3 = (D[:, i:i + 1] for i in range(5))
-        r2 = x_ * x_ + y_ * y_
-        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        xd = x_ * radial + 2.0 * p1 * x_ * y_ + p2 * (r2 + 2.0 * x_ * x_)
-        yd = y_ * radial + p1 * (r2 + 2.0 * y_ * y_) + 2.0 * p2 * x_ * y_
+        Kp, D = ch["Kp"], ch["D"]                                   # (n, 4), (n, k)
+        # the lens model's distortion and its derivatives (rasc.geometry.lens, one for
+        # every model: pinhole k1 k2 p1 p2 k3 k4 k5 k6, fisheye k1 k2 k3 k4)
+        xd, yd, (jxx, jxy, jyx, jyy), by_coef = lens_models.distortion_jacobians(
+            x_, y_, [D[:, i:i + 1] for i in range(D.shape[1])], self.lens)
         fx, fy = Kp[:, 0:1], Kp[:, 1:2]
         u = fx * xd + Kp[:, 2:3]
         v = fy * yd + Kp[:, 3:4]
         uv = np.stack([u, v], axis=-1)
         if not derivatives:
             return uv, None
-        # d(u, v)/d(x_, y_): the distortion's Jacobian scaled by fx, fy
-        drad = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)            # d radial / d r2
-        xy = x_ * y_
-        dxd_dx = radial + 2.0 * x_ * x_ * drad + 2.0 * p1 * y_ + 6.0 * p2 * x_
-        dyd_dy = radial + 2.0 * y_ * y_ * drad + 6.0 * p1 * y_ + 2.0 * p2 * x_
-        cross = 2.0 * xy * drad + 2.0 * p1 * x_ + 2.0 * p2 * y_  # dxd/dy_ = dyd/dx_
         iz = 1.0 / pc[..., 2]
+        # d(u, v)/d pc: the distortion's Jacobian scaled by fx, fy, times
         # d(x_, y_)/d pc = [[1/Z, 0, -x_/Z], [0, 1/Z, -y_/Z]]
         J = np.empty(pc.shape[:2] + (2, 3))
-        J[..., 0, 0] = fx * dxd_dx * iz
-        J[..., 0, 1] = fx * cross * iz
+        J[..., 0, 0] = fx * jxx * iz
+        J[..., 0, 1] = fx * jxy * iz
         J[..., 0, 2] = -(J[..., 0, 0] * x_ + J[..., 0, 1] * y_)
-        J[..., 1, 0] = fy * cross * iz
-        J[..., 1, 1] = fy * dyd_dy * iz
+        J[..., 1, 0] = fy * jyx * iz
+        J[..., 1, 1] = fy * jyy * iz
         J[..., 1, 2] = -(J[..., 1, 0] * x_ + J[..., 1, 1] * y_)
-        # intrinsics: fx fy cx cy, then k1 k2 p1 p2 k3 as the model has them
-        full = {"k1": (fx * x_ * r2, fy * y_ * r2),
-                "k2": (fx * x_ * r2 ** 2, fy * y_ * r2 ** 2),
-                "p1": (fx * 2.0 * xy, fy * (r2 + 2.0 * y_ * y_)),
-                "p2": (fx * (r2 + 2.0 * x_ * x_), fy * 2.0 * xy),
-                "k3": (fx * x_ * r2 ** 3, fy * y_ * r2 ** 3)}
+        # intrinsics: fx fy cx cy, then the distortion terms the model estimates
         zero, one = np.zeros_like(x_), np.ones_like(x_)
         cols = [(xd, zero), (zero, yd), (one, zero), (zero, one)]
-        cols += [full[DIST_NAMES[i]] for i in self.dist_idx]
-        d_intr = np.stack([np.stack(c, axis=-1) for c in cols], axis=-1)
+        for i in self.dist_idx:
+            dxd, dyd = by_coef[self.coef_names[i]]
+            cols.append((fx * dxd, fy * dyd))
+        d_intr = np.stack([np.stack(np.broadcast_arrays(*c), axis=-1) for c in cols], axis=-1)
         if not board:
             return uv, {"point": J, "intrinsics": d_intr}
         # board pose: q = exp(w) R0 P + t_b, pc = RA q + tA; a change dw of the rotation

@@ -14,6 +14,8 @@ from rasc.errors import InputError
 from rasc.geometry.frames import EYES
 from rasc.head.refine.identifiability import _identifiable
 from rasc.head.refine.model import (
+    DIST_MODELS,
+    DIST_NAMES,
     DIST_PARAMS,
     GAUGE,
     UNIT_DEFAULTS,
@@ -160,7 +162,9 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     else:
         free_all, dropped = _identifiable(obs, ())
     free = {eye: [n for n in names if n not in hold] for eye, names in free_all.items()}
-    prob = _Problem(obs, free)
+    dist_held = tuple(dict.fromkeys(dd["parameter"] for dd in dropped
+                                    if dd["parameter"] in DIST_NAMES))
+    prob = _Problem(obs, free, dist_held)
     x0 = np.zeros(len(prob.names))
     r0 = prob.all_residuals(x0)
     if prob.seen.all():
@@ -237,7 +241,11 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
                 "value": float(90.0 - np.degrees(np.arcsin(a[0]))),
                 "std": float(np.degrees(dangle * params[eye][key]["std"])), "unit": "deg"}
         for dd in dropped:
-            if dd["eye"] == eye:
+            if dd["eye"] == eye and dd["parameter"] in dist_held:
+                params[eye][dd["parameter"]] = {
+                    "value": float(prob.dist_fixed[eye][prob.coef_names.index(dd["parameter"])]),
+                    "std": None, "unit": "1", "held": dd["reason"]}
+            elif dd["eye"] == eye:
                 params[eye][f"unit.{dd['parameter']}"] = {"value": None, "std": None,
                                                           "reason": dd["reason"]}
         for n in hold:
@@ -269,7 +277,10 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         K={eye: np.array([[s[eye]["K"][0], 0, s[eye]["K"][2]], [0, s[eye]["K"][1],
                                                                  s[eye]["K"][3]], [0, 0, 1.0]])
            for eye in EYES},
-        dist={eye: s[eye]["dist"] for eye in EYES},
+        # the stored length of the dataset's dist_model (5 for the pinhole models but the
+        # rational one's 8; the fisheye's 4)
+        dist={eye: s[eye]["dist"][:DIST_MODELS[obs.dist_model][2]].copy() for eye in EYES},
+        lens={eye: prob.lens for eye in EYES},
         T_cam_from_gaze={eye: s[eye]["T_cam_from_gaze"] for eye in EYES},
         unit={eye: unit_from_parameters(s[eye]["unit"]) for eye in EYES},
         T_ptuL_from_ptuR=s["T_ptuL_from_ptuR"], parameters=params,
