@@ -176,8 +176,8 @@ EARLY = ("e7_model_mismatch",)
 #: protocol's order is nearly the same; E10, added later, about 9 s quick and 30 s full,
 #: goes first, and E11, about 18 s quick, before it). Only the order changes, never a
 #: result.
-LONGEST_FIRST = ("e11_lenses", "e10_depth", "e6b_shootout", "e1_noise", "e6a_pixel_noise", "e4_triangulation",
-                 "e3_quality", "e5_base_to_ptu", "e2_home_view")
+LONGEST_FIRST = ("e11_lenses", "e10_depth", "e6b_shootout", "e1_noise", "e6a_pixel_noise",
+                 "e4_triangulation", "e3_quality", "e5_base_to_ptu", "e2_home_view")
 
 #: what the pool's forkserver imports once (numpy, scipy, OpenCV, mujoco, matplotlib,
 #: every experiment module): each worker is forked from it warm

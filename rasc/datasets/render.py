@@ -25,15 +25,15 @@ def render_what(options: Any, model_path: str | os.PathLike | None = None,
     an imperfect head its units (``{eye: rasc.sim.units.UnitBuild}``) and for a target
     drawn from its description (``rasc render --target``) the target's manifest object
     (None, the ideal units, the model's board, ``supersample`` 1 or a camera degradation
-    at its default (:data:`rasc.sim.render.DEGRADATIONS`) adds nothing, so the
+    or the lens at its default (:data:`rasc.sim.render.OPTIONAL_FIELDS`) adds nothing, so the
     keys of the stock head and board are those of before)."""
     opts = dict(options) if isinstance(options, dict) else asdict(options)
     if opts.get("supersample", 1) == 1:     # the default adds nothing: the keys of before
         opts.pop("supersample", None)
-    from rasc.sim.render import DEGRADATIONS, degradations_of
+    from rasc.sim.render import OPTIONAL_FIELDS, degradations_of
 
-    kept = degradations_of(opts)   # a camera degradation at its default adds nothing
-    for k in DEGRADATIONS:
+    kept = degradations_of(opts)   # a degradation or the lens at its default adds nothing
+    for k in OPTIONAL_FIELDS:
         if k not in kept:
             opts.pop(k, None)
     model = None if model_path is None else hashlib.sha256(

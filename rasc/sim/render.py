@@ -242,20 +242,22 @@ DEGRADATIONS = ("full_well", "read_noise", "vignetting", "motion_blur", "motion_
                 "focus_distance", "f_number", "focal_length_mm", "jpeg_quality")
 
 
-#: the lens fields of RenderOptions: like the degradations, left out of the ground truth's
-#: render_options and of the cache key at their defaults
+#: the lens fields of RenderOptions (not study parameters)
 LENS_FIELDS = ("lens", "fov")
-DEGRADATIONS += LENS_FIELDS
+#: the fields recorded in the ground truth's render_options and held by the cache key
+#: only away from their defaults (:func:`degradations_of`): the renders of before keep
+#: their files and keys
+OPTIONAL_FIELDS = DEGRADATIONS + LENS_FIELDS
 
 
 def degradations_of(options) -> dict:
-    """The degradation fields of ``options`` (a RenderOptions or a dict of its fields)
-    that differ from their defaults: what the ground truth records and the cache key
-    holds (empty for the renders of before)."""
+    """The degradation and lens fields of ``options`` (a RenderOptions or a dict of its
+    fields, :data:`OPTIONAL_FIELDS`) that differ from their defaults: what the ground
+    truth records and the cache key holds (empty for the renders of before)."""
     defaults = RenderOptions.__dataclass_fields__
     get = options.get if isinstance(options, dict) else \
         (lambda k, d=None: getattr(options, k, d))
-    return {k: get(k) for k in DEGRADATIONS
+    return {k: get(k) for k in OPTIONAL_FIELDS
             if get(k, defaults[k].default) != defaults[k].default}
 
 

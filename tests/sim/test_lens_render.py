@@ -38,8 +38,9 @@ def _rms(e: np.ndarray) -> float:
 
 def _boards(seed: int):
     """Board poses (θ, φ deg of its centre's ray; the board faces the camera), BOARD's
-    centre DISTANCE_M away: the centre, the seams of the plain cube (φ 0 and 180 at θ 45: the front face
-    meets a side) and of the turned cube (φ 45, 135, ...), and far off the axis."""
+    centre DISTANCE_M away: the centre, the seams of the plain cube (φ 0 and 180 at
+    θ 45: the front face meets a side) and of the turned cube (φ 45, 135, ...), and far
+    off the axis."""
     rng = np.random.default_rng(seed)
     at = [(0, 0), (45, 0), (45, 180), (45, 45), (45, 135), (45, 225), (45, 315), (52, 0),
           (52, 180)]
@@ -53,7 +54,8 @@ def fisheye_views():
 
 
 def render_views(seed: int, supersample: int = 1) -> list:
-    """Per board of :func:`_boards` (``seed``): (truth (N, 2), corners on the plain cube's render, on the turned
+    """Per board of :func:`_boards` (``seed``): (K, the corners in the camera frame,
+    their truth (N, 2), the corners found on the plain cube's render and on the turned
     cube's, whether each corner's window straddles a seam in each)."""
     from rasc.geometry.lens import project_points
     from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
@@ -152,12 +154,26 @@ def test_lens_options_are_checked_with_the_field_named():
 
 
 def test_cache_key_and_truth_unchanged_at_the_lens_defaults():
-    from rasc.datasets.render import render_what
-    from rasc.sim.render import degradations_of
+    """At their defaults lens and fov leave the cache key that of before they existed
+    (the options without them); away from them they change it."""
+    from dataclasses import asdict
 
-    plain = render_what(RenderOptions())
-    assert "lens" not in plain["options"] and "fov" not in plain["options"]
-    assert not degradations_of(RenderOptions())
+    from rasc.datasets.keys import cache_key
+    from rasc.datasets.render import render_key, render_what
+    from rasc.sim.render import OPTIONAL_FIELDS, degradations_of
+
+    options = RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02))
+    before = asdict(options)
+    for k in (*OPTIONAL_FIELDS, "supersample"):
+        del before[k]
+    assert render_key(options) == cache_key("render-folder", {"options": render_what(
+        before)["options"], "model": None})
+    assert not degradations_of(options)
+    for changed in (RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02),
+                                  lens="fisheye"),
+                    RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02),
+                                  fov=100)):
+        assert render_key(changed) != render_key(options)
     fisheye = render_what(RenderOptions(lens="fisheye", fov=150))
     assert fisheye["options"]["lens"] == "fisheye" and fisheye["options"]["fov"] == 150
     assert degradations_of(RenderOptions(lens="fisheye")) == {"lens": "fisheye"}
