@@ -276,20 +276,27 @@ class LensView:
         return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
-def focal_for_fov(fov_deg: float, width: int, dist, model: str = "pinhole") -> float:
+def focal_for_fov(fov_deg: float, width: int, dist, model: str = "pinhole",
+                  name: str = "fov") -> float:
     """The focal length (px) that puts a ray ``fov_deg / 2`` off the axis, horizontally,
     at the image's left and right edges (``width / 2`` from the centre) through the lens:
-    ``fov_deg`` is the horizontal field of view."""
+    ``fov_deg`` is the horizontal field of view. ``name`` names it in messages."""
     half = math.radians(float(fov_deg)) / 2
     model = lens_core.check_model(model)
     d = lens_core._coefficients(dist, model=model)
     if model == "fisheye":
+        folded = half >= _fisheye_fold(d)
         edge = float(lens_core._fisheye_theta_d(np.array(half), d)[0])
     else:
         if half >= math.pi / 2:
-            raise InputError(f"a pinhole lens sees less than 180 deg, got fov {fov_deg:g}")
-        edge = float(lens_core.distort_normalized([[math.tan(half), 0.0]], d)[0, 0])
-    if not edge > 0:
-        raise InputError(f"fov {fov_deg:g} deg lies past the lens model's fold with "
-                         f"distortion {list(d)}")
+            raise InputError(f"{name} {fov_deg:g} deg: a pinhole lens sees less than 180 deg")
+        x = np.linspace(0.0, math.tan(half), 512)
+        xd = lens_core.distort_normalized(np.stack([x, np.zeros_like(x)], axis=1), d)[:, 0]
+        folded = bool(np.any(np.diff(xd) <= 0))
+        edge = float(xd[-1])
+    if folded or not edge > 0:
+        raise InputError(f"{name} {fov_deg:g} deg lies past the lens model's fold with "
+                         f"distortion {', '.join(f'{v:g}' for v in d)}: rays that far off "
+                         "the axis have no image; use a smaller field of view or "
+                         "coefficients")
     return (width / 2) / edge

@@ -196,7 +196,7 @@ class RenderOptions:
         if fov:
             from rasc.sim.lens_render import focal_for_fov
 
-            focal_for_fov(fov, 1, distortion_of(self)[0], self.lens)   # past the fold?
+            focal_for_fov(fov, 1, distortion_of(self)[0], self.lens, name("fov"))
         if lensed(self) and self.focus_distance:
             raise InputError(f"{name('focus_distance')}: defocus is not rendered through "
                              f"{name('lens')} {self.lens} or {name('fov')} (only through the "
