@@ -241,8 +241,8 @@ def figure(summary: list[tuple], folder: Path, quick: bool) -> list[Path]:
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=7.5, title="data and fitted model", title_fontsize=8)
     fig.suptitle("Calibration through each lens model against the field of view "
-                 f"(synthetic corners, {NOISE_PX} px noise; open markers: a wrong model)",
-                 fontsize=11)
+                 f"(synthetic corners, {NOISE_PX} px noise; open markers: a model other "
+                 "than the data's; stars: rendered images)", fontsize=11)
     fig.tight_layout()
     try:
         return save_experiment_figure(fig, folder / "e11_lenses", quick)
@@ -255,7 +255,7 @@ def _num(v: float, fmt: str) -> str:
 
 
 def markdown(summary: list[tuple], files, quick: bool, seeds: int) -> str:
-    rows = [(r[0], r[1], f"{r[2]:g}", f"`{r[3]}`" + (" (right)" if r[4] else " (wrong)"),
+    rows = [(r[0], r[1], f"{r[2]:g}", f"`{r[3]}`" + (" (right)" if r[4] else " (other)"),
              _num(r[6], ".4f"), _num(r[7], ".3f"), _num(r[8], ".3f"),
              f"{r[9]}/{r[5]}", f"{r[10]}/{r[5]}" if r[10] else "")
             for r in summary]
@@ -269,8 +269,10 @@ def markdown(summary: list[tuple], files, quick: bool, seeds: int) -> str:
         f"({seeds} seed{'s' if seeds > 1 else ''}), calibrated with the default options "
         "(general model) and each `dist_model`. Errors against the truth, RMS over both "
         "eyes and the seeds; intrinsics RMS as the wrong-lens check reads it (the better "
-        "of OpenCV's calibrator and the refinement); warned: eyes given the wrong-lens "
-        "warning; failed: eyes whose calibration stopped with an error."
+        "of OpenCV's calibrator and the refinement); right: the model that made the data, "
+        "other: another model (the pinhole `k1k2` on fisheye data is the wrong model; "
+        "`rational` is flexible enough to follow a fisheye); warned: eyes given the "
+        "wrong-lens warning; failed: eyes whose calibration stopped with an error."
         + (" Quick protocol: five cases, one seed, no rendered dataset." if quick else
            " \"rendered\": a dataset rendered through a 150° fisheye "
            "(`rasc render --lens fisheye --fov 150`), corners detected in its images."),

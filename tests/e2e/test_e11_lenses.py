@@ -54,7 +54,7 @@ def test_the_table_has_the_quick_cases(e11):
     # the report's table: one row per case, right and wrong models named
     table = [line for line in section.markdown.splitlines() if line.startswith("| synthetic")]
     assert len(table) == len(module.QUICK)
-    assert sum("(wrong)" in line for line in table) == 2
+    assert sum("(other)" in line for line in table) == 2
 
 
 def test_the_right_model_recovers_the_head_at_every_field_of_view(e11):
