@@ -240,9 +240,10 @@ def figure(summary: list[tuple], folder: Path, quick: bool) -> list[Path]:
         ax.set_xticks(FOVS)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=7.5, title="data and fitted model", title_fontsize=8)
+    stars = "; stars: rendered images" if any(r[0] == "rendered" for r in summary) else ""
     fig.suptitle("Calibration through each lens model against the field of view "
                  f"(synthetic corners, {NOISE_PX} px noise; open markers: a model other "
-                 "than the data's; stars: rendered images)", fontsize=11)
+                 f"than the data's{stars})", fontsize=11)
     fig.tight_layout()
     try:
         return save_experiment_figure(fig, folder / "e11_lenses", quick)
