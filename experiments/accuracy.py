@@ -28,6 +28,12 @@ builds the report, and scores the calibration (:func:`score`):
 * **verdict**: a cell whose errors lie outside their bounds must not be judged "usable"
   (the report's verdict, :func:`rasc.report.verdict.verdict`).
 
+A sixth factor, the **lens** (issue 32), runs beside the design on projected corners
+(:data:`LENS_CELLS`, :func:`run_lens_cell`): the default pinhole lens, a rational lens and
+a 170° fisheye, each with its right ``dist_model``, and the fisheye calibrated as a pinhole
+(``k1k2``), which must be warned and not called usable. Rendered lens cells wait for
+rendering through any lens.
+
 ``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
 ``benchmarks/bench_accuracy_matrix.py`` writes its results page); the test suite runs a
 few cells (``tests/e2e/test_accuracy_matrix.py``).
@@ -300,10 +306,14 @@ def truth_values(truth: dict) -> dict[str, Any]:
         a = np.asarray(unit.tilt_axis, float)
         q = np.asarray(unit.tilt_point, float)
         K = np.asarray(t["K"], float)
+        from rasc.geometry.lens import LENS_MODELS
+
         out[eye] = {
             "fx": K[0, 0], "fy": K[1, 1], "cx": K[0, 2], "cy": K[1, 2],
-            **dict(zip(("k1", "k2", "p1", "p2", "k3"), np.asarray(t["dist"], float),
-                       strict=False)),
+            # the coefficients by the names of the eye's lens (pinhole k1 k2 p1 p2 k3
+            # k4 k5 k6, fisheye k1-k4), missing ones 0
+            **dict(zip(LENS_MODELS[t.get("lens", "pinhole")],
+                       np.r_[np.asarray(t["dist"], float), np.zeros(8)], strict=False)),
             "unit.tilt_axis_x": a[0] / a[2], "unit.tilt_axis_y": a[1] / a[2],
             "unit.tilt_point_x": q[0], "unit.tilt_point_y": q[1], "unit.tilt_point_z": q[2],
             "unit.pan_scale": unit.pan_scale, "unit.tilt_scale": unit.tilt_scale,
@@ -342,8 +352,17 @@ def parameter_errors(doc: dict, truth: dict) -> dict[str, float]:
     tv = truth_values(truth)
     params = doc["refinement"]["parameters"]
     errors: dict[str, float] = {}
+    # the rational model's coefficients trade with each other (the refinement holds those
+    # the corners cannot determine): not compared one by one; the lens is scored through
+    # the rest (intrinsics, hand-eye, mounts)
+    from rasc.geometry.lens import LENS_MODELS
+
+    skip = set(LENS_MODELS["pinhole"]) \
+        if (doc.get("options") or {}).get("dist_model") == "rational" else set()
     for name in cov.names:
         group, _, rest = name.partition(".")
+        if rest in skip:
+            continue
         if group == "T_ptuL_from_ptuR":
             T_est = np.asarray(doc["refinement"]["T_ptuL_from_ptuR"], float)
             T_true = tv["T_ptuL_from_ptuR"]
@@ -586,6 +605,107 @@ def run_matrix(out: Path | None, cells: list[dict[str, str]] | None = None, seed
         write_json_atomic(out / "cells.json", [{k: v for k, v in r.to_dict().items()
                                                 if k != "seconds"} for r in ordered])
     return ordered
+
+
+# ----------------------------------------------------------------------------- lenses
+
+#: The lens factor's cells, on projected corners (:func:`run_lens_cell`): a lens (the
+#: head of :data:`LENS_HEADS`) and the ``dist_model`` it is calibrated with; ``wrong``:
+#: the model does not fit the lens, so the calibration must be warned
+#: (:func:`rasc.vision.camera.is_wrong_lens`) and not called usable.
+LENS_CELLS: tuple[dict[str, str], ...] = (
+    {"lens": "pinhole", "dist_model": "k1k2"},
+    {"lens": "rational", "dist_model": "rational"},
+    {"lens": "fisheye", "dist_model": "fisheye"},
+    {"lens": "fisheye", "dist_model": "k1k2", "wrong": "yes"},
+)
+#: corner noise of the lens cells (px per coordinate)
+LENS_NOISE_PX = 0.1
+
+
+def lens_head(lens: str):
+    """The lens cell's head (:mod:`rasc.sim.synthetic`): the default one (f = 1150 px,
+    k1 k2), the wide rational one (f = 600 px, ~130°) or the 170° fisheye."""
+    from rasc.sim.synthetic import default_head, fisheye_head, rational_head
+
+    return {"pinhole": default_head, "rational": rational_head,
+            "fisheye": fisheye_head}[lens]()
+
+
+def synthetic_truth(head) -> dict:
+    """A :class:`rasc.sim.synthetic.SyntheticHead` as a ground-truth document (``rasc
+    render``'s layout, with each eye's ``lens``), for :func:`score`."""
+    T_pLpR = head.T_ptuL_from_ptuR()
+    return {**{eye: {"K": head.K[eye].tolist(), "dist": np.asarray(head.dist[eye]).tolist(),
+                     "lens": head.lens_model(eye),
+                     "T_cam_from_gaze": head.T_cam_from_gaze[eye].tolist(),
+                     "T_ptu_from_base": head.T_ptu_from_base[eye].tolist(),
+                     "unit": head.unit[eye].to_dict()} for eye in ("left", "right")},
+            "T_ptuL_from_ptuR": T_pLpR.tolist(), "views": {}}
+
+
+def lens_cell_name(cell: dict[str, str]) -> str:
+    return f"lens {cell['lens']} as {cell['dist_model']}"
+
+
+def run_lens_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
+    """Project the lens cell's head (seeded :data:`LENS_NOISE_PX`), calibrate it with its
+    ``dist_model`` (the defaults otherwise), score it against the truth as a rendered cell
+    is, with the verdict (no images, so no report)."""
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
+    from rasc.report.verdict import verdict
+    from rasc.sim.synthetic import corner_dataset
+
+    t0 = time.perf_counter()
+    head = lens_head(cell["lens"])
+    truth = synthetic_truth(head)
+    ds = corner_dataset(head, seed=seed, noise_px=LENS_NOISE_PX)
+    cal = calibrate_dataset(ds, CalibrationOptions(dist_model=cell["dist_model"]))
+    cal.errors = errors_against_truth(cal, truth)
+    doc = _document(cal, Path("<projected corners>"))
+    v = verdict(doc)
+    ref = doc.get("refinement") or {}
+    return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,
+                      verdict_line=v.line(), warnings=list(doc.get("warnings", [])),
+                      doors_agree=None, report_pages=None, scales=ref.get("scales"),
+                      seconds=time.perf_counter() - t0)
+
+
+def lens_warned(r: CellResult) -> bool:
+    """The calibration warns that its lens model is wrong (both eyes' lens checks)."""
+    return sum("--dist-model" in w and "lens model" in w for w in r.warnings) >= 2
+
+
+def lens_cell_passes(r: CellResult) -> tuple[bool, str]:
+    """The matrix's rule (:func:`cell_passes`), and for the lens factor: a right model
+    is not warned about its lens, a wrong one is, on both eyes."""
+    ok, why = cell_passes(r)
+    if not ok:
+        return ok, why
+    if r.cell.get("wrong") and not lens_warned(r):
+        return False, "the wrong lens model was not warned"
+    if not r.cell.get("wrong") and any("lens model" in w for w in r.warnings):
+        return False, "the right lens model was warned"
+    return True, "ok"
+
+
+def lens_markdown_table(results: list[CellResult]) -> str:
+    """The lens cells' table: lens, dist_model, the verdict, the lens warning, the
+    hand-eye errors, χ²/n and the rule."""
+    lines = ["| lens | dist_model | verdict | lens warned | hand-eye L / R (deg) | "
+             "hand-eye L / R (mm) | χ²/n | rule |", "|" + " --- |" * 8]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = lens_cell_passes(r)
+        rot = " / ".join(f"{s.errors.get(f'{e} hand-eye rotation (deg)', float('nan')):.3f}"
+                         for e in ("left", "right"))
+        mm = " / ".join(f"{s.errors.get(f'{e} hand-eye translation (mm)', float('nan')):.3f}"
+                        for e in ("left", "right"))
+        lines.append(f"| {c['lens']} | {c['dist_model']}{' (wrong)' if c.get('wrong') else ''}"
+                     f" | {r.verdict} | {'yes' if lens_warned(r) else 'no'} | {rot} | {mm} | "
+                     f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
+                     f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
 
 
 # ----------------------------------------------------------------------------- tables

@@ -43,11 +43,13 @@ ROOMS = (
          "`subpixel` (cornerSubPix's rule, saddle points), `detect` (corner detection), "
          "`aprilgrid` (its detector), `camera` (intrinsics, extrinsics; re-exports images "
          "and detect; cv2), `dataset` (the `rasc-dataset/1` folder, the one dataset class), "
+         "`joint_stream` (a dataset's timestamped joint readings, `joints.csv`), "
          "`points` (`rasc detect`)"),
     Room("rasc/sim/", 3, "`scene` (the MuJoCo head: the only mujoco importer, lazily), "
          "`mjcf` (the scene's MJCF and target texture), `degrade` (noise, blur, "
-         "distortion), `render` (dataset rendering), `units` (imperfect pan-tilt units), "
-         "`synthetic`"),
+         "distortion), `render` (dataset rendering), `motion` (continuous motion: trajectory, "
+         "exposures, the cameras' and encoders' clocks), `units` (imperfect pan-tilt "
+         "units), `synthetic`"),
     Room("sim/models/", None, "the MJCF models of the head and scene, shipped in the wheel as "
          "`rasc/sim/models/` (setup.py)"),
     Room("rasc/head/", 3, "`model` (the calibrated head), `base_to_ptu` (eq. 11–12), "

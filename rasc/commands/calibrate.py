@@ -68,6 +68,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="with --model general, the pan and tilt encoder scales: 'auto' "
                         "(default) holds them at 1 unless the corners reject 1 (an F "
                         "test), 'estimate', or 'hold' at 1")
+    p.add_argument("--time-offset", choices=calopts.TIME_OFFSET_MODES, default=None,
+                   help="with --model general, the offset between the camera and encoder "
+                        "clocks of a continuous capture (pose images with times and a "
+                        "joint stream, rasc import --continuous): 'auto' (default) "
+                        "estimates it when the dataset has a joint stream, 'estimate' "
+                        "requires one, 'hold' keeps it at 0")
     p.add_argument("--min-corners", type=int, default=calopts.default("min_corners"), metavar="N",
                    help="a target seen in part (ChArUco): the fewest corners a view must "
                         "show to be used; views with fewer are skipped (default 8)")
@@ -100,7 +106,8 @@ def _read_mounts(path: str) -> np.ndarray:
 #: how the options' fields are written on this command line (for the library's messages)
 FLAGS = {"method": "--method", "detector": "--detector", "dist_model": "--dist-model",
          "model": "--model", "scales": "--scales", "T_ptuL_from_ptuR_measured": "--mounts",
-         "exclude_outliers": "--keep-outliers", "min_corners": "--min-corners"}
+         "exclude_outliers": "--keep-outliers", "min_corners": "--min-corners",
+         "time_offset": "--time-offset"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -122,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
                                  dist_model=args.dist_model,
                                  exclude_outliers=not args.keep_outliers,
                                  T_ptuL_from_ptuR_measured=mounts, model=args.model,
-                                 scales=args.scales,
+                                 scales=args.scales, time_offset=args.time_offset,
                                  min_corners=args.min_corners).validate(FLAGS)
     dataset = load_dataset(Path(args.dataset))
     check_outputs(outputs, inputs=[dataset.manifest_path, dataset.ground_truth, args.mounts,

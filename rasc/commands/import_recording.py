@@ -30,6 +30,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR", help="the new dataset folder")
     p.add_argument("--config", metavar="FILE.toml", help="topics, joints, board, thresholds")
     p.add_argument("--csv", metavar="FILE", help="SOURCE is an image folder: its angles")
+    p.add_argument("--continuous", action="store_true",
+                   help="a head that never stops: keep every image within the joint stream "
+                        "(not only the still moments), each with its time, and write the "
+                        "stream into the dataset (joints.csv); rasc calibrate then estimates "
+                        "the camera-to-encoder time offset. With --csv: the CSV gives each "
+                        "pose image's time, --joints the stream")
+    p.add_argument("--joints", metavar="FILE.csv",
+                   help="with --csv --continuous: the joint stream, time,eye,pan,tilt "
+                        "(encoder clock, s; radians)")
     p.add_argument("--intrinsics", metavar="BAG",
                    help="a recording of the board moved in front of the still cameras")
     for eye in ("left", "right"):
@@ -95,7 +104,13 @@ def run(args: argparse.Namespace) -> int:
         from rasc.recordings.config import merged as merge
         from rasc.recordings.config import parse_joint_source
 
-    inputs = [args.source, args.config, args.csv, args.intrinsics, args.target]
+    inputs = [args.source, args.config, args.csv, args.intrinsics, args.target, args.joints]
+    if args.joints is not None and not (args.continuous and args.csv is not None):
+        raise InputError("--joints: the joint stream of a continuous capture from images; "
+                         "use it with --csv and --continuous")
+    if args.continuous and args.csv is not None and args.joints is None:
+        raise InputError("--continuous with --csv: give the joint stream with --joints "
+                         "FILE.csv (time,eye,pan,tilt)")
     check_output(args.out, inputs=[i for i in inputs if i], kind="folder")
     cfg = load_config(args.config) if args.config else ImportConfig()
     topics = {e: t for e in ("left", "right")
@@ -121,10 +136,10 @@ def run(args: argparse.Namespace) -> int:
         if args.intrinsics is not None:
             raise InputError("--intrinsics: with --csv, list the intrinsics images in the CSV "
                              "(rows without pan and tilt)")
-        res = import_image_folder(args.source, args.csv, args.out, cfg)
+        res = import_image_folder(args.source, args.csv, args.out, cfg, joints=args.joints)
     else:
         res = import_bag(args.source, args.out, cfg, intrinsics=args.intrinsics,
-                         quiet=args.quiet, log=log)
+                         quiet=args.quiet, log=log, continuous=args.continuous)
     for w in res.warnings:
         print(f"rasc import: warning: {w}", file=sys.stderr)
     log(f"wrote {res.out}/manifest.json: {res.n_pose} pose and {res.n_intrinsics} "

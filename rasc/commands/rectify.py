@@ -1,10 +1,12 @@
 """``rasc rectify CAL --left-readings PAN,TILT --right-readings PAN,TILT --angle-unit deg|rad
-[--left IMG --right IMG] --out DIR [--alpha A] [--map-type fixed|float]``.
+[--left IMG --right IMG] --out DIR [--alpha A | --balance B --fov-scale S]
+[--map-type fixed|float]``.
 
 The stereo rectification of a calibrated head at one pair of pan-tilt readings
 (:func:`rasc.stereo.rectify.rectify_head`: ``cv2.stereoRectify`` on the two cameras'
-relative pose at those readings, then ``cv2.initUndistortRectifyMap``). A reading with a
-leading minus is written with '=': ``--left-readings=-10,5``.
+relative pose at those readings, then ``cv2.initUndistortRectifyMap``; for fisheye eyes
+their ``cv2.fisheye`` counterparts, scaled by ``--balance`` and ``--fov-scale`` instead of
+``--alpha``). A reading with a leading minus is written with '=': ``--left-readings=-10,5``.
 
 Writes into the folder ``--out`` (created if missing; each file atomically):
 ``rectification.json`` (``rasc-rectification/1``: R1, R2, P1, P2, Q in OpenCV's meaning,
@@ -14,8 +16,9 @@ rasc reads images).
 
 Refused (one line, exit 2, nothing written): a reading that is not two numbers or beyond
 a turn; images not of the calibration's size; one image without the other; an output
-that is an input; coinciding optical centres. Warned: readings outside the range the
-calibration's pose views spanned.
+that is an input; coinciding optical centres; eyes of two lens models; ``--alpha`` for
+fisheye eyes, ``--balance`` or ``--fov-scale`` for pinhole ones. Warned: readings outside
+the range the calibration's pose views spanned.
 """
 
 from __future__ import annotations
@@ -56,8 +59,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="DIR", required=True,
                    help=f"folder to write {GEOMETRY_FILE} (and left.png, right.png) into")
     p.add_argument("--alpha", type=float, default=-1.0,
-                   help="OpenCV's free scaling: -1 its default, 0 only valid pixels, 1 all "
-                        "source pixels (default -1)")
+                   help="pinhole eyes: OpenCV's free scaling: -1 its default, 0 only valid "
+                        "pixels, 1 all source pixels (default -1)")
+    p.add_argument("--balance", type=float, default=None,
+                   help="fisheye eyes: cv2.fisheye.stereoRectify's balance, 0 (default) "
+                        "only valid pixels to 1 the whole fisheye image")
+    p.add_argument("--fov-scale", type=float, default=None,
+                   help="fisheye eyes: cv2.fisheye.stereoRectify's fov_scale, the "
+                        "rectified focal length divided by it (default 1)")
     p.add_argument("--map-type", choices=("fixed", "float"), default="fixed",
                    help="remap tables: fixed (CV_16SC2, default) or float (CV_32FC1)")
     p.set_defaults(func=run)
@@ -74,6 +83,12 @@ def _readings(text: str, flag: str, unit: str) -> tuple[float, float]:
     return tuple(float(common.angles_to_radians(np.array([value]), unit, name,
                                                 lambda i: f"{flag} {text}")[0])
                  for name, value in (("pan", pan), ("tilt", tilt)))
+
+
+def _option(message: str) -> str:
+    """A library message about an option, the option named as the command spells it."""
+    return message.replace("fov_scale", "fov-scale", 1) if message.startswith(
+        "fov_scale") else message
 
 
 def run(args: argparse.Namespace) -> int:
@@ -95,11 +110,21 @@ def run(args: argparse.Namespace) -> int:
     readings = {eye: _readings(getattr(args, f"{eye}_readings"), f"--{eye}-readings", unit)
                 for eye in EYES}
     try:
-        options = RectifyOptions(alpha=args.alpha, map_type=args.map_type)
+        options = RectifyOptions(alpha=args.alpha, map_type=args.map_type,
+                                 balance=args.balance, fov_scale=args.fov_scale)
     except InputError as exc:                 # "alpha: ..." is the option --alpha
-        raise InputError(f"--{exc}") from None
+        raise InputError(f"--{_option(str(exc))}") from None
     cal = common.read_calibration(args.calibration)
-    rect = rectify_head(cal.head, readings["left"], readings["right"], options, maps=images)
+    try:
+        rect = rectify_head(cal.head, readings["left"], readings["right"], options,
+                            maps=images)
+    except InputError as exc:      # the eyes' lens models, or an option they take none of
+        text = str(exc)
+        if text.startswith(("alpha", "balance", "fov_scale")):
+            raise InputError(f"{args.calibration}: --{_option(text)}") from None
+        if text.startswith("lens:"):
+            raise InputError(f"{args.calibration}: {text}") from None
+        raise
     rectified = None
     if images:
         pair = read_image(args.left), read_image(args.right)

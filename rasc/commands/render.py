@@ -109,6 +109,34 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     cam.add_argument("--jpeg-quality", type=int, default=0, metavar="Q",
                      help="JPEG compression at quality Q, 1 to 100 (default 0: none; the "
                           "images are still written as PNG)")
+    mov = p.add_argument_group(
+        "continuous motion", "a head that never stops, filmed by cameras on their own "
+        "clock (docs/topics/continuous.md); off by default (stop-and-go); the other options "
+        "of this group need --motion-speed")
+    mov.add_argument("--motion-speed", type=float, default=0.0, metavar="DEG_S",
+                     help="peak joint speed of minimum-jerk motions through the --poses "
+                          "positions, deg/s (default 0: stop-and-go, one still image per "
+                          "position)")
+    mov.add_argument("--dwell", type=float, default=0.0, metavar="S",
+                     help="seconds held at each position (default 0: never stops)")
+    mov.add_argument("--frame-rate", type=float, default=30.0, metavar="HZ",
+                     help="the cameras' frames per second (default 30)")
+    mov.add_argument("--exposure", type=float, default=0.01, metavar="S",
+                     help="exposure time, seconds: motion blur (default 0.01)")
+    mov.add_argument("--subframes", type=int, default=8, metavar="N",
+                     help="renders averaged over an exposure (default 8)")
+    mov.add_argument("--rolling-shutter", type=float, default=0.0, metavar="S",
+                     help="a rolling shutter's line time, seconds (default 0: global "
+                          "shutter)")
+    mov.add_argument("--joint-rate", type=float, default=200.0, metavar="HZ",
+                     help="joint readings per second in joints.csv (default 200)")
+    mov.add_argument("--clock-offset", type=float, default=0.0, metavar="S",
+                     help="δ: encoder clock = camera clock + δ, seconds (default 0)")
+    mov.add_argument("--clock-jitter", type=float, default=0.0, metavar="S",
+                     help="Gaussian jitter (σ) of the joint stamps, seconds (default 0)")
+    mov.add_argument("--max-frames", type=int, default=40, metavar="N",
+                     help="pose frames kept per eye: every k-th of those the camera takes, "
+                          "at most N (default 40)")
     add_unit_arguments(p, "the model as written (ideal units)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
@@ -136,7 +164,12 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "vignetting": "--vignetting", "motion_blur": "--motion-blur",
          "motion_angle": "--motion-angle", "focus_distance": "--focus-distance",
          "f_number": "--f-number", "focal_length_mm": "--focal-length",
-         "jpeg_quality": "--jpeg-quality", "lens": "--lens", "fov": "--fov"}
+         "jpeg_quality": "--jpeg-quality", "motion_speed_deg_s": "--motion-speed",
+         "dwell": "--dwell", "frame_rate": "--frame-rate", "exposure": "--exposure",
+         "subframes": "--subframes", "rolling_shutter": "--rolling-shutter",
+         "joint_rate": "--joint-rate", "clock_offset": "--clock-offset",
+         "clock_jitter": "--clock-jitter", "max_frames": "--max-frames",
+         "lens": "--lens", "fov": "--fov"}
 
 
 def _urdf_head(args: argparse.Namespace, out: Path):
@@ -186,6 +219,11 @@ def run(args: argparse.Namespace) -> int:
         motion_blur=args.motion_blur, motion_angle=args.motion_angle,
         focus_distance=args.focus_distance, f_number=args.f_number,
         focal_length_mm=args.focal_length, jpeg_quality=args.jpeg_quality,
+        motion_speed_deg_s=args.motion_speed, dwell=args.dwell, frame_rate=args.frame_rate,
+        exposure=args.exposure, subframes=args.subframes,
+        rolling_shutter=args.rolling_shutter, joint_rate=args.joint_rate,
+        clock_offset=args.clock_offset, clock_jitter=args.clock_jitter,
+        max_frames=args.max_frames,
         lens=args.lens, fov=args.fov,
     ).validate(FLAGS)
     units = units_from_args(args)

@@ -5,16 +5,22 @@ reader rasc did not write (PyYAML, ``cv2.FileStorage``).
 * **camera_info** (ROS camera_calibration_parsers' YAML, what camera_info_manager
   loads), one per eye: intrinsics only. ``K``, the distortion ``D`` (``plumb_bob``:
   k1 k2 p1 p2 k3, 4 coefficients padded with k3 = 0; ``rational_polynomial``: OpenCV's
-  8), ``R = I`` (the images are not rectified) and ``P = [K | 0]``. They hold at every
+  8; ``equidistant``, ROS's name for a fisheye eye's ``cv2.fisheye`` model: k1 k2 k3 k4),
+  ``R = I`` (the images are not rectified) and ``P = [K | 0]``. They hold at every
   gaze: an active head's pose goes in the URDF (``/tf``), not in camera_info.
-* **OpenCV** FileStorage YAML: ``K1 D1 K2 D2`` and each eye's image size, the stereo
+* **OpenCV** FileStorage YAML: ``K1 D1 K2 D2``, each eye's lens model (``lens_model1``,
+  ``lens_model2``: ``pinhole``, whose ``D`` is OpenCV's k1 k2 p1 p2 [k3 [k4 k5 k6]] for
+  ``cv2.projectPoints``, or ``fisheye``, whose ``D`` is ``cv2.fisheye``'s k1 k2 k3 k4,
+  1×4) and image size, the stereo
   extrinsics at one gaze as ``cv2.stereoCalibrate`` returns them (``R``, ``T`` map
   camera-1 (left) coordinates into camera 2 (right): x₂ = R x₁ + T; ``E``, ``F``), and
   what the gaze depends on: per eye the hand-eye ``T_cam_from_gaze``, the mount
   ``T_ptu_from_base``, the unit's parameters, and ``T_cam_from_base`` at that gaze.
 * **Kalibr** camchain: ``cam0`` (left), ``cam1`` (right), each ``camera_model: pinhole``,
-  ``intrinsics: [fu, fv, pu, pv]``, ``distortion_model: radtan``, ``distortion_coeffs:
-  [k1, k2, r1, r2]``, ``resolution: [width, height]``, ``rostopic``, ``cam_overlaps``;
+  ``intrinsics: [fu, fv, pu, pv]``, ``distortion_model: radtan`` with
+  ``distortion_coeffs: [k1, k2, r1, r2]`` (a fisheye eye: ``equidistant`` with
+  ``[k1, k2, k3, k4]``, Kalibr's pinhole-equi, the model of ``cv2.fisheye``),
+  ``resolution: [width, height]``, ``rostopic``, ``cam_overlaps``;
   ``cam1.T_cn_cnm1``, Kalibr's transform from the previous camera to this one (it maps
   cam0 coordinates into cam1: ``T_cam1_from_cam0``) at one gaze. Kalibr's pinhole has
   no skew and radtan no k3: a calibration that needs them is refused.
@@ -31,9 +37,12 @@ from rasc.export._text import number, numbers
 from rasc.geometry.frames import EYES
 from rasc.geometry.transforms import invert_transform
 
-#: ROS distortion model by the number of OpenCV coefficients
+#: ROS distortion model of a pinhole eye by the number of OpenCV coefficients
 ROS_DISTORTION_MODELS = {0: "plumb_bob", 4: "plumb_bob", 5: "plumb_bob",
                          8: "rational_polynomial"}
+#: ROS's (sensor_msgs/distortion_models.h) and Kalibr's name of the fisheye lens model
+#: (cv2.fisheye's equidistant k1 k2 k3 k4)
+EQUIDISTANT = "equidistant"
 #: placeholder image topics of the Kalibr camchain (Kalibr reads them to find the images)
 KALIBR_TOPICS = {"left": "/left/image_raw", "right": "/right/image_raw"}
 
@@ -43,9 +52,13 @@ def _matrix(rows: int, cols: int, data, indent: str = "  ") -> str:
             f"{indent}data: [{numbers(data)}]\n")
 
 
-def camera_info_distortion(dist: np.ndarray) -> tuple[str, np.ndarray]:
-    """(distortion_model, D) of ROS for OpenCV's coefficients (0, 4, 5 or 8 of them)."""
+def camera_info_distortion(dist: np.ndarray, lens: str = "pinhole"
+                           ) -> tuple[str, np.ndarray]:
+    """(distortion_model, D) of ROS for a pinhole eye's OpenCV coefficients (0, 4, 5 or 8
+    of them) or a fisheye eye's (``equidistant``, k1 k2 k3 k4; none: four zeros)."""
     dist = np.asarray(dist, dtype=float)
+    if lens == "fisheye":
+        return EQUIDISTANT, dist if dist.size else np.zeros(4)
     model = ROS_DISTORTION_MODELS[dist.size]
     if model == "plumb_bob":
         dist = np.concatenate([dist, np.zeros(5 - dist.size)])
@@ -55,7 +68,7 @@ def camera_info_distortion(dist: np.ndarray) -> tuple[str, np.ndarray]:
 def to_camera_info(eye, camera_name: str) -> str:
     """ROS camera_info YAML of one :class:`rasc.head.model.EyeCalibration` (module
     docstring)."""
-    model, D = camera_info_distortion(eye.dist)
+    model, D = camera_info_distortion(eye.dist, eye.lens)
     P = np.hstack([eye.K, np.zeros((3, 1))])
     width, height = eye.image_size
     return (f"image_width: {width}\nimage_height: {height}\ncamera_name: {camera_name}\n"
@@ -102,12 +115,16 @@ def to_opencv(head, gaze=(0.0, 0.0, 0.0, 0.0), *, metres_per_unit: float = 1.0) 
             "# written by rasc export (format opencv): camera 1 is the left eye, camera 2 "
             "the right.\n# R, T, E, F as cv2.stereoCalibrate returns them (x2 = R x1 + T) "
             "at the pan-tilt readings 'gaze'\n# (pan_left, tilt_left, pan_right, tilt_right, "
-            "radians); lengths in metres.\n")
+            "radians); lengths in metres.\n# lens_model1/2: pinhole (D: OpenCV's k1 k2 p1 "
+            "p2 [k3 [k4 k5 k6]], cv2.projectPoints) or fisheye\n# (D: cv2.fisheye's k1 k2 "
+            "k3 k4, cv2.fisheye.projectPoints).\n")
     text += f"length_unit: m\ngaze: [ {numbers(gaze)} ]\n"
     for k, name in enumerate(EYES, start=1):
         eye = getattr(head, name)
-        dist = eye.dist if eye.dist.size else np.zeros(5)       # no distortion: five zeros
+        # no distortion: OpenCV's five zeros (the fisheye's four)
+        dist = eye.dist if eye.dist.size else np.zeros(4 if eye.lens == "fisheye" else 5)
         text += _cv_matrix(f"K{k}", eye.K) + _cv_matrix(f"D{k}", dist.reshape(1, -1))
+        text += f"lens_model{k}: {eye.lens}\n"
         text += f"image_size{k}: [ {eye.image_size[0]}, {eye.image_size[1]} ]\n"
     text += _cv_matrix("R", R) + _cv_matrix("T", t.reshape(3, 1))
     text += _cv_matrix("E", E) + _cv_matrix("F", F)
@@ -133,6 +150,7 @@ def _kalibr_camera(name: str, eye) -> str:
         raise InputError(f"{name}.K: skew {K[0, 1]:g} px: Kalibr's pinhole model "
                          "[fu, fv, pu, pv] has none; export --format opencv or camera-info")
     dist = np.concatenate([eye.dist, np.zeros(max(0, 4 - eye.dist.size))])
+    model = EQUIDISTANT if eye.lens == "fisheye" else "radtan"  # pinhole-equi: cv2.fisheye's
     extra = dist[4:]
     if np.any(extra != 0.0):
         raise InputError(f"{name}.dist: k3..k6 = {numbers(extra)} are not all 0: Kalibr's "
@@ -140,7 +158,7 @@ def _kalibr_camera(name: str, eye) -> str:
                          "opencv or camera-info")
     return (f"  camera_model: pinhole\n"
             f"  intrinsics: [{numbers([K[0, 0], K[1, 1], K[0, 2], K[1, 2]])}]\n"
-            f"  distortion_model: radtan\n  distortion_coeffs: [{numbers(dist[:4])}]\n"
+            f"  distortion_model: {model}\n  distortion_coeffs: [{numbers(dist[:4])}]\n"
             f"  resolution: [{eye.image_size[0]}, {eye.image_size[1]}]\n"
             f"  rostopic: {KALIBR_TOPICS[name]}\n")
 

@@ -31,6 +31,9 @@ DETECTORS = ("classic", "saddle", "sb")
 DIST_MODEL_NAMES = ("opencv5", "k1k2", "none", "rational", "fisheye")
 #: encoder scales under the general model (rasc.head.refine.SCALES says what each costs)
 SCALES_MODES = ("auto", "estimate", "hold")
+#: the camera-to-encoder time offset of a continuous capture under the general model
+#: (rasc.head.refine.timing says how it is estimated)
+TIME_OFFSET_MODES = ("auto", "estimate", "hold")
 
 
 @dataclass
@@ -67,6 +70,12 @@ class CalibrationOptions:
         A target seen in part (ChArUco): the fewest corners a view must show to be used
         (default 8, :data:`rasc.vision.board.MIN_VIEW_CORNERS`); views with fewer are
         skipped, and the log says so.
+    time_offset : {"auto", "estimate", "hold"} or None
+        Under the general model, the offset δ between the camera and encoder clocks of a
+        continuous capture (pose images with times and a joint stream,
+        docs/topics/recordings.md): None means "auto" (estimated when the dataset has a
+        joint stream, else nothing to estimate); "estimate" refuses a dataset without
+        one; "hold" keeps δ = 0 (the dataset's readings). Refused under the paper model.
     """
 
     method: str = "rasc"
@@ -77,6 +86,12 @@ class CalibrationOptions:
     model: str = "general"
     scales: str | None = None
     min_corners: int = 8
+    time_offset: str | None = None
+
+    @property
+    def time_offset_mode(self) -> str:
+        """``time_offset`` with its default filled in ("auto")."""
+        return "auto" if self.time_offset is None else self.time_offset
 
     @property
     def scales_mode(self) -> str:
@@ -109,6 +124,14 @@ class CalibrationOptions:
             if self.model != "general":
                 raise InputError(f"{name('scales')}: only the whole-head refinement "
                                  f"estimates scales; use it with {name('model')} general")
+        if self.time_offset is not None:
+            if self.time_offset not in TIME_OFFSET_MODES:
+                raise InputError(f"{name('time_offset')}: expected one of "
+                                 f"{', '.join(TIME_OFFSET_MODES)}, got {self.time_offset!r}")
+            if self.model != "general":
+                raise InputError(f"{name('time_offset')}: only the whole-head refinement "
+                                 f"estimates the time offset; use it with {name('model')} "
+                                 "general")
         if isinstance(self.min_corners, bool) or not isinstance(self.min_corners, int) \
                 or self.min_corners < 4:
             raise InputError(f"{name('min_corners')}: expected a whole number of at least 4 "
@@ -131,7 +154,7 @@ class CalibrationOptions:
         return {"method": self.method, "detector": self.detector,
                 "dist_model": self.dist_model, "exclude_outliers": self.exclude_outliers,
                 "model": self.model, "scales": self.scales_mode,
-                "min_corners": self.min_corners}
+                "time_offset": self.time_offset_mode, "min_corners": self.min_corners}
 
 
 def default(field: str) -> Any:

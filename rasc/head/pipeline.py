@@ -64,6 +64,8 @@ class EyeResult:
     #: role ("intrinsics", "pose"): kept so that refinement and experiments never detect
     #: again; not written to the JSON (which has per-image residual summaries instead)
     corners: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    #: a continuous capture: each pose image's time (camera clock, s; None without one)
+    times: list[float | None] = field(default_factory=list)
 
 
 @dataclass
@@ -81,6 +83,8 @@ class Calibration:
     #: model "general": the hand-eye method's closed form that seeded the refinement, per
     #: eye its T_cam_from_gaze and its distance from the refined one (``refinement.seed``)
     seed: dict[str, Any] | None = None
+    #: a continuous capture's joint stream (rasc.vision.joint_stream.JointStream), or None
+    joint_stream: Any = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         eyes = {}
@@ -233,7 +237,8 @@ def calibrate_eye(dataset, eye: str, options: CalibrationOptions,
                  + translation_warnings(T_cw[used], T_gp[used], he.T_cam_from_gaze,
                                         names=[files[i] for i in used])]
     timer.add("hand-eye", time.perf_counter() - t0)
-    return EyeResult(intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
+    return EyeResult(times=[det_p.entries[f].time for f in files],
+                     intrinsics=intr, pose_files=files, pan_tilt=pan_tilt, views=views,
                      T_cam_from_world=T_cw, pose_rms=rms,
                      not_found={"intrinsics": det_i.not_found, "pose": det_p.not_found},
                      handeye=he, uncertainty=uncertainty, warnings=warnings,
@@ -344,7 +349,7 @@ def calibrate_dataset(dataset, options: CalibrationOptions | None = None,
         for eye in EYES})
     cal = Calibration(head=head, eyes=eyes, base=base, options=options,
                       timings=timer.timings, warnings=warnings,
-                      length_unit=dataset.length_unit)
+                      length_unit=dataset.length_unit, joint_stream=dataset.joint_stream)
     return _finish(cal, dataset, options, timer, log, sizes, truth=truth)
 
 
@@ -373,16 +378,17 @@ def _scales_F(held, estimated) -> float:
     return float(gain / noise)
 
 
-def _scales_test(obs, estimate_first: bool) -> tuple[Any, Any, float]:
+def _scales_test(obs, estimate_first: bool, time_offset: bool = False
+                 ) -> tuple[Any, Any, float]:
     """(held, estimated, F) of :data:`SCALES_F_ESTIMATE`'s test, both fits on one corner
     set: the first (scales estimated for ``auto``, held for ``hold``) from the closed form
     with its own corner rejection, the second started there on exactly the corners it
-    kept, rejecting none."""
+    kept, rejecting none. ``time_offset``: both estimate δ (a continuous capture)."""
     from rasc.head.refine import refine_head
 
-    first = refine_head(obs, estimate_scales=estimate_first)
+    first = refine_head(obs, estimate_scales=estimate_first, time_offset=time_offset)
     second = refine_head(obs, estimate_scales=not estimate_first, start=first,
-                         reject_k=float("inf"))
+                         reject_k=float("inf"), time_offset=time_offset)
     held, estimated = (second, first) if estimate_first else (first, second)
     return held, estimated, _scales_F(held, estimated)
 
@@ -445,14 +451,18 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         return
     log("whole-head refinement (model general)")
     t0 = time.perf_counter()
-    obs = observations_from_calibration(cal, dataset.board)
+    try:
+        obs = observations_from_calibration(cal, dataset.board)
+    except InputError as exc:       # a pose image's time against the joint stream
+        raise InputError(f"{dataset.manifest_path}: {exc}") from None
+    delta = _time_offset_wanted(obs, options, dataset)
     try:
         if options.scales_mode == "auto":
             # one corner set for both fits: the scales estimated (the larger model) with
             # its own rejection, from the closed form; then held, started there, on exactly
             # the corners it kept and rejecting none. (Held first, its rejection took the
             # corners that a wrong scale distorts, and the estimate never saw them again.)
-            res_h, res_e, F = _scales_test(obs, estimate_first=True)
+            res_h, res_e, F = _scales_test(obs, estimate_first=True, time_offset=delta)
             res = res_e if F > SCALES_F_ESTIMATE else res_h
             res.scales = {"mode": "auto", "F": F, "threshold_F": SCALES_F_ESTIMATE,
                           "estimated": res is res_e}
@@ -462,13 +472,13 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
             # held by choice; the same F test as auto says whether the corners contradict
             # the choice (a warning, and the report's verdict): the scales estimated from
             # the held fit, on exactly its corners
-            res, res_e, F = _scales_test(obs, estimate_first=False)
+            res, res_e, F = _scales_test(obs, estimate_first=False, time_offset=delta)
             res.scales = {"mode": "hold", "F": F, "threshold_F": SCALES_F_ESTIMATE,
                           "estimated": False}
             if F > SCALES_F_ESTIMATE:
                 cal.warnings.append(scales_hold_warning(F, res_e))
         else:
-            res = refine_head(obs, estimate_scales=True)
+            res = refine_head(obs, estimate_scales=True, time_offset=delta)
             res.scales = {"mode": "estimate", "estimated": True}
     except RascError as exc:
         raise type(exc)(f"{dataset.manifest_path}: {exc}") from None
@@ -483,12 +493,15 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
         cal.seed[eye] = {"T_cam_from_gaze": closed.tolist(),
                          "quality": float(cal.eyes[eye].handeye.quality),
                          "vs_refined": transform_error(closed, res.T_cam_from_gaze[eye])}
+    _time_offset_outcome(cal, res, options, dataset, log)
     log(f"hand-eye method {options.method}: its closed form seeded the refinement ("
         + ", ".join(f"{eye} {cal.seed[eye]['vs_refined']['rotation_deg']:.3g} deg, "
                     f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"
                     " from the refined "
                     "hand-eye" for eye in EYES) + ")")
-    gone = [im for im in res.images if not np.isfinite(im.rms)]
+    dropped = {(f["eye"], f["file"]) for f in res.frames_rejected}   # warned on their own
+    gone = [im for im in res.images if not np.isfinite(im.rms)
+            and (im.eye, im.name) not in dropped]
     if gone:
         cal.warnings.append(
             f"the whole-head refinement rejected every corner of {len(gone)} image(s) ("
@@ -548,6 +561,53 @@ def _lens_warnings(cal: Calibration) -> None:
     cal.warnings[:0] = [w for w in found if w not in cal.warnings]
 
 
+def _time_offset_wanted(obs, options: CalibrationOptions, dataset) -> bool:
+    """Whether the refinement estimates the time offset δ: "auto" when the dataset is a
+    continuous capture (pose images with times and a joint stream), "estimate" always (a
+    dataset without a stream is refused, one line), "hold" never."""
+    mode = options.time_offset_mode
+    if mode == "estimate" and not obs.has_stream:
+        raise InputError(f"{dataset.manifest_path}: the time offset cannot be estimated "
+                         "(time_offset estimate): the dataset has no joint stream with "
+                         "every pose image's time (the manifest's joint_stream and each "
+                         "pose image's time); import it with rasc import --continuous")
+    return mode != "hold" and obs.has_stream
+
+
+def _time_offset_outcome(cal: Calibration, res, options: CalibrationOptions, dataset,
+                         log: Callable[[str], None]) -> None:
+    """Record and word the time offset's outcome (``res.time_offset``) and the pose
+    frames the refinement dropped as outliers (warnings naming them)."""
+    d = res.time_offset
+    if d:
+        d["mode"] = options.time_offset_mode
+        if d["estimated"]:
+            # the closed form's warnings judge the readings at δ = 0, which the refinement
+            # replaced (a jackknife "too noisy" for readings off by speed × δ): kept with
+            # the seed, not warned
+            stale = [w for eye in EYES for w in cal.eyes[eye].warnings]
+            if stale and cal.seed is not None:
+                cal.seed["closed_form_warnings"] = stale
+                cal.warnings = [w for w in cal.warnings if w not in stale]
+            log(f"time offset δ (encoder clock − camera clock) {1000 * d['value_s']:.3f} ± "
+                f"{1000 * d['std_s']:.3f} ms")
+        elif d["tested"]:
+            why = res.parameters["head"]["time_offset"].get("held", "")
+            if options.time_offset_mode == "estimate":
+                raise InputError(f"{dataset.manifest_path}: the time offset cannot be "
+                                 f"estimated (time_offset estimate): {why}")
+            cal.warnings.append(f"the time offset between the camera and encoder clocks was "
+                                f"not estimated, held at 0: {why}")
+    if res.frames_rejected:
+        names = [f"{f['eye']} {f['file']} ({f['rms_px']:.3g} px)" for f in res.frames_rejected]
+        cal.warnings.append(
+            f"the whole-head refinement dropped {len(names)} pose frame(s) that fit as "
+            f"outliers (RMS above {res.frames_rejected[0]['threshold_px']:.3g} px, the "
+            "per-view rule of the intrinsics): " + ", ".join(names[:6])
+            + (", ..." if len(names) > 6 else "") + "; motion blur or a frame time that is "
+            "not the image's; they are listed in refinement.frames_rejected")
+
+
 def refine_calibration(cal: Calibration, dataset,
                        log: Callable[[str], None] = lambda s: None,
                        **overrides) -> Calibration:
@@ -560,7 +620,7 @@ def refine_calibration(cal: Calibration, dataset,
     options = dataclasses.replace(cal.options, model="general", **overrides).validate()
     out = Calibration(head=cal.head, eyes=cal.eyes, base=copy.deepcopy(cal.base),
                       options=options, warnings=list(cal.warnings),
-                      length_unit=cal.length_unit)
+                      length_unit=cal.length_unit, joint_stream=cal.joint_stream)
     # the paper model's misfit warning is answered by the refinement: drop it
     from rasc.head.fit import REMEDY
     from rasc.vision.camera import WRONG_LENS_REMEDY

@@ -125,8 +125,10 @@ def _head_from_dict(d: Any, where: str) -> HeadCalibration:
                     _numbers_only(d[eye][field], f"{prefix}{eye}.{field}")
             dist = d[eye].get("dist")
             if isinstance(dist, list) and any(isinstance(x, list) for x in dist):
-                raise InputError(f"{prefix}{eye}.dist: expected a flat list of 0, 4, 5 or 8 "
-                                 "numbers (k1 k2 p1 p2 [k3 [k4 k5 k6]])")
+                what = ("0 or 4 numbers (a fisheye lens: k1 k2 k3 k4)"
+                        if d[eye].get("lens") == "fisheye" else
+                        "0, 4, 5 or 8 numbers (k1 k2 p1 p2 [k3 [k4 k5 k6]])")
+                raise InputError(f"{prefix}{eye}.dist: expected a flat list of {what}")
     try:
         return HeadCalibration.from_dict(d)
     except InputError as exc:

@@ -277,38 +277,79 @@ def candidate_grid(setup: PlanSetup) -> np.ndarray:
     return np.stack([p.ravel(), t.ravel()], axis=1)
 
 
+def lens_model(head, eye: str) -> str:
+    """The lens model of ``eye`` of a planner's head: its ``lens`` (``{eye: model}``, as
+    :class:`rasc.sim.synthetic.SyntheticHead` may carry it) or, without one, pinhole."""
+    lenses = getattr(head, "lens", None)
+    return "pinhole" if lenses is None else lenses[eye]
+
+
 def _project(head, eye, T_cw, P, size):
     """Noise-free pixels of board points, NaN outside the image or behind the camera."""
-    from rasc.geometry import lens
-
-    p = P @ T_cw[:3, :3].T + T_cw[:3, 3]
-    uv = np.full((len(P), 2), np.nan)
-    front = p[:, 2] > 0.05
-    if front.any():
-        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
-    w, h = size
-    with np.errstate(invalid="ignore"):
-        out = ~front | np.any(~(uv >= 0), axis=1) | (uv[:, 0] > w - 1) | (uv[:, 1] > h - 1)
-    uv[out] = np.nan
-    return uv
+    return _pixels(head, eye, P @ T_cw[:3, :3].T + T_cw[:3, 3], size)
 
 
 def _project_many(head, eye, T_cw, P, size, margin: float = 0.0):
     """:func:`_project` for a stack of poses (M, 4, 4): (M, N, 2); corners closer than
     ``margin`` pixels to the image border count as not seen."""
+    p = np.einsum("mij,nj->mni", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
+    return _pixels(head, eye, p, size, margin)
+
+
+def _pixels(head, eye, p, size, margin: float = 0.0):
+    """Pixels (..., 2) of camera-frame points ``p`` (..., 3) through the eye's lens model
+    (:func:`lens_model`, :func:`rasc.geometry.lens.project_points`); NaN behind the
+    camera (or within 5 cm of its plane), outside the image, or closer than ``margin``
+    pixels to its border. Through a lens other than the pinhole a pixel must also
+    undistort back to its point's ray (:func:`_round_trips`): a lens model folds points
+    far outside its field of view back into the image, and those are not seen there."""
     from rasc.geometry import lens
 
-    p = np.einsum("mij,nj->mni", T_cw[:, :3, :3], P) + T_cw[:, None, :3, 3]
-    uv = np.full(p.shape[:2] + (2,), np.nan)
+    model = lens_model(head, eye)
+    uv = np.full(p.shape[:-1] + (2,), np.nan)
     front = p[..., 2] > 0.05
     if front.any():
-        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye])
+        uv[front] = lens.project_points(p[front], head.K[eye], head.dist[eye], model=model)
     w, h = size
     with np.errstate(invalid="ignore"):
         out = ~front | np.any(~(uv >= margin), axis=-1) | (uv[..., 0] > w - 1 - margin) \
             | (uv[..., 1] > h - 1 - margin)
+    if model != "pinhole" and not out.all():
+        inside = np.flatnonzero(~out.ravel())
+        rays = p.reshape(-1, 3)[inside]
+        out.flat[inside[~_round_trips(head, eye, model, uv.reshape(-1, 2)[inside],
+                                      rays[:, :2] / rays[:, 2:])]] = True
     uv[out] = np.nan
     return uv
+
+
+#: a pixel is its corner's when undistorting it gives back the corner's ray to this,
+#: relative to 1 + |ray| (normalised units: 1e-6 px at a focal length of 1000 px, as
+#: :data:`rasc.head.use.ROUND_TRIP_TOL_PX`)
+ROUND_TRIP_TOL = 1e-9
+
+
+def _round_trips(head, eye: str, model: str, uv: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Which pixels ``uv`` (N, 2) undistort (:func:`rasc.geometry.lens.undistort_normalized`)
+    back to their rays ``xy`` (N, 2, normalised): False where the lens model folds."""
+    import contextlib
+
+    from rasc.geometry import lens
+
+    K = head.K[eye]
+    xd = np.c_[(uv[:, 0] - K[0, 2] - K[0, 1] * (uv[:, 1] - K[1, 2]) / K[1, 1]) / K[0, 0],
+               (uv[:, 1] - K[1, 2]) / K[1, 1]]
+    try:
+        back = lens.undistort_normalized(xd, head.dist[eye], model=model)
+    except InputError:                  # some pixel beyond the model's fold: one by one
+        back = np.full_like(xd, np.nan)
+        for i in range(len(xd)):
+            with contextlib.suppress(InputError):
+                back[i] = lens.undistort_normalized(xd[i:i + 1], head.dist[eye],
+                                                    model=model)[0]
+    with np.errstate(invalid="ignore"):
+        return (np.abs(back - xy).max(axis=1)
+                <= ROUND_TRIP_TOL * (1.0 + np.abs(xy).max(axis=1)))
 
 
 #: candidate images per block of the information computation (memory ~ block × corners
@@ -329,10 +370,11 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
     chain ``T_cam_from_board = (R, t)``, so its column is a camera-frame twist (ω, v) per
     image: d pc = ω × pc + v, with ``[ω]x = dR Rᵀ`` and ``v = dt − ω × t`` from the
     central difference (dR, dt) of the chain of every image at once. Per corner the
-    pixel's derivative with respect to [intrinsics, twist] is a 2×12 matrix
+    pixel's derivative with respect to [intrinsics, twist] is a 2×(ni + 6) matrix (ni
+    intrinsics: 6 for a pinhole's fx fy cx cy k1 k2, 8 for a fisheye's k1..k4)
     (:meth:`rasc.head.refine._Problem._project`'s analytic derivatives: the intrinsics
     columns, and ``d pixel / d pc`` with the twist's rows ``pc × J_a`` and ``J_a``);
-    its Gram matrix Z_cᵀZ_c (12×12, summed over the image's seen corners) and the
+    its Gram matrix Z_cᵀZ_c (summed over the image's seen corners) and the
     image's twist map S_c give ``A_c = T_cᵀ Z_cᵀ Z_c T_c``, T_c = diag(I, S_c). The same
     numbers as :func:`_blocks_reference` (the refinement's sparse Jacobian, forward
     differences) to the latter's difference error (~1e-6 relative;
@@ -382,9 +424,9 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
             S[:, :3, k] = w
             S[:, 3:, k] = dt - np.cross(w, ch0["t"])
         q = ni + len(chain_cols)
-        T = np.zeros((len(sel), 12, q))
+        T = np.zeros((len(sel), ni + 6, q))                      # [intrinsics, twist]
         T[:, np.arange(ni), np.arange(ni)] = 1.0
-        T[:, 6:, ni:] = S
+        T[:, ni:, ni:] = S
         idx = np.array([where[j] for j in intr_cols + chain_cols])
         for lo_ in range(0, len(sel), _BLOCK_IMAGES):
             part = sel[lo_:lo_ + _BLOCK_IMAGES]
@@ -397,7 +439,7 @@ def _blocks(prob, keep: list[int]) -> tuple[np.ndarray, np.ndarray]:
                                 np.cross(pc[:, :, None, :], J), J], axis=-1)
             Z[~prob.mask[part]] = 0.0
             Z = Z.reshape(len(part), -1, Z.shape[-1])
-            M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, 12, 12)
+            M = np.matmul(Z.transpose(0, 2, 1), Z)                 # (m, ni+6, ni+6)
             Tb = T[blk]
             cidx = np.array([int(prob.img_name[i][1:]) for i in part])
             A[ei][np.ix_(cidx, idx, idx)] += Tb.transpose(0, 2, 1) @ M @ Tb
@@ -447,6 +489,39 @@ def _spans_plane_many(seen: np.ndarray, P: np.ndarray) -> np.ndarray:
     return (seen.sum(axis=1) >= 3) & (big > 0) & (small > 1e-12 * big)
 
 
+def candidate_views(setup: PlanSetup, candidates: np.ndarray, margin: float | None = None):
+    """What each eye sees of the target at each candidate position (degrees, (M, 2)):
+    ``(uv, T_cam_from_world, ok)``, per eye the corners' pixels (M, N, 2) through the eye's
+    lens model (:func:`_project_many`; NaN where not seen) and the camera poses (M, 4, 4),
+    and which candidates (M,) show both eyes the target (a chessboard whole, at least
+    :data:`rasc.sim.render.MARGIN_PX` inside the image unless ``margin`` says otherwise; a
+    ChArUco at least ``min_corners`` corners, anywhere in the image)."""
+    from rasc.sim.render import MARGIN_PX
+    from rasc.sim.scene import T_base_from_world_facing
+
+    head, board = setup.head, setup.board
+    P = board.object_points()
+    T_bw = T_base_from_world_facing(board, distance=setup.distance)
+    partial = getattr(board, "partial_views", False)
+    need = setup.min_corners if partial else board.n_corners
+    pan, tilt = np.radians(candidates[:, 0]), np.radians(candidates[:, 1])
+    uv_all, T_cw_all = {}, {}
+    for eye in EYES:
+        T_cw_all[eye] = (head.T_cam_from_gaze[eye]
+                         @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
+                         @ head.T_ptu_from_base[eye] @ T_bw)          # (M, 4, 4)
+        # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
+        # it refuses positions without); ChArUco corners count anywhere in the image
+        # (``margin`` overrides: positions a user gives are taken as they are)
+        uv_all[eye] = _project_many(head, eye, T_cw_all[eye], P, setup.image_size,
+                                    margin if margin is not None
+                                    else 0.0 if partial else MARGIN_PX)
+    ok = np.all([(np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need)
+                 & _spans_plane_many(np.isfinite(uv_all[e][..., 0]), P) for e in EYES],
+                axis=0)
+    return uv_all, T_cw_all, ok
+
+
 class Information:
     """The refinement's information over the candidates (see the module docstring)."""
 
@@ -455,10 +530,11 @@ class Information:
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.geometry.transforms import invert_transform
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
-        from rasc.sim.render import MARGIN_PX, intrinsics_board_poses
+        from rasc.sim.render import intrinsics_board_poses
         from rasc.sim.scene import T_base_from_world_facing
 
         head, board = setup.head, setup.board
+        check_planned_lens(head)
         P = board.object_points()
         rng = np.random.default_rng(setup.seed)
         T_bw = T_base_from_world_facing(board, distance=setup.distance)
@@ -468,20 +544,7 @@ class Information:
         # camera poses (the pose views' initial values below: the canonical gauge leaves
         # every camera pose unchanged)
         pan, tilt = np.radians(candidates[:, 0]), np.radians(candidates[:, 1])
-        uv_all, T_cw_all = {}, {}
-        for eye in EYES:
-            T_cw_all[eye] = (head.T_cam_from_gaze[eye]
-                             @ head.unit[eye].T_gaze_from_ptu(pan, tilt)
-                             @ head.T_ptu_from_base[eye] @ T_bw)          # (M, 4, 4)
-            # a chessboard must be seen whole with rasc render's margin (MARGIN_PX, which
-            # it refuses positions without); ChArUco corners count anywhere in the image
-            # (``margin`` overrides: positions a user gives are taken as they are)
-            uv_all[eye] = _project_many(head, eye, T_cw_all[eye], P, setup.image_size,
-                                        margin if margin is not None
-                                        else 0.0 if partial else MARGIN_PX)
-        ok = np.all([(np.isfinite(uv_all[e][..., 0]).sum(axis=1) >= need)
-                     & _spans_plane_many(np.isfinite(uv_all[e][..., 0]), P) for e in EYES],
-                    axis=0)
+        uv_all, T_cw_all, ok = candidate_views(setup, candidates, margin)
         feasible = [(float(a), float(b)) for a, b in candidates[ok]]
         if len(feasible) < 3:
             raise DegenerateDataError(
@@ -920,16 +983,50 @@ def image_size_of_calibration(path) -> tuple[int, int]:
     return sizes["left"]
 
 
+#: the lens models the planner's prediction holds (the whole-head refinement it
+#: predicts with, :mod:`rasc.head.refine`, models a pinhole lens, k1 k2 estimated)
+PLANNED_LENSES = ("pinhole",)
+
+
+def check_planned_lens(head, where: str = "plan") -> None:
+    """InputError (one line) when a head's lens is one the prediction does not model:
+    a lens model other than :data:`PLANNED_LENSES`, or OpenCV's rational terms k4..k6,
+    which the planner's head (5 coefficients) cannot hold."""
+    for eye in EYES:
+        model = lens_model(head, eye)
+        if model not in PLANNED_LENSES:
+            raise InputError(f"{where}: the {eye} eye's lens is {model}: the planner predicts "
+                             "with the whole-head refinement's pinhole model and cannot plan "
+                             "for it")
+        dist = np.asarray(head.dist[eye], float).ravel()
+        if np.any(dist[5:] != 0.0):
+            raise InputError(f"{where}: the {eye} eye's lens has OpenCV's rational terms "
+                             f"(k4..k6 = {', '.join(f'{v:g}' for v in dist[5:])}): the "
+                             "planner models k1 k2 p1 p2 k3 and cannot plan for it")
+
+
+def _padded(dist, n: int) -> np.ndarray:
+    """A lens's coefficients with the missing ones zero, at least ``n`` of them
+    (``np.resize`` would repeat them: k1 k2 p1 p2 became k1 k2 p1 p2 k1)."""
+    d = np.asarray(dist, float).ravel()
+    return np.r_[d, np.zeros(max(0, n - d.size))]
+
+
 def head_from_calibration(path) -> Any:
     """The head of a ``rasc calibrate`` JSON (or a rasc-head document) as the planner's
-    head model."""
+    head model. Refused (InputError naming the file) for a lens the planner does not model
+    (:func:`check_planned_lens`)."""
+    from types import SimpleNamespace
+
     from rasc.head.use import load_calibration
     from rasc.sim.synthetic import SyntheticHead
 
     h = load_calibration(path)
+    check_planned_lens(SimpleNamespace(dist={e: getattr(h, e).dist for e in EYES},
+                                       lens={e: getattr(h, e).lens for e in EYES}), str(path))
     return SyntheticHead(
         K={e: np.asarray(getattr(h, e).K, float) for e in EYES},
-        dist={e: np.resize(np.asarray(getattr(h, e).dist, float), 5) for e in EYES},
+        dist={e: _padded(getattr(h, e).dist, 5) for e in EYES},
         T_cam_from_gaze={e: np.asarray(getattr(h, e).T_cam_from_gaze, float) for e in EYES},
         T_ptu_from_base={e: np.asarray(getattr(h, e).T_ptu_from_base, float) for e in EYES},
         unit={e: getattr(h, e).unit for e in EYES})

@@ -128,6 +128,79 @@ def plan_intrinsics(sc: BagScan, cfg: ImportConfig) -> dict[str, list[int]]:
     return out
 
 
+@dataclass
+class ContinuousPlan:
+    """What :func:`plan_continuous` keeps of a moving head's recording: per eye the
+    topic indices of its images and their times (s from ``origin_ns``, the stamp clock
+    the config names), each eye's joint stream (seconds from ``origin_ns``, radians),
+    the view of each image (the left and right images nearest in time share one)."""
+
+    images: dict[str, list[int]]
+    times: dict[str, list[float]]
+    views: dict[str, list[str]]
+    stream: object                       # rasc.vision.joint_stream.JointStream
+    origin_ns: int
+    warnings: list[str] = field(default_factory=list)
+
+
+def continuous_stream(sc: BagScan, cfg: ImportConfig, origin_ns: int):
+    """The joint stream of a scanned bag (:class:`rasc.vision.joint_stream.JointStream`):
+    per eye its pan and tilt readings (which must come in the same messages), times in
+    seconds from ``origin_ns``, angles in radians. Refused in one line naming the bag and
+    topic: a reading at the time of the one before it, or pan and tilt apart."""
+    from rasc.vision.joint_stream import JointStream
+
+    k = 1.0 if cfg.angle_unit == "rad" else np.pi / 180.0
+    arrays = {}
+    for eye in EYES:
+        (tp, pan), (tt, tilt) = sc.joints[(eye, "pan")], sc.joints[(eye, "tilt")]
+        topic = cfg.joints[eye].topic
+        if len(tp) != len(tt) or np.any(tp != tt):
+            raise InputError(f"{sc.path}: {topic}: the {eye} pan and tilt readings are not "
+                             "in the same messages; --continuous needs both in each")
+        same = np.flatnonzero(np.diff(tp) <= 0)
+        if len(same):
+            raise InputError(f"{sc.path}: {topic}: {eye} reading {int(same[0]) + 1} has the "
+                             "time of the one before it (a joint stream's times must "
+                             "increase; --stamp bag uses the receive times)")
+        arrays[eye] = ((tp - origin_ns) / 1e9, k * pan, k * tilt)
+    return JointStream.from_arrays(arrays, f"{sc.path}: joint stream")
+
+
+def plan_continuous(sc: BagScan, cfg: ImportConfig) -> ContinuousPlan:
+    """A head that never stops (``rasc import --continuous``): every image of each eye
+    inside its joint stream's span is kept with its time; the images outside it have no
+    readings and are left out (warned). The left and right images nearest in time (within
+    ``cfg.tolerance_s``) share a view id (loop closure pairs them). Refused when an eye
+    keeps fewer than MIN_POSE_VIEWS images."""
+    origin = min(int(sc.joints[(eye, "pan")][0][0]) for eye in EYES)
+    stream = continuous_stream(sc, cfg, origin)
+    images, times, warnings = {}, {}, []
+    for eye in EYES:
+        t = (sc.images[eye].times(cfg.stamp) - origin) / 1e9
+        lo, hi = stream[eye].time[0], stream[eye].time[-1]
+        order = np.argsort(t, kind="stable")
+        inside = [int(k) for k in order if lo <= t[k] <= hi]
+        left_out = len(t) - len(inside)
+        if left_out:
+            warnings.append(f"{sc.path}: {left_out} {eye} image(s) outside the joint "
+                            f"stream ({lo:.3f} to {hi:.3f} s from its first reading) have no "
+                            "readings: left out")
+        if len(inside) < MIN_POSE_VIEWS:
+            raise InputError(f"{sc.path}: {len(inside)} {eye} image(s) within the joint "
+                             f"stream; a calibration needs at least {MIN_POSE_VIEWS}")
+        images[eye], times[eye] = inside, [float(t[k]) for k in inside]
+    # views: each left image, and the right image nearest it (within the tolerance)
+    views = {eye: [f"{eye[0]}{n:04d}" for n in range(len(images[eye]))] for eye in EYES}
+    tr = np.array(times["right"])
+    for n, tl in enumerate(times["left"]):
+        m = int(np.argmin(np.abs(tr - tl)))
+        if abs(tr[m] - tl) <= cfg.tolerance_s and views["right"][m].startswith("r"):
+            views["left"][n] = views["right"][m] = f"{n:04d}"
+    return ContinuousPlan(images=images, times=times, views=views, stream=stream,
+                          origin_ns=origin, warnings=warnings)
+
+
 @contextlib.contextmanager
 def building(out: str | os.PathLike) -> Iterator[Path]:
     """A temporary folder beside ``out`` to build it in; renamed to ``out`` when the block
@@ -215,9 +288,15 @@ def _final_check(tmp: Path, board, images: list[dict], wheres: list[str], **mani
 
 def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig, *,
                intrinsics: str | os.PathLike | None = None, quiet: bool = True,
-               log: Callable[[str], None] = lambda s: None) -> ImportResult:
+               log: Callable[[str], None] = lambda s: None,
+               continuous: bool = False) -> ImportResult:
     """Import the still moments of ``bag`` as pose views (and the images of the
-    ``intrinsics`` recording as intrinsics views) into the new dataset folder ``out``."""
+    ``intrinsics`` recording as intrinsics views) into the new dataset folder ``out``.
+
+    ``continuous``: a head that never stops (:func:`plan_continuous`): every image inside
+    the joint stream is a pose view with its ``time``, its pan/tilt the stream at that
+    time, and the stream is written as the dataset's ``joints.csv`` (the manifest's
+    ``joint_stream``): ``rasc calibrate`` then estimates the clocks' offset."""
     from rasc import __version__
     from rasc.progress import progress
 
@@ -234,7 +313,27 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
             sc = scan(path, cfg, joints=role == "pose", bar=bar)
         scans.append(sc)
         wanted, entries = [], []
-        if role == "pose":
+        if role == "pose" and continuous:
+            plan = plan_continuous(sc, cfg)
+            warnings += plan.warnings
+            k_unit = 1.0 if cfg.angle_unit == "rad" else 180.0 / np.pi
+            for eye in EYES:
+                tt = sc.images[eye]
+                read = k_unit * plan.stream[eye].angles(np.array(plan.times[eye]))
+                for n, (k, t) in enumerate(zip(plan.images[eye], plan.times[eye],
+                                               strict=True)):
+                    wanted.append((f"{path}: {tt.topic} message {k}", tt.topic,
+                                   tt.stamps[k], tt.received[k]))
+                    entries.append({"file": f"poses/{eye}_{n:04d}", "eye": eye,
+                                    "role": "pose", "pan": float(read[n, 0]),
+                                    "tilt": float(read[n, 1]), "view": plan.views[eye][n],
+                                    "time": t,
+                                    "source": {"recording": len(scans) - 1, "topic": tt.topic,
+                                               "stamp_ns": tt.stamps[k],
+                                               "received_ns": tt.received[k]}})
+            log(f"{path}: {len(plan.images['left'])} left and {len(plan.images['right'])} "
+                "right images within the joint stream (continuous)")
+        elif role == "pose":
             captures, w = plan_captures(sc, cfg)
             warnings += w
             log(f"{path}: {len(captures)} captures (still moments with images of both eyes)")
@@ -287,8 +386,19 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
         provenance = {"tool": f"rasc import (rasc {__version__})",
                       "recordings": [_recording(sc) for sc in scans],
                       **cfg.to_dict()}
+        stream_file = None
+        if continuous:
+            from rasc.vision.joint_stream import JOINTS, format_joint_stream
+
+            (tmp / JOINTS).write_text(format_joint_stream(plan.stream), encoding="utf-8")
+            stream_file = JOINTS
+            provenance["continuous"] = {
+                "time_origin_ns": plan.origin_ns,
+                "times": f"seconds from time_origin_ns ({cfg.stamp} stamps); the joint "
+                         "stream's on the encoder clock, the images' on the camera clock"}
         _final_check(tmp, board, images, [w for _, w in placed], angle_unit=cfg.angle_unit,
-                     length_unit=cfg.length_unit, provenance=provenance)
+                     length_unit=cfg.length_unit, provenance=provenance,
+                     joint_stream=stream_file)
     n_pose = sum(e["role"] == "pose" for e in images)
     return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
                         warnings=warnings, bytes_read=sum(sc.size_bytes for sc in scans),
@@ -297,17 +407,24 @@ def import_bag(bag: str | os.PathLike, out: str | os.PathLike, cfg: ImportConfig
 
 # ------------------------------------------------------------------ image folder + CSV
 
-CSV_COLUMNS = ("file", "eye", "pan", "tilt", "view", "role")
+CSV_COLUMNS = ("file", "eye", "pan", "tilt", "view", "role", "time")
 
 
 def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
-                        out: str | os.PathLike, cfg: ImportConfig) -> ImportResult:
+                        out: str | os.PathLike, cfg: ImportConfig,
+                        joints: str | os.PathLike | None = None) -> ImportResult:
     """A folder of images and a CSV of angles → a dataset folder (images copied).
 
     CSV (header line; ``file`` and ``eye`` required): ``file`` relative to ``folder``,
     ``eye`` left/right, ``pan``, ``tilt`` (in ``cfg.angle_unit``; both empty for an
     intrinsics view), optional ``view`` (default: the k-th pose row of each eye is view
-    k) and ``role`` (default: pose when there are angles, else intrinsics)."""
+    k) and ``role`` (default: pose when there are angles, else intrinsics).
+
+    ``joints``: a continuous capture (``rasc import --continuous``): the joint stream, a
+    CSV ``time,eye,pan,tilt`` (encoder clock, s; radians: the dataset's ``joints.csv``,
+    read by :func:`rasc.vision.joint_stream.read_joint_stream`), and the images' CSV gives
+    each pose image's ``time`` (camera clock, s, mid-exposure) instead of its angles: a
+    row with a time is a pose image, its pan/tilt the stream at that time."""
     from rasc import __version__
 
     t0 = time.perf_counter()
@@ -332,6 +449,17 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
     for need in ("file", "eye"):
         if need not in header:
             raise InputError(f"{csv_path}: line 1: missing column {need!r}")
+    stream = None
+    if joints is not None:
+        from rasc.vision.joint_stream import read_joint_stream
+
+        stream = read_joint_stream(joints)
+        if "time" not in header:
+            raise InputError(f"{csv_path}: line 1: missing column 'time' (--continuous: "
+                             "each pose image's time on the camera clock, s)")
+    elif "time" in header:
+        raise InputError(f"{csv_path}: line 1: a 'time' column is for a continuous capture: "
+                         "give its joint stream with --joints (and --continuous)")
     col = {h: i for i, h in enumerate(header)}
     images: list[dict] = []
     count = {eye: 0 for eye in EYES}
@@ -354,6 +482,18 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
         if eye not in EYES:
             raise InputError(f"{where}: eye must be 'left' or 'right', got {eye!r}")
         angles = [get.get("pan", ""), get.get("tilt", "")]
+        t = None
+        if stream is not None and get.get("time"):
+            t = finite_number(get["time"], f"{where}: time", text=True)
+            if any(angles):
+                raise InputError(f"{where}: a pose image of a continuous capture has a time, "
+                                 "not angles (they come from the joint stream)")
+            es = stream[eye]
+            if not es.time[0] <= t <= es.time[-1]:
+                raise InputError(f"{where}: time {t:g} s lies outside the {eye} joint "
+                                 f"stream ({es.time[0]:g} to {es.time[-1]:g} s): no readings")
+            k_unit = 1.0 if cfg.angle_unit == "rad" else 180.0 / np.pi
+            angles = [repr(float(k_unit * a)) for a in es.angles(np.array([t]))[0]]
         role = get.get("role") or ("pose" if any(angles) else "intrinsics")
         if role not in ("pose", "intrinsics"):
             raise InputError(f"{where}: role must be 'pose' or 'intrinsics', got {role!r}")
@@ -366,6 +506,8 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
             entry["pan"], entry["tilt"] = values
             entry["view"] = get.get("view") or f"{count[eye]:02d}"
             count[eye] += 1
+            if t is not None:
+                entry["time"] = t
         n = sum(e["eye"] == eye and e["role"] == role for e in images)
         entry["file"] = (f"{'poses' if role == 'pose' else 'intrinsics'}/{eye}_"
                          f"{n:03d}{src.suffix.lower()}")
@@ -380,11 +522,19 @@ def import_image_folder(folder: str | os.PathLike, csv_path: str | os.PathLike,
             dst = tmp / entry["file"]
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, dst)
+        stream_file = None
+        if stream is not None:
+            from rasc.vision.joint_stream import JOINTS, format_joint_stream
+
+            (tmp / JOINTS).write_text(format_joint_stream(stream), encoding="utf-8")
+            stream_file = JOINTS
         _final_check(tmp, board, images, wheres, angle_unit=cfg.angle_unit,
-                     length_unit=cfg.length_unit,
+                     length_unit=cfg.length_unit, joint_stream=stream_file,
                      provenance={"tool": f"rasc import (rasc {__version__})",
                                  "recordings": [{"path": str(folder), "format": "images + CSV",
-                                                 "csv": str(csv_path)}]})
+                                                 "csv": str(csv_path),
+                                                 **({"joints": str(joints)}
+                                                    if joints is not None else {})}]})
     n_pose = sum(e["role"] == "pose" for e in images)
     return ImportResult(out=Path(out), n_pose=n_pose, n_intrinsics=len(images) - n_pose,
                         bytes_read=sum(s.stat().st_size for s in sources),

@@ -218,6 +218,54 @@ def _joints(w: _BagWriter, q: np.ndarray, ts: int, per_unit: bool, order: int) -
              joint_message(w, (*JOINT_NAMES["left"], *JOINT_NAMES["right"]), q, ts))]
 
 
+def write_continuous_recording(dataset, path: str | os.PathLike, *, kind: str = "ros1",
+                               encoding: str = "mono8", per_unit: bool = False) -> Path:
+    """A head that never stops, played into a new bag: ``dataset`` is a continuous capture
+    (pose images with times and a joint stream, as ``rasc render`` makes it with
+    ``motion_speed_deg_s``): every joint reading of its stream at its encoder-clock stamp
+    and every pose image at its camera-clock time, both stamped ``T0_NS`` + their time (so
+    the dataset's clock offset δ is the bag's), received :data:`LATENCY_NS` later.
+    ``per_unit``: each unit's readings on its own topic (:data:`UNIT_TOPICS`), else one
+    message of all four joints per sample (the eyes' samples must share their stamps)."""
+    import cv2
+
+    path = Path(path)
+    stream = dataset.joint_stream
+    if stream is None:
+        raise InputError(f"{dataset.manifest_path}: no joint stream (not a continuous capture)")
+    mt = "sensor_msgs/msg/JointState"
+    w = _BagWriter(path, kind)
+    out: list[tuple] = []
+    try:
+        left, right = stream["left"], stream["right"]
+        if per_unit:
+            for eye, s in (("left", left), ("right", right)):
+                for t, p, q in zip(s.time, s.pan, s.tilt, strict=True):
+                    ts = T0_NS + int(round(t * 1e9))
+                    out.append((ts + LATENCY_NS, len(out), UNIT_TOPICS[eye], mt,
+                                joint_message(w, ("pan", "tilt"), np.array([p, q]), ts)))
+        else:
+            if not np.array_equal(left.time, right.time):
+                raise InputError(f"{dataset.manifest_path}: the eyes' joint samples have "
+                                 "their own stamps: play them with per_unit=True")
+            for k, t in enumerate(left.time):
+                ts = T0_NS + int(round(t * 1e9))
+                q = np.array([left.pan[k], left.tilt[k], right.pan[k], right.tilt[k]])
+                out.append((ts + LATENCY_NS, len(out), JOINT_TOPIC, mt,
+                            joint_message(w, (*JOINT_NAMES["left"], *JOINT_NAMES["right"]),
+                                          q, ts)))
+        for e in dataset.select(role="pose"):
+            ts = T0_NS + int(round(e.time * 1e9))
+            img = cv2.imread(str(e.path), cv2.IMREAD_GRAYSCALE)
+            mtype, msg = image_message(w, img, encoding, ts, f"{e.eye}_camera")
+            out.append((ts + LATENCY_NS, len(out), TOPICS[e.eye], mtype, msg))
+        for time_ns, _, topic, mtype, msg in sorted(out, key=lambda m: m[:2]):
+            w.write(topic, mtype, msg, time_ns)
+    finally:
+        w.close()
+    return path
+
+
 def write_intrinsics_recording(dataset, path: str | os.PathLike, *, kind: str = "ros1",
                                encoding: str = "mono8", interval_s: float = 1.0) -> Path:
     """The intrinsics views of ``dataset`` into a new bag, one image per eye every

@@ -100,12 +100,15 @@ def rejected_corners(doc: dict) -> dict[tuple[str, str], set[int]]:
 
 def report_data(head, dataset, detector: str = "saddle",
                 min_corners: int = MIN_VIEW_CORNERS,
-                rejected: dict[tuple[str, str], set[int]] | None = None) -> ReportData:
+                rejected: dict[tuple[str, str], set[int]] | None = None,
+                time_offset: float | None = None) -> ReportData:
     """Detections and residuals of every image of ``dataset`` under ``head``: only the
     corners each view shows (a target seen in part), with ``min_corners`` as the
     calibration used it. ``rejected`` (:func:`rejected_corners`): corners the calibration
     rejected, marked and left out of the shared board pose's fit. A view no board pose
-    fits is left out (``skipped``)."""
+    fits is left out (``skipped``). ``time_offset``: the calibration's estimate of δ for
+    a continuous capture: each pose image's readings are then its joint stream at its time
+    + δ, as the refinement had them (:mod:`rasc.head.refine.timing`)."""
     from scipy.optimize import least_squares
     from scipy.spatial.transform import Rotation
 
@@ -142,7 +145,14 @@ def report_data(head, dataset, detector: str = "saddle",
         for f, c in det.corners.items():
             entry = det.entries[f]
             seen = seen_mask(c)
-            pose_obs.append((eye, f, np.flatnonzero(seen), c[seen], entry.pan, entry.tilt))
+            pan, tilt = entry.pan, entry.tilt
+            if time_offset is not None and dataset.joint_stream is not None \
+                    and entry.time is not None:
+                from rasc.head.refine.timing import angles_at
+
+                pan, tilt = angles_at(dataset.joint_stream[eye],
+                                      np.array([entry.time + time_offset]))[0]
+            pose_obs.append((eye, f, np.flatnonzero(seen), c[seen], pan, tilt))
     if not pose_obs:
         return data
 

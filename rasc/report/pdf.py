@@ -220,6 +220,14 @@ def _lens_row(doc: dict, eye: str) -> str:
     return f"lens {lens_model} (dist_model {dm})"
 
 
+def _time_offset(doc: dict) -> float | None:
+    """The calibration's estimated camera-to-encoder time offset (s), or None."""
+    d = (doc.get("refinement") or {}).get("time_offset")
+    if isinstance(d, dict) and d.get("estimated") and isinstance(d.get("value_s"), float):
+        return d["value_s"]
+    return None
+
+
 def _parameter_rows(doc: dict) -> tuple[dict[str, list[str]], list[str]]:
     from rasc.head.refine.model import parameter_unit
 
@@ -504,7 +512,8 @@ def write_report(doc: dict[str, Any], out: str | os.PathLike, *, dataset=None,
         data = report_data(head, dataset, options.get("detector", "saddle"),
                            **({"min_corners": int(min_corners)}
                               if isinstance(min_corners, int) else {}),
-                           rejected=rejected_corners(doc))
+                           rejected=rejected_corners(doc),
+                           time_offset=_time_offset(doc))
         for line in data.skipped:
             log(f"left out of the residual pages: {line}")
         cov = {e: coverage([v.corners for v in data.of(e, "intrinsics")], data.image_size[e])

@@ -37,6 +37,13 @@ from rasc.geometry.kinematics import PAPER_POSES_DEG
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
 from rasc.io import finite_number, finite_numbers, read_text_file
 from rasc.progress import progress
+from rasc.sim.motion import (
+    DEFAULT_EXPOSURE,
+    DEFAULT_FRAME_RATE,
+    DEFAULT_JOINT_RATE,
+    DEFAULT_MAX_FRAMES,
+    DEFAULT_SUBFRAMES,
+)
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
 
 #: intrinsics views: board distance range (m), tilt range (deg), in-plane turn (deg)
@@ -89,6 +96,21 @@ MAX_FOCUS_DISTANCE = 1000.0
 #: a fisheye (OpenCV's equidistant model) is rendered up to 180° (rays to 90° off its
 #: axis at the image's left and right edges; docs/topics/degradations.md)
 MAX_FOV_DEG = 180.0
+#: bounds of continuous motion (docs/topics/continuous.md): the peak joint speed (deg/s),
+#: a dwell (s), the camera's frame rate and the joint stream's rate (Hz), the sub-frames
+#: an exposure averages, a rolling shutter's line time (s), the camera-to-encoder clock
+#: offset (s) and the pose frames kept per eye (every k-th of those the camera takes)
+MAX_MOTION_SPEED = 500.0
+MAX_DWELL = 60.0
+MAX_FRAME_RATE = 1000.0
+MAX_JOINT_RATE = 10000.0
+MAX_SUBFRAMES = 64
+MAX_LINE_TIME = 1e-3
+MAX_CLOCK_OFFSET = 10.0
+#: the jitter of the joint stamps at most this fraction of the stream's period (beyond,
+#: stamps would leave their order: rasc.sim.motion.JITTER_TRUNCATION)
+MAX_JITTER_PERIODS = 0.2
+MAX_FRAMES_KEPT = 1000
 
 
 #: RenderOptions' fields in rasc 0.2 (the study spec's names since): old → new
@@ -132,6 +154,20 @@ class RenderOptions:
     # their defaults left out of the ground truth's render_options and of the cache key
     lens: str = "pinhole"
     fov: float = 0.0
+    # continuous motion (docs/topics/continuous.md): a head that never stops, filmed by
+    # cameras on their own clock. motion_speed_deg_s 0 is stop-and-go (the renders of
+    # before); the other fields need it > 0, and each is left out of the ground truth's
+    # render_options and of the cache key at its default (CONTINUOUS)
+    motion_speed_deg_s: float = 0.0  # peak joint speed between the positions, deg/s
+    dwell: float = 0.0              # seconds held at each position (0: never stops)
+    frame_rate: float = DEFAULT_FRAME_RATE    # the cameras' frames per second
+    exposure: float = DEFAULT_EXPOSURE        # seconds, the mean of `subframes` renders
+    subframes: int = DEFAULT_SUBFRAMES        # renders averaged over an exposure
+    rolling_shutter: float = 0.0    # line time, seconds (0: global shutter)
+    joint_rate: float = DEFAULT_JOINT_RATE    # joint readings per second
+    clock_offset: float = 0.0       # δ, s: encoder clock = camera clock + δ
+    clock_jitter: float = 0.0       # Gaussian jitter of the joint stamps, s (σ)
+    max_frames: int = DEFAULT_MAX_FRAMES      # pose frames kept per eye (every k-th)
 
     def validate(self, names: dict[str, str] | None = None) -> RenderOptions:
         """Refuse options no render can use; returns ``self``.
@@ -168,6 +204,11 @@ class RenderOptions:
             raise InputError(f"{name('supersample')} must be an integer from 1 to "
                              f"{MAX_SUPERSAMPLE}, got {self.supersample!r}")
         self._validate_degradations(name)
+        self._validate_continuous(name)
+        if lensed(self) and self.motion_speed_deg_s:
+            raise InputError(f"{name('motion_speed_deg_s')}: continuous motion is not "
+                             f"rendered through {name('lens')} {self.lens} or {name('fov')} "
+                             "(only through the model camera's own pinhole); set it to 0")
         return self
 
     def _validate_lens(self, name) -> None:
@@ -201,6 +242,45 @@ class RenderOptions:
             raise InputError(f"{name('focus_distance')}: defocus is not rendered through "
                              f"{name('lens')} {self.lens} or {name('fov')} (only through the "
                              "model camera's own pinhole); set it to 0")
+    def _validate_continuous(self, name) -> None:
+        for field, lo, top, unit in (
+                ("motion_speed_deg_s", 0.0, MAX_MOTION_SPEED, "deg/s; 0 = stop-and-go"),
+                ("dwell", 0.0, MAX_DWELL, "seconds"),
+                ("frame_rate", 0.0, MAX_FRAME_RATE, "frames per second"),
+                ("exposure", 0.0, 1.0, "seconds"),
+                ("rolling_shutter", 0.0, MAX_LINE_TIME, "seconds per line; 0 = global"),
+                ("joint_rate", 0.0, MAX_JOINT_RATE, "readings per second"),
+                ("clock_offset", -MAX_CLOCK_OFFSET, MAX_CLOCK_OFFSET, "seconds"),
+                ("clock_jitter", 0.0, 1.0, "seconds")):
+            value = getattr(self, field)
+            if not lo <= finite_number(value, name(field)) <= top:
+                raise InputError(f"{name(field)} must be a number from {lo:g} to {top:g} "
+                                 f"({unit}), got {value:g}")
+        for field, lo, top in (("subframes", 1, MAX_SUBFRAMES),
+                               ("max_frames", 3, MAX_FRAMES_KEPT)):
+            value = getattr(self, field)
+            if not _integer(value) or not lo <= value <= top:
+                raise InputError(f"{name(field)} must be an integer from {lo} to {top}, got "
+                                 f"{value!r}")
+        for field in ("frame_rate", "exposure", "joint_rate"):
+            if getattr(self, field) <= 0:
+                raise InputError(f"{name(field)} must be positive, got "
+                                 f"{getattr(self, field):g}")
+        if self.exposure > 1.0 / self.frame_rate:
+            raise InputError(f"{name('exposure')} {self.exposure:g} s is longer than a frame "
+                             f"at {name('frame_rate')} {self.frame_rate:g} "
+                             f"({1.0 / self.frame_rate:.4g} s)")
+        if self.clock_jitter > MAX_JITTER_PERIODS / self.joint_rate:
+            raise InputError(f"{name('clock_jitter')} {self.clock_jitter:g} s is more than "
+                             f"{MAX_JITTER_PERIODS:g} of the joint stream's period at "
+                             f"{name('joint_rate')} {self.joint_rate:g} "
+                             f"({1.0 / self.joint_rate:.4g} s): its stamps would leave "
+                             "their order")
+        if not self.motion_speed_deg_s:
+            stray = next(iter(continuous_of(self)), None)
+            if stray is not None:
+                raise InputError(f"{name(stray)} is for continuous motion: give "
+                                 f"{name('motion_speed_deg_s')} > 0 too (0 is stop-and-go)")
 
     def _validate_degradations(self, name) -> None:
         for field, lo, top, unit in (
@@ -242,23 +322,41 @@ DEGRADATIONS = ("full_well", "read_noise", "vignetting", "motion_blur", "motion_
                 "focus_distance", "f_number", "focal_length_mm", "jpeg_quality")
 
 
-#: the lens fields of RenderOptions (not study parameters)
-LENS_FIELDS = ("lens", "fov")
-#: the fields recorded in the ground truth's render_options and held by the cache key
-#: only away from their defaults (:func:`degradations_of`): the renders of before keep
-#: their files and keys
-OPTIONAL_FIELDS = DEGRADATIONS + LENS_FIELDS
+#: the continuous-motion fields of RenderOptions (docs/topics/continuous.md; each at its
+#: default left out of the ground truth's render_options and of the cache key)
+CONTINUOUS = ("motion_speed_deg_s", "dwell", "frame_rate", "exposure", "subframes",
+              "rolling_shutter", "joint_rate", "clock_offset", "clock_jitter", "max_frames")
 
 
-def degradations_of(options) -> dict:
-    """The degradation and lens fields of ``options`` (a RenderOptions or a dict of its
-    fields, :data:`OPTIONAL_FIELDS`) that differ from their defaults: what the ground
-    truth records and the cache key holds (empty for the renders of before)."""
+def _changed(options, fields) -> dict:
     defaults = RenderOptions.__dataclass_fields__
     get = options.get if isinstance(options, dict) else \
         (lambda k, d=None: getattr(options, k, d))
-    return {k: get(k) for k in OPTIONAL_FIELDS
-            if get(k, defaults[k].default) != defaults[k].default}
+    return {k: get(k) for k in fields if get(k, defaults[k].default) != defaults[k].default}
+
+
+def degradations_of(options) -> dict:
+    """The degradation fields of ``options`` (a RenderOptions or a dict of its fields)
+    that differ from their defaults: what the ground truth records and the cache key
+    holds (empty for the renders of before)."""
+    return _changed(options, DEGRADATIONS)
+
+
+def continuous_of(options) -> dict:
+    """The continuous-motion fields of ``options`` (:data:`CONTINUOUS`) that differ from
+    their defaults, as :func:`degradations_of` (empty for stop-and-go)."""
+    return _changed(options, CONTINUOUS)
+
+
+#: the lens fields of RenderOptions (docs/topics/degradations.md; each at its default left
+#: out of the ground truth's render_options and of the cache key)
+LENS_FIELDS = ("lens", "fov")
+
+
+def lens_fields_of(options) -> dict:
+    """The lens fields of ``options`` (:data:`LENS_FIELDS`) that differ from their
+    defaults, as :func:`degradations_of` (empty for the model camera's own pinhole)."""
+    return _changed(options, LENS_FIELDS)
 
 
 def _renamed_init(init):
@@ -640,7 +738,8 @@ def lens_K(K: np.ndarray, options: RenderOptions, width: int) -> np.ndarray:
 
 
 def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
-               options: RenderOptions, lens_views: dict | None = None) -> np.ndarray:
+               options: RenderOptions, grey: np.ndarray | None = None,
+               lens_views: dict | None = None) -> np.ndarray:
     """The ``eye``'s current view as ``rasc render`` writes it: rendered grey (at
     ``options.supersample`` times the size and averaged down,
     :meth:`rasc.sim.scene.StereoHeadSim.render_camera`), distorted (``warp[eye]``,
@@ -651,14 +750,17 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
     camera's: depth-dependent defocus (from the render's depth buffer, before the lens
     distortion), distortion, motion blur, Gaussian blur, vignetting, the sensor's shot and
     read noise, Gaussian pixel noise, JPEG compression; at their defaults they draw
-    nothing from ``rng`` and change no byte.
-
-    ``lens_views`` ({eye: :class:`rasc.sim.lens_render.LensView`}, for :func:`lensed`
-    options): the image is made through the lens from several pinhole views in place of
-    the one render and its warp."""
+    nothing from ``rng`` and change no byte. ``grey``: the rendered grey image to use
+    instead of rendering now (a continuous exposure, :func:`continuous_grey`); the
+    defocus's depth is still rendered at the current state. ``lens_views`` ({eye:
+    :class:`rasc.sim.lens_render.LensView`}, for :func:`lensed` options): the image is
+    made through the lens from several pinhole views in place of the one render and its
+    warp."""
     import rasc.sim.degrade as dg
 
-    if lens_views:
+    if grey is not None:
+        image = grey
+    elif lens_views:
         image = lens_views[eye].render(sim, eye)
     else:
         image = sim.render_grey(eye, supersample=options.supersample)
@@ -714,10 +816,11 @@ def render_dataset(out: str | Path, options: RenderOptions = RenderOptions(), *,
         raise InputError(f"{out}: output folder exists as a file")
     if out.exists() and any(out.iterdir()):
         raise InputError(f"{out}: output folder exists and is not empty")
-    board, images, gt = _render(options, model_path, quiet, units, board,
-                                lambda name, image: write_dataset_image(out, name, image),
-                                names)
-    return write_dataset_index(out, board, images, gt, angle_unit="deg", length_unit="m")
+    board, images, gt, stream = _render(
+        options, model_path, quiet, units, board,
+        lambda name, image: write_dataset_image(out, name, image), names)
+    return write_dataset_index(out, board, images, gt, angle_unit="deg", length_unit="m",
+                               joint_stream=stream)
 
 
 def render_in_memory(options: RenderOptions = RenderOptions(), *,
@@ -734,12 +837,12 @@ def render_in_memory(options: RenderOptions = RenderOptions(), *,
     from rasc.vision.dataset import Dataset
 
     pixels: dict[str, np.ndarray] = {}
-    board, images, gt = _render(options, model_path, quiet, units, board,
-                                pixels.__setitem__, names)
+    board, images, gt, stream = _render(options, model_path, quiet, units, board,
+                                        pixels.__setitem__, names)
     # the truth as ground_truth.json holds it (JSON types): what the folder's reader gives
     truth = json.loads(dumps_json(gt))
     ds = Dataset.in_memory(board, images, pixels, angle_unit="deg", length_unit="m",
-                           truth=truth)
+                           truth=truth, joint_stream=stream)
     ds.options = options
     return ds
 
@@ -747,7 +850,8 @@ def render_in_memory(options: RenderOptions = RenderOptions(), *,
 def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
             names: dict[str, str] | None = None) -> tuple:
     """Render every view, giving each image to ``put(file, image)``; returns (the
-    board, the manifest's image entries, the ground truth document)."""
+    board, the manifest's image entries, the ground truth document, the joint stream of
+    a continuous capture or None)."""
     from rasc.sim.scene import (
         StereoHeadSim,
         distortion_warp,
@@ -804,17 +908,22 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                           for eye in EYES}
         views: dict[str, dict] = {}
         images: list[dict] = []
-        total = 2 * (options.intrinsics_views + len(options.poses_deg))
+        capture = None
+        if options.motion_speed_deg_s:
+            capture = continuous_capture(options, size[1], names)
+        n_poses = len(options.poses_deg) if capture is None else len(capture["frames"])
+        total = 2 * (options.intrinsics_views + n_poses)
         bar = stack.enter_context(progress(total=total, desc="render", quiet=quiet,
                                            unit="image"))
 
-        def shoot(eye: str, name: str, entry: dict) -> None:
+        def shoot(eye: str, name: str, entry: dict, grey=None, truth=None) -> None:
             sim.check_ground_truth(eye, name)
-            put(name, view_image(sim, eye, warp, rng, options, lens_views))
+            put(name, view_image(sim, eye, warp, rng, options, grey, lens_views))
             images.append({"file": name, "eye": eye, **entry})
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
-                           **{k: v for k, v in entry.items() if k in ("pan", "tilt")}}
+                           **{k: v for k, v in entry.items() if k in ("pan", "tilt")},
+                           **(truth or {})}
             if getattr(board, "partial_views", False):
                 ids, uv = visible_corners(sim.T_cam_from_world(eye), board, K_eye[eye], size,
                                           cam_dist, model)
@@ -832,7 +941,11 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
                 sim.set_target(T_base_from_cam @ T_cw)
                 shoot(eye, f"intrinsics/{eye}_{k:03d}.png", {"role": "intrinsics"})
         sim.set_target(sim.facing_target(options.distance))
-        for k, (pan, tilt) in enumerate(options.poses_deg):
+        stream = None
+        if capture is not None:
+            stream = _shoot_continuous(sim, options, capture, rng, shoot)
+            gt["clock"], gt["trajectory"] = capture["clock"], capture["record"]
+        for k, (pan, tilt) in enumerate(options.poses_deg if capture is None else ()):
             for eye in EYES:
                 sim.set_angles(eye, np.radians(pan), np.radians(tilt))
             for eye in EYES:
@@ -848,5 +961,97 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
         if options.supersample != 1:    # absent at 1: the files of before, byte for byte
             gt["render_options"]["supersample"] = options.supersample
         gt["render_options"].update(degradations_of(options))  # each absent at its default
+        gt["render_options"].update(continuous_of(options))    # each absent at its default
+        gt["render_options"].update(lens_fields_of(options))   # each absent at its default
         gt["model_file"] = Path(gt["model_file"]).name
-    return board, images, gt
+    return board, images, gt, stream
+
+
+def continuous_capture(options: RenderOptions, rows: int,
+                       names: dict[str, str] | None = None) -> dict:
+    """What a continuous capture of ``options`` takes (:mod:`rasc.sim.motion`): its
+    ``trajectory`` (a :class:`rasc.sim.motion.Trajectory` through ``options.poses_deg``),
+    the kept ``frames`` (mid-exposure stamps, camera clock: the camera runs at
+    ``frame_rate`` over the whole motion and every k-th frame is kept, at most
+    ``max_frames`` per eye), and the ground truth's ``clock`` and trajectory ``record``.
+    ``rows``: the image height (a rolling shutter's readout). Raises :class:`InputError`
+    naming the option when the readout outlasts a frame or fewer than three frames
+    fit the motion."""
+    from rasc.sim.motion import Trajectory, frame_times, kept_frames
+
+    def name(field: str) -> str:
+        return (names or {}).get(field, field)
+
+    readout = (rows - 1) * options.rolling_shutter
+    if readout > 1.0 / options.frame_rate:
+        raise InputError(f"{name('rolling_shutter')} {options.rolling_shutter:g} s: reading "
+                         f"{rows} rows takes {readout:.4g} s, longer than a frame at "
+                         f"{name('frame_rate')} {options.frame_rate:g}")
+    traj = Trajectory(np.radians(options.poses_deg), options.motion_speed_deg_s,
+                      options.dwell)
+    taken = frame_times(traj.duration, options.frame_rate, options.exposure, readout)
+    frames = taken[kept_frames(len(taken), options.max_frames)]
+    if len(frames) < 3:
+        raise InputError(f"{name('motion_speed_deg_s')} {options.motion_speed_deg_s:g}: the "
+                         f"motion lasts {traj.duration:.3g} s, {len(frames)} frame(s) at "
+                         f"{name('frame_rate')} {options.frame_rate:g}; hand-eye needs at "
+                         "least 3: move slower or film faster")
+    clock = {"convention": "encoder clock = camera clock + clock_offset; an image's time "
+                           "is its middle row's mid-exposure on the camera clock",
+             "clock_offset": options.clock_offset, "clock_jitter": options.clock_jitter,
+             "frame_rate": options.frame_rate, "exposure": options.exposure,
+             "subframes": options.subframes, "rolling_shutter": options.rolling_shutter,
+             "joint_rate": options.joint_rate, "frames_taken": len(taken),
+             "frames_kept": len(frames)}
+    record = {"speed_deg_s": options.motion_speed_deg_s, "dwell": options.dwell,
+              "duration": traj.duration, "arrivals": traj.arrivals.tolist(),
+              "positions_deg": [list(p) for p in options.poses_deg],
+              "profile": "minimum jerk"}
+    return {"trajectory": traj, "frames": frames, "clock": clock, "record": record}
+
+
+def continuous_grey(sim, eye: str, traj, t_mid: float, options: RenderOptions
+                    ) -> np.ndarray:
+    """The grey image ``eye`` exposes around ``t_mid`` (camera clock) while the head
+    follows ``traj``: the mean of ``options.subframes`` renders over the exposure, each
+    row at its own time with a rolling shutter (:func:`rasc.sim.motion.exposure_plan`,
+    which states the error), rounded to 8 bits. Leaves the head at the last sub-frame's
+    angles."""
+    from rasc.sim.motion import expose, exposure_plan
+
+    times, start = exposure_plan(t_mid, options.exposure, options.subframes,
+                                 options.rolling_shutter, sim.image_size[1])
+
+    def render_at(t: float) -> np.ndarray:
+        pan, tilt = traj.angles(t, eye)
+        sim.set_angles(eye, pan, tilt)
+        return sim.render_grey(eye, supersample=options.supersample)
+
+    image = expose(render_at, times, start, options.subframes)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def _shoot_continuous(sim, options: RenderOptions, capture: dict, rng, shoot):
+    """The pose frames of a continuous capture: per kept frame, both eyes exposed along
+    the trajectory, each image's manifest angles the joint stream at its own stamp (no
+    offset: what a user without an offset estimate has), its truth the readings at
+    mid-exposure. Returns the joint stream (drawn from ``rng``)."""
+    from rasc.sim.motion import sample_joint_stream
+
+    traj = capture["trajectory"]
+    stream = sample_joint_stream(traj, options.joint_rate, options.clock_offset,
+                                 options.clock_jitter, rng)
+    width = max(3, len(str(len(capture["frames"]) - 1)))
+    for k, t in enumerate(capture["frames"]):
+        t = float(t)
+        for eye in EYES:
+            grey = continuous_grey(sim, eye, traj, t, options)
+            pan, tilt = traj.angles(t, eye)
+            sim.set_angles(eye, pan, tilt)          # the truth: mid-exposure
+            read = np.degrees(stream.angles(eye, t))
+            shoot(eye, f"poses/{eye}_{k:0{width}d}.png",
+                  {"role": "pose", "pan": float(read[0]), "tilt": float(read[1]),
+                   "view": f"{k:0{width}d}", "time": t},
+                  grey=grey, truth={"pan": math.degrees(pan), "tilt": math.degrees(tilt),
+                                    "time": t})
+    return stream

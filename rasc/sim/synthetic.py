@@ -105,6 +105,25 @@ def fisheye_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
                          lens={eye: "fisheye" for eye in EYES})
 
 
+#: The wide rational lens of :func:`rational_head` (OpenCV's k1 k2 p1 p2 k3 k4 k5 k6) at
+#: :data:`RATIONAL_FOCAL_PX`: the radial factor falls from 1 to 0.62 at 63° off axis,
+#: about 130° across the image's diagonal. The rational model is meant for such lenses:
+#: on a 60° lens its numerator and denominator trade (OpenCV's estimate ran to k2 ≈ 100
+#: on the default head with k4-k6 added, and the refinement could not start from it).
+RATIONAL_DIST = (0.5, 0.1, 2e-4, -1e-4, 0.0, 0.8, 0.2, 0.0)
+RATIONAL_FOCAL_PX = 600.0
+
+
+def rational_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
+                  focal_px: float = RATIONAL_FOCAL_PX, dist=RATIONAL_DIST) -> SyntheticHead:
+    """:func:`default_head` with a wide pinhole lens of OpenCV's rational model: focal
+    length ``focal_px`` (default 600 px), coefficients ``dist`` (8)."""
+    head = default_head(unit, dist=dist)
+    for K in head.K.values():
+        K[0, 0] = K[1, 1] = focal_px
+    return head
+
+
 #: Intrinsics views through a lens other than the pinhole (:func:`_wide_intrinsics_poses`):
 #: the board's centre on the ray of a pixel drawn over this central fraction of the image
 #: (a wide lens must be seen to its edges), 0.25-0.6 m away, facing the camera's centre
@@ -230,6 +249,56 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                 pan=float(pan), tilt=float(tilt), view=f"{k:02d}")
     return Dataset.with_corners(board, entries, corners, {eye: IMAGE_SIZE for eye in EYES},
                                 truth=head, where="<synthetic corners>")
+
+
+def continuous_corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
+                              noise_px: float = 0.03, n_intrinsics: int = 20,
+                              poses_deg=PAPER_POSES_DEG, speed_deg_s: float = 20.0,
+                              frame_rate: float = 10.0, clock_offset: float = 0.0,
+                              joint_rate: float = 200.0, clock_jitter: float = 0.0,
+                              target_distance: float = 1.0, board: Board = BOARD) -> Dataset:
+    """A continuous capture as projected corners: the head never stops, moving through
+    ``poses_deg`` by :class:`rasc.sim.motion.Trajectory` (minimum-jerk motions at a peak
+    of ``speed_deg_s``), both cameras taking a frame every 1/``frame_rate`` s (stamped on
+    the camera clock: the trajectory's time), the joint stream sampled at ``joint_rate``
+    Hz on the encoder clock = camera clock + ``clock_offset`` δ (with ``clock_jitter``,
+    :func:`rasc.sim.motion.sample_joint_stream`). Each pose image is projected at the
+    head's true angles at its time; its ``pan``/``tilt`` are the stream at its time with
+    δ = 0 (as the dataset format has them) and its ``time`` is its stamp; the dataset's
+    ``joint_stream`` is the stream. Sharp frames (no blur: a corner is where the head is
+    at mid-exposure). The intrinsics views are :func:`corner_dataset`'s.
+    ``truth``: the head (δ is the caller's ``clock_offset``)."""
+    import dataclasses
+
+    from rasc.sim.motion import Trajectory, frame_times, sample_joint_stream
+
+    head = head or default_head()
+    still = corner_dataset(head, seed=seed, noise_px=noise_px, n_intrinsics=n_intrinsics,
+                           poses_deg=(), board=board)
+    rng = np.random.default_rng([seed, 1])
+    traj = Trajectory(np.radians(np.asarray(poses_deg, float)), speed_deg_s)
+    times = frame_times(traj.duration, frame_rate, 0.0)
+    stream = sample_joint_stream(traj, joint_rate, clock_offset, clock_jitter, rng)
+    P = board.object_points()
+    T_bw = T_base_from_world_facing(board, distance=target_distance)
+    entries = list(still.images)
+    corners = dict(still.corners)
+    for eye in EYES:
+        true = traj.angles(times, eye)
+        read = stream[eye].angles(times)
+        for k, t in enumerate(times):
+            T_cw = head.T_cam_from_base(eye, *true[k]) @ T_bw
+            p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
+            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+            file = f"poses/{eye}_{k:04d}.png"
+            corners[file] = uv + rng.normal(0.0, noise_px, uv.shape)
+            entries.append(ImageEntry(index=len(entries), file=file, path=Path(file),
+                                      eye=eye, role="pose", pan=float(read[k, 0]),
+                                      tilt=float(read[k, 1]), view=f"{k:04d}",
+                                      time=float(t)))
+    ds = Dataset.with_corners(board, entries, corners, {eye: IMAGE_SIZE for eye in EYES},
+                              truth=head, where="<synthetic continuous capture>")
+    return dataclasses.replace(ds, joint_stream=stream)
 
 
 def __getattr__(name: str):

@@ -142,9 +142,11 @@ class IntrinsicsResult:
     """Output of :func:`calibrate_intrinsics`.
 
     K (3, 3); dist: the coefficients of :attr:`lens` (k1 k2 p1 p2 k3 for the pinhole
-    models but the rational one's k1 k2 p1 p2 k3 k4 k5 k6; the fisheye's k1 k2 k3 k4); rms: OpenCV's overall RMS (px) over the views
-    used; per_view_rms: name → RMS (px) of each view used; T_cam_from_world: name → (4, 4);
-    outliers: names flagged by the robust rule (threshold ``outlier_threshold`` px);
+    models but the rational one's k1 k2 p1 p2 k3 k4 k5 k6; the fisheye's k1 k2 k3 k4);
+    rms: OpenCV's overall RMS (px) over the views used (the fisheye's: the same
+    definition, computed here); per_view_rms: name → RMS (px) of each view used;
+    T_cam_from_world: name → (4, 4); outliers: names flagged by the robust rule
+    (threshold ``outlier_threshold`` px);
     excluded: names left out of this calibration; initial: the calibration with every view
     when outliers were excluded and re-calibrated, else None.
     """

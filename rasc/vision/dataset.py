@@ -13,7 +13,8 @@
        {"file": "intrinsics/left_000.png", "eye": "left", "role": "intrinsics"},
        {"file": "poses/left_00.png", "eye": "left", "role": "pose",
         "pan": 0.0, "tilt": 0.0, "view": "00"}, ...],
-     "ground_truth": "ground_truth.json"}                             (optional)
+     "ground_truth": "ground_truth.json",                             (optional)
+     "joint_stream": "joints.csv"}                                    (optional)
 
 ``role`` "intrinsics": a view of the board for calibrating the eye's intrinsics (the
 pan-tilt angles do not matter); "pose": a view at a commanded pan-tilt position (pan,
@@ -21,6 +22,12 @@ tilt required), for hand-eye; ``view`` groups the left and right images taken at
 time of the same board placement (loop closure). Every problem is reported as one
 :class:`~rasc.errors.InputError` line naming the manifest, the image index and file, and
 the field. Images are read lazily; :meth:`Dataset.validate` reads their headers.
+
+A head that never stops (docs/topics/continuous.md): an image may carry its ``time``
+(seconds on the camera clock, mid-exposure), and ``joint_stream`` names the timestamped
+readings (:mod:`rasc.vision.joint_stream`, read with the manifest into
+:attr:`Dataset.joint_stream`); the pose images' pan, tilt are then the stream at the
+image's time, without any camera-to-encoder offset.
 
 :class:`Dataset` is rasc's one notion of a calibration dataset: the target, the image
 entries with their pan-tilt readings and, besides a folder's files, images held in
@@ -86,6 +93,7 @@ class ImageEntry:
     pan: float | None = None
     tilt: float | None = None
     view: str | None = None
+    time: float | None = None    # camera clock, seconds, mid-exposure (continuous capture)
 
 
 @dataclass
@@ -138,20 +146,28 @@ class Dataset:
     key: str | None = None
     #: the manifest dict it was read from or made of (written back as it was)
     manifest: dict | None = field(default=None, repr=False, compare=False)
+    #: the timestamped joint readings (:class:`rasc.vision.joint_stream.JointStream`) of a
+    #: continuous capture, when the manifest names them (``"joint_stream"``)
+    joint_stream: Any = field(default=None, repr=False, compare=False)
 
     # ------------------------------------------------------------- constructors
 
     @classmethod
     def in_memory(cls, board, images: list[dict], pixels: dict[str, np.ndarray], *,
                   angle_unit: str = "deg", length_unit: str | None = "m",
-                  truth: dict | None = None, where: str | os.PathLike = IN_MEMORY
-                  ) -> Dataset:
+                  truth: dict | None = None, where: str | os.PathLike = IN_MEMORY,
+                  joint_stream=None) -> Dataset:
         """A dataset whose images are arrays (file → (H, W) uint8), e.g. rendered:
         ``images`` are manifest entries (pan, tilt in ``angle_unit``), checked as a
-        manifest's are; ``truth`` the ground-truth document, if any. ``where`` names it in
+        manifest's are; ``truth`` the ground-truth document, if any; ``joint_stream``
+        the timestamped readings of a continuous capture
+        (:class:`rasc.vision.joint_stream.JointStream`), if any. ``where`` names it in
         messages. :func:`write_dataset` writes it as a folder."""
+        from rasc.vision.joint_stream import JOINTS
+
         obj = _manifest_dict(board, [dict(im) for im in images], angle_unit,
-                             None if truth is None else GROUND_TRUTH, length_unit)
+                             None if truth is None else GROUND_TRUTH, length_unit,
+                             None if joint_stream is None else JOINTS)
         obj = json.loads(json.dumps(obj, default=to_jsonable))
         root = Path(where)
         ds = parse_manifest(obj, root, where=str(root / MANIFEST), check_files=False)
@@ -167,6 +183,7 @@ class Dataset:
                                  f"{getattr(image, 'shape', '?')}")
         ds.pixels = dict(pixels)
         ds.truth = truth
+        ds.joint_stream = joint_stream
         return ds
 
     @classmethod
@@ -419,7 +436,8 @@ class Dataset:
                               self.angle_unit,
                               None if self.ground_truth is None
                               else self.ground_truth.relative_to(self.root).as_posix(),
-                              self.length_unit)
+                              self.length_unit,
+                              None if self.joint_stream is None else "joints.csv")
 
 
 def need_text(role: str) -> str:
@@ -577,7 +595,9 @@ def _parse_images(obj, where: str, root: Path, angle_unit: str | None,
             raise InputError(f"{here}: field 'eye' must be 'left' or 'right', got {eye!r}")
         if role not in ROLES:
             raise InputError(f"{here}: field 'role' must be 'intrinsics' or 'pose', got {role!r}")
-        pan = tilt = None
+        pan = tilt = time = None
+        if "time" in im:
+            time = finite_number(im["time"], f"{here}: field 'time'")
         view = im.get("view")
         if view is not None:
             if isinstance(view, bool) or not isinstance(view, (str, int)) or str(view) == "":
@@ -605,7 +625,7 @@ def _parse_images(obj, where: str, root: Path, angle_unit: str | None,
         if check_files and not path.is_file():
             raise InputError(f"{here}: file does not exist ({path})")
         entries.append(ImageEntry(index=k, file=file, path=path, eye=eye, role=role,
-                                  pan=pan, tilt=tilt, view=view))
+                                  pan=pan, tilt=tilt, view=view, time=time))
     return tuple(entries)
 
 
@@ -636,9 +656,19 @@ def parse_manifest(obj: dict, root: str | os.PathLike, where: str = MANIFEST,
         gt_path = root / _relative_file(gt, where, "ground_truth")
         if check_files and not os.path.lexists(gt_path):   # the reader words the rest
             raise InputError(f"{where}: field 'ground_truth': file does not exist ({gt_path})")
+    stream = None
+    if obj.get("joint_stream") is not None:
+        from rasc.vision.joint_stream import read_joint_stream
+
+        js_path = root / _relative_file(obj["joint_stream"], where, "joint_stream")
+        if check_files:
+            if not os.path.lexists(js_path):
+                raise InputError(f"{where}: field 'joint_stream': file does not exist "
+                                 f"({js_path})")
+            stream = read_joint_stream(js_path)
     return Dataset(root=root, manifest_path=Path(where), board=board,
                    angle_unit=angle_unit or "deg", images=images, ground_truth=gt_path,
-                   length_unit=length_unit, manifest=obj)
+                   length_unit=length_unit, manifest=obj, joint_stream=stream)
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
@@ -668,23 +698,28 @@ def _entry_dict(e: ImageEntry, angle_unit: str) -> dict:
     if e.role == "pose":
         scale = 180.0 / math.pi if angle_unit == "deg" else 1.0
         d["pan"], d["tilt"] = e.pan * scale, e.tilt * scale
+    if e.time is not None:
+        d["time"] = e.time
     return d
 
 
 def _manifest_dict(board: Board | dict, images: list[dict], angle_unit: str,
-                   ground_truth: str | None, length_unit: str | None = None) -> dict:
+                   ground_truth: str | None, length_unit: str | None = None,
+                   joint_stream: str | None = None) -> dict:
     obj = {"format": FORMAT, "board": board.to_dict() if hasattr(board, "to_dict") else board,
            **({} if length_unit is None else {"length_unit": length_unit}),
            "angle_unit": angle_unit, "images": images}
     if ground_truth is not None:
         obj["ground_truth"] = ground_truth
+    if joint_stream is not None:     # absent without one: the manifests of before
+        obj["joint_stream"] = joint_stream
     return obj
 
 
 def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[dict], *,
                    angle_unit: str = "deg", ground_truth: str | None = None,
                    length_unit: str | None = None, check_files: bool = True,
-                   provenance: dict | None = None) -> Path:
+                   provenance: dict | None = None, joint_stream: str | None = None) -> Path:
     """Validate and write ``manifest.json`` atomically; return its path.
 
     Parameters
@@ -699,13 +734,14 @@ def write_manifest(path: str | os.PathLike, board: Board | dict, images: list[di
     check_files : require the images (and ground truth) to exist already
     provenance : where the images came from (``rasc import``: recordings, topics,
         thresholds), written as the manifest's ``provenance`` object; readers ignore it
+    joint_stream : file name of the joint stream (``joints.csv``), relative to the folder
     """
     path = Path(path)
     manifest = path if path.suffix == ".json" else path / MANIFEST
     if hasattr(board, "to_dict"):  # rasc.vision.camera.Board, or rasc.sim.scene.Board (same dict)
         board = board.to_dict()
     obj = _manifest_dict(board, [dict(im) if isinstance(im, dict) else im for im in images],
-                         angle_unit, ground_truth, length_unit)
+                         angle_unit, ground_truth, length_unit, joint_stream)
     if provenance is not None:
         obj["provenance"] = provenance
     # json round trip: numpy scalars become numbers, and what is written is what is checked
@@ -759,7 +795,8 @@ def _write_files(dataset: Dataset, out: Path) -> Path:
     obj = dataset.to_manifest()
     return write_dataset_index(out, obj["board"], obj["images"], truth,
                                angle_unit=dataset.angle_unit, length_unit=dataset.length_unit,
-                               provenance=obj.get("provenance"))
+                               provenance=obj.get("provenance"),
+                               joint_stream=dataset.joint_stream)
 
 
 def write_dataset_image(out: Path, file: str, image: np.ndarray) -> None:
@@ -774,12 +811,19 @@ def write_dataset_image(out: Path, file: str, image: np.ndarray) -> None:
 
 def write_dataset_index(out: Path, board, images: list[dict], truth: dict | None, *,
                         angle_unit: str = "deg", length_unit: str | None = "m",
-                        provenance: dict | None = None) -> Path:
+                        provenance: dict | None = None, joint_stream=None) -> Path:
     """The last part of :func:`write_dataset`, once the images are in ``out``:
-    ``ground_truth.json`` (when ``truth`` is given) and ``manifest.json`` (validated
-    against the files). Returns the manifest's path."""
+    ``ground_truth.json`` (when ``truth`` is given), ``joints.csv`` (when ``joint_stream``,
+    a :class:`rasc.vision.joint_stream.JointStream`, is given) and ``manifest.json``
+    (validated against the files). Returns the manifest's path."""
+    from rasc.io import write_text_atomic
+    from rasc.vision.joint_stream import JOINTS, format_joint_stream
+
     if truth is not None:
         write_json_atomic(out / GROUND_TRUTH, truth)
+    if joint_stream is not None:
+        write_text_atomic(out / JOINTS, format_joint_stream(joint_stream))
     return write_manifest(out, board, images, angle_unit=angle_unit,
                           ground_truth=None if truth is None else GROUND_TRUTH,
-                          length_unit=length_unit, provenance=provenance)
+                          length_unit=length_unit, provenance=provenance,
+                          joint_stream=None if joint_stream is None else JOINTS)

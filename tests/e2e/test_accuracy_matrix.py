@@ -82,3 +82,21 @@ def test_scales_held_on_a_scale_error_is_not_called_usable(results):
     assert r.scales["mode"] == "hold" and r.scales["F"] > 10
     assert r.verdict != "usable", r.verdict_line
     assert any("--scales hold" in w for w in r.warnings)
+
+
+def test_the_lens_cells():
+    """The lens factor on projected corners (experiments.accuracy.LENS_CELLS): every lens
+    with its right model within its bounds and usable, unwarned; the 170° fisheye
+    calibrated as a pinhole warned on both eyes and not called usable."""
+    results = [acc.run_lens_cell(cell, seed=3) for cell in acc.LENS_CELLS]
+    for r in results:
+        ok, why = acc.lens_cell_passes(r)
+        assert ok, (acc.lens_cell_name(r.cell), why)
+        if r.cell.get("wrong"):
+            assert acc.lens_warned(r) and r.verdict != "usable", r.verdict_line
+            assert r.score.within_bounds is False          # what the warning is for
+        else:
+            assert r.verdict == "usable" and r.score.within_bounds is True, r.verdict_line
+            assert not acc.lens_warned(r)
+    table = acc.lens_markdown_table(results)
+    assert table.count("| ok |") == len(acc.LENS_CELLS), table

@@ -146,6 +146,6 @@ def test_every_refined_parameter_has_its_unit_from_the_table():
     assert params["left"]["T_cam_from_gaze.tz"]["unit"] == "length"
     assert params["head"]["T_ptuL_from_ptuR.tx"]["unit"] == "length"
     assert {"fx", "k1", "unit.tilt_scale", "T_cam_from_gaze.tx"} <= seen
-    assert set(PARAMETER_UNITS.values()) == {"px", "1", "deg", "length", "rad"}
+    assert set(PARAMETER_UNITS.values()) == {"px", "1", "deg", "length", "rad", "s"}
     with pytest.raises(KeyError, match="no unit"):
         parameter_unit("left.unit.tilt_something")

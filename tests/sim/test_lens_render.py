@@ -140,7 +140,9 @@ def test_lens_options_are_checked_with_the_field_named():
                            (RenderOptions(lens="fisheye", distortion=(0.1,) * 5), "--distortion"),
                            (RenderOptions(distortion=(0.1,) * 6), "--distortion"),
                            (RenderOptions(lens="fisheye", focus_distance=1.0),
-                            "focus_distance")):
+                            "focus_distance"),
+                           (RenderOptions(fov=100, motion_speed_deg_s=10.0),
+                            "motion_speed_deg_s")):
         with pytest.raises(InputError) as info:
             options.validate(names)
         message = str(info.value)
@@ -160,15 +162,15 @@ def test_cache_key_and_truth_unchanged_at_the_lens_defaults():
 
     from rasc.datasets.keys import cache_key
     from rasc.datasets.render import render_key, render_what
-    from rasc.sim.render import OPTIONAL_FIELDS, degradations_of
+    from rasc.sim.render import CONTINUOUS, DEGRADATIONS, LENS_FIELDS, lens_fields_of
 
     options = RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02))
     before = asdict(options)
-    for k in (*OPTIONAL_FIELDS, "supersample"):
+    for k in (*DEGRADATIONS, *CONTINUOUS, *LENS_FIELDS, "supersample"):
         del before[k]
     assert render_key(options) == cache_key("render-folder", {"options": render_what(
         before)["options"], "model": None})
-    assert not degradations_of(options)
+    assert not lens_fields_of(options)
     for changed in (RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02),
                                   lens="fisheye"),
                     RenderOptions(seed=3, intrinsics_views=5, distortion=(-0.1, 0.02),
@@ -176,7 +178,7 @@ def test_cache_key_and_truth_unchanged_at_the_lens_defaults():
         assert render_key(changed) != render_key(options)
     fisheye = render_what(RenderOptions(lens="fisheye", fov=150))
     assert fisheye["options"]["lens"] == "fisheye" and fisheye["options"]["fov"] == 150
-    assert degradations_of(RenderOptions(lens="fisheye")) == {"lens": "fisheye"}
+    assert lens_fields_of(RenderOptions(lens="fisheye")) == {"lens": "fisheye"}
 
 
 @pytest.mark.slow

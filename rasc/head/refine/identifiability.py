@@ -33,6 +33,8 @@ REASONS = {
     "tilt_axis_x": "the motions cannot separate the axis angle from the hand-eye rotation",
     "tilt_point_y": "the motions cannot separate the axis distance from the hand-eye "
                     "translation",
+    "time_offset": "the head is still (or moves too little) while the pose images are "
+                   "taken: a clock offset changes no reading",
 }
 
 #: A Jacobian column (normalised) within this sine of the span of the others is not
@@ -51,21 +53,28 @@ IDENTIFIABILITY_SINE = 1e-6
 #: corners cannot determine is held at the intrinsics' value (cv2.calibrateCamera's),
 #: for both eyes.
 DIST_CANDIDATES = {"rational": ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")}
+#: ... and held when its column is within this sine of the others' span: stricter than
+#: :data:`IDENTIFIABILITY_SINE`, since the covariance (JᵀJ)⁻¹ squares the conditioning (at
+#: 1e-6 a rational calibration's k1 came out with a negative variance, measured)
+DIST_IDENTIFIABILITY_SINE = 1e-3
 DIST_REASON = ("the rational model's coefficients trade with each other on these views: "
                "held at the intrinsics' value")
 
 
 # ----------------------------------------------------------------------------- identifiability
 
-def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
+def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = (),
+                  time_offset: bool = False
                   ) -> tuple[dict[str, list[str]], list[dict[str, Any]]]:
     """Decide, from the Jacobian at the initial guess, which unit parameters the corners
     determine (see the module docstring); ``hold``: candidates not estimated at all.
+    ``time_offset``: δ is the first candidate (a continuous capture); when the corners
+    cannot determine it, it is dropped as ``{"eye": "head", "parameter": "time_offset"}``.
     Raises :class:`DegenerateDataError` when the basic parameters (intrinsics, hand-eye,
     mounts, board poses) are not determined."""
     candidates = [n for n in UNIT_PARAMETERS if n not in hold]
     full = {eye: list(candidates) for eye in EYES}
-    prob = _Problem(obs, full)
+    prob = _Problem(obs, full, time_offset=time_offset)
     # the distortion coefficients tested like the unit's (before them; held for both eyes
     # when either eye's corners cannot determine one)
     dist_cand = [n for n in DIST_CANDIDATES.get(obs.dist_model, ())
@@ -79,6 +88,8 @@ def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
         first = c["start"] + c["n_intr"] + 6
         for k, n in enumerate(candidates):
             unit_cols[(eye, n)] = first + k
+    if prob.time_col is not None:
+        unit_cols[("head", "time_offset")] = prob.time_col
     for j in range(len(prob.names)):
         if d[j] == 0 and j not in set(unit_cols.values()) | set(dist_cols.values()):
             raise DegenerateDataError(f"refinement: parameter {prob.names[j]} moves no corner")
@@ -123,24 +134,26 @@ def _identifiable(obs: HeadObservations, hold: tuple[str, ...] = ()
             r -= Q @ (Q.T @ r)
             rs.append(r)
             sines.append(float(np.linalg.norm(r)) if d[j] > 0 else 0.0)
-        if min(sines) < IDENTIFIABILITY_SINE:
+        if min(sines) < DIST_IDENTIFIABILITY_SINE:
             dropped += [{"eye": eye, "parameter": n, "reason": DIST_REASON, "sine": sine}
                         for eye, sine in zip(EYES, sines, strict=True)]
             continue
         for r in rs:
             r = r - Q @ (Q.T @ r)
             Q = np.column_stack([Q, r / np.linalg.norm(r)])
-    for eye in EYES:
-        for n in candidates:
-            j = unit_cols[(eye, n)]
-            v = G[:, col[j]]
-            r = v - Q @ (Q.T @ v)
-            r -= Q @ (Q.T @ r)                       # re-orthogonalise once
-            sine = float(np.linalg.norm(r)) if d[j] > 0 else 0.0
-            if sine < IDENTIFIABILITY_SINE:
-                dropped.append({"eye": eye, "parameter": n, "reason": REASONS[n],
-                                "sine": sine})
-            else:
-                Q = np.column_stack([Q, r / sine])
+    order = ([("head", "time_offset")] if prob.time_col is not None else []) \
+        + [(eye, n) for eye in EYES for n in candidates]
+    for eye, n in order:
+        j = unit_cols[(eye, n)]
+        v = G[:, col[j]]
+        r = v - Q @ (Q.T @ v)
+        r -= Q @ (Q.T @ r)                       # re-orthogonalise once
+        sine = float(np.linalg.norm(r)) if d[j] > 0 else 0.0
+        if sine < IDENTIFIABILITY_SINE:
+            dropped.append({"eye": eye, "parameter": n, "reason": REASONS[n],
+                            "sine": sine})
+        else:
+            Q = np.column_stack([Q, r / sine])
+            if eye in free:                      # (δ is the head's: kept unless dropped)
                 free[eye].append(n)
     return free, dropped

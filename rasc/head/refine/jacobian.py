@@ -71,7 +71,8 @@ class _JacobianMixin:
         analytic=False)`` up to the differences' error (tests/head/test_refine_jacobian.py)."""
         n_img = len(self.img_eye)
         everything = np.arange(n_img)
-        _, d = self._project(x, everything, self._chain(x, everything), derivatives=True)
+        ch = self._chain(x, everything)
+        _, d = self._project(x, everything, ch, derivatives=True)
         mask = self.mask
         rows_of = self._rows_of_images()
         n = len(self.names)
@@ -101,7 +102,15 @@ class _JacobianMixin:
         intr_cols = {self.eye_cols[eye]["start"] + k for eye in EYES
                      for k in range(self.eye_cols[eye]["n_intr"])}
         kinematic = [j for j in range(self.n_global)
-                     if j not in intr_cols and len(col_imgs[j])]
+                     if j not in intr_cols and j != self.time_col and len(col_imgs[j])]
+        if self.time_col is not None:
+            # δ analytically: the stream's angular velocity times d(pixels)/d(angles)
+            j = self.time_col
+            dpix = np.einsum("nkab,nkb->nka", d["point"],
+                             self.time_derivative(x, ch, everything))
+            data_r.append(all_rows)
+            data_c.append(np.full(len(all_rows), j))
+            data_v.append(dpix[mask].ravel() * self.scale[j])
         by_images: dict[bytes, list[int]] = {}
         for j in kinematic:
             by_images.setdefault(col_imgs[j].tobytes(), []).append(j)

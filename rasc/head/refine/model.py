@@ -45,6 +45,8 @@ PARAMETER_UNITS = {
     "unit.tilt_axis_x": "1", "unit.tilt_axis_y": "1",
     "unit.tilt_point_x": "length", "unit.tilt_point_y": "length", "unit.tilt_point_z": "length",
     "unit.pan_offset": "rad", "unit.tilt_offset": "rad",
+    # the camera-to-encoder time offset of a continuous capture (rasc.head.refine.timing)
+    "time_offset": "s",
 }
 
 
@@ -78,6 +80,8 @@ class EyeObservations:
     view : dict file → view id (the simultaneous board placement)
     T_cam_from_world_pose : dict file → (4, 4): per-pose extrinsics (initial values)
     T_cam_from_gaze : (4, 4) initial hand-eye (RASC)
+    pose_time : dict file → the pose image's time (camera clock, s, mid-exposure) of a
+        continuous capture; empty otherwise
     """
 
     K: np.ndarray
@@ -90,17 +94,27 @@ class EyeObservations:
     view: dict[str, str]
     T_cam_from_world_pose: dict[str, np.ndarray]
     T_cam_from_gaze: np.ndarray
+    pose_time: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
 class HeadObservations:
     """Both eyes' observations, the board's corners in its own frame (N, 3) and the
-    initial ``T_ptuL_from_ptuR`` (loop closure)."""
+    initial ``T_ptuL_from_ptuR`` (loop closure); ``streams``: a continuous capture's
+    joint stream per eye (:class:`rasc.head.refine.timing.JointStream`, encoder clock),
+    with every pose image's ``pose_time``, or None."""
 
     board_points: np.ndarray
     eyes: dict[str, EyeObservations]
     T_ptuL_from_ptuR: np.ndarray
     dist_model: str = "k1k2"
+    streams: dict[str, Any] | None = None
+
+    @property
+    def has_stream(self) -> bool:
+        """Whether the pose images have times and a joint stream (δ can be estimated)."""
+        return self.streams is not None and all(
+            self.eyes[eye].pose_time.keys() >= self.eyes[eye].pose.keys() for eye in EYES)
 
 
 def observations_from_calibration(cal, board) -> HeadObservations:
@@ -112,7 +126,8 @@ def observations_from_calibration(cal, board) -> HeadObservations:
         intr = r.intrinsics
         used = list(intr.T_cam_from_world)
         eyes[eye] = EyeObservations(
-            K=intr.K, dist=np.asarray(intr.dist, float).ravel().copy(), image_size=tuple(intr.image_size),
+            K=intr.K, dist=np.asarray(intr.dist, float).ravel().copy(),
+            image_size=tuple(intr.image_size),
             intrinsics={n: r.corners["intrinsics"][n] for n in used},
             T_cam_from_world_intrinsics=dict(intr.T_cam_from_world),
             pose={f: r.corners["pose"][f] for f in r.pose_files},
@@ -122,9 +137,21 @@ def observations_from_calibration(cal, board) -> HeadObservations:
             T_cam_from_world_pose=dict(zip(r.pose_files, r.T_cam_from_world, strict=True)),
             T_cam_from_gaze=r.handeye.T_cam_from_gaze)
     T_loop = cal.base.get("loop_closure", {}).get("T_ptuL_from_ptuR", cal.base["T_ptuL_from_ptuR"])
+    streams = None
+    stream = getattr(cal, "joint_stream", None)
+    if stream is not None:
+        # a continuous capture: the pose images' times, and each eye's stream
+        from rasc.head.refine.timing import check_image_times
+
+        streams = {eye: stream[eye] for eye in EYES}
+        for eye in EYES:
+            r = cal.eyes[eye]
+            times = dict(zip(r.pose_files, r.times, strict=True))
+            check_image_times(times, streams[eye], eye)
+            eyes[eye].pose_time = {f: float(t) for f, t in times.items()}
     return HeadObservations(board_points=board.object_points(), eyes=eyes,
                             T_ptuL_from_ptuR=np.asarray(T_loop, float),
-                            dist_model=cal.options.dist_model)
+                            dist_model=cal.options.dist_model, streams=streams)
 
 
 def _dist5(dist) -> np.ndarray:
@@ -201,6 +228,12 @@ class RefinementResult:
     covariance: np.ndarray | None = None
     names: list[str] = field(default_factory=list)
     lens: dict[str, str] = field(default_factory=lambda: {eye: "pinhole" for eye in EYES})
+    #: the camera-to-encoder time offset of a continuous capture: {"mode", "estimated",
+    #: "value_s", "std_s"} (empty without a joint stream)
+    time_offset: dict[str, Any] = field(default_factory=dict)
+    #: pose frames dropped whole as outliers (continuous captures): {"eye", "file",
+    #: "rms_px", "threshold_px"} each
+    frames_rejected: list[dict[str, Any]] = field(default_factory=list)
 
     def std(self, eye: str) -> dict[str, float | None]:
         """Name → standard deviation of one eye's parameters (None: not identifiable)."""
@@ -212,6 +245,9 @@ class RefinementResult:
                 "sigma_px": self.sigma, "corners": self.n_corners,
                 "rms_by_role_px": self.rms_by_role, "held_at_nominal": self.held,
                 "scales": self.scales,
+                **({"time_offset": self.time_offset} if self.time_offset else {}),
+                **({"frames_rejected": self.frames_rejected} if self.frames_rejected
+                   else {}),
                 "rejected_corners": self.n_rejected, "iterations": self.iterations,
                 "parameters": self.parameters,
                 "not_identifiable": self.not_identifiable,

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -18,19 +19,29 @@ from rasc.head.refine.model import (
     DIST_PARAMS,
     UNIT_DEFAULTS,
     HeadObservations,
+    _axis_rotation,
     _left_jacobian,
     _rodrigues_batch,
     _unit_motion,
     _unit_motion_of,
 )
+from rasc.head.refine.timing import angles_at, rates_at
 
 
 class _Problem(_JacobianMixin):
     """Parameter layout, residuals and Jacobian structure of one refinement."""
 
     def __init__(self, obs: HeadObservations, unit_free: dict[str, list[str]],
-                 dist_held: tuple[str, ...] = ()):
+                 dist_held: tuple[str, ...] = (), time_offset: bool = False,
+                 time_offset0: float = 0.0):
+        """``time_offset``: estimate the camera-to-encoder offset δ (one global parameter,
+        ``"time_offset"``, from ``time_offset0`` s): each pose image's readings are then
+        its eye's joint stream at the image's time + δ (:mod:`rasc.head.refine.timing`)
+        instead of its ``pan_tilt``. Needs ``obs.has_stream``."""
         self.obs = obs
+        if time_offset and not obs.has_stream:
+            raise InputError("refinement: the time offset needs every pose image's time "
+                             "and a joint stream")
         # the lens model, all its coefficients' names, those estimated (the others are 0,
         # but those ``dist_held``, which keep the intrinsics' value: a rational model's
         # coefficient the corners cannot determine, :func:`_identifiable`)
@@ -88,6 +99,11 @@ class _Problem(_JacobianMixin):
             add(f"T_ptuL_from_ptuR.rot{'xyz'[k]}", 0.0, 0.1)
         for k in range(3):
             add(f"T_ptuL_from_ptuR.t{'xyz'[k]}", obs.T_ptuL_from_ptuR[k, 3], 0.1 * L)
+        # δ (s), scaled by 10 ms: the size of an offset between two clocks on one machine
+        self.time_col = None
+        if time_offset:
+            self.time_col = len(names)
+            add("time_offset", float(time_offset0), 0.01)
         self.n_global = len(names)
         # board poses: rotation as a perturbation exp(w)·R0, translation absolute
         pose_R0, pose_t0, pose_names = [], [], []
@@ -135,6 +151,7 @@ class _Problem(_JacobianMixin):
         self.unit_free = unit_free
         # images
         img_eye, img_role, img_name, img_pose, pan, tilt, corners = [], [], [], [], [], [], []
+        img_time = []
         pose_view_index = len(pose_names) - 1
         for ei, eye in enumerate(EYES):
             e = obs.eyes[eye]
@@ -145,6 +162,7 @@ class _Problem(_JacobianMixin):
                 img_pose.append(pose_names.index(f"{eye}:{n}"))
                 pan.append(0.0)
                 tilt.append(0.0)
+                img_time.append(np.nan)
                 corners.append(c)
             for f, c in e.pose.items():
                 img_eye.append(ei)
@@ -153,12 +171,18 @@ class _Problem(_JacobianMixin):
                 img_pose.append(pose_view_index)
                 pan.append(e.pan_tilt[f][0])
                 tilt.append(e.pan_tilt[f][1])
+                img_time.append(e.pose_time.get(f, np.nan))
                 corners.append(c)
         self.img_eye = np.array(img_eye)
         self.img_role = np.array(img_role)
         self.img_name = img_name
         self.img_pose = np.array(img_pose)
         self.pan, self.tilt = np.array(pan), np.array(tilt)
+        self.img_time = np.array(img_time, float)     # camera clock, s (NaN: none)
+        self.streams = obs.streams if time_offset else None
+        # per eye, the stream's readings at encoder times (one function each, for _cached)
+        self._angles_of = {eye: functools.partial(angles_at, self.streams[eye])
+                           for eye in EYES} if time_offset else {}
         self.corners = np.array(corners, dtype=float)          # (n_img, N, 2)
         self.P = np.asarray(P, float)
         # a partial view (ChArUco) marks the corners it does not show with NaN rows: they
@@ -244,8 +268,9 @@ class _Problem(_JacobianMixin):
             if len(idx) == 0:
                 continue
             u = s[eye]["unit"]
+            pan, tilt = self._readings(x, sel[idx], eye)
             Rg, tg = self._cached(_unit_motion_of, np.array([u[n] for n in UNIT_DEFAULTS]),
-                                  self.pan[sel[idx]], self.tilt[sel[idx]])
+                                  pan, tilt)
             T_cg = s[eye]["T_cam_from_gaze"]
             if eye == "left":
                 M = np.eye(4)
@@ -260,9 +285,68 @@ class _Problem(_JacobianMixin):
             RA_all[idx] = RA
         b = (self.p0 + self.scale * x)[self.n_global:].reshape(self.n_poses, 6)
         return {"R": R, "t": t, "RA": RA_all, "Rb": Rb, "w": b[poses, :3][img_pose],
+                "tb": s["pose_t"][img_pose],
                 "s": s, "img_eye": img_eye,
                 "Kp": np.array([s[eye]["K"] for eye in EYES])[img_eye],      # (n, 4)
                 "D": np.array([s[eye]["dist"] for eye in EYES])[img_eye]}    # (n, k)
+
+    def time_offset(self, x: np.ndarray) -> float:
+        """δ (s) at ``x``; 0 when it is not estimated."""
+        if self.time_col is None:
+            return 0.0
+        j = self.time_col
+        return float(self.p0[j] + self.scale[j] * x[j])
+
+    def _readings(self, x: np.ndarray, imgs: np.ndarray, eye: str
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """(pan, tilt) of the pose images ``imgs`` of ``eye``: the dataset's, or with δ
+        estimated its stream at each image's time + δ."""
+        if self.time_col is None:
+            return self.pan[imgs], self.tilt[imgs]
+        a = self._cached(self._angles_of[eye], self.img_time[imgs] + self.time_offset(x))
+        return a[:, 0], a[:, 1]
+
+    def time_derivative(self, x: np.ndarray, ch: dict[str, Any], sel: np.ndarray
+                        ) -> np.ndarray:
+        """d pc / dδ (n, N, 3) of the images ``sel`` (zero for intrinsics views): the
+        stream's angular velocity at t + δ times the camera-frame point's derivatives with
+        respect to the readings (eq. 1-2 with the general unit: the pan turns the point
+        about the ptu x axis by −φ, the tilt about the tilt axis a through q by τ), in
+        seconds."""
+        out = np.zeros((len(sel), len(self.P), 3))
+        if self.time_col is None:
+            return out
+        s, d = ch["s"], self.time_offset(x)
+        img_eye, img_role = self.img_eye[sel], self.img_role[sel]
+        T_pRpL = invert_transform(s["T_ptuL_from_ptuR"])
+        for ei, eye in enumerate(EYES):
+            idx = np.flatnonzero((img_eye == ei) & (img_role == 1))
+            if len(idx) == 0:
+                continue
+            u = s[eye]["unit"]
+            imgs = sel[idx]
+            t = self.img_time[imgs] + d
+            ang = angles_at(self.streams[eye], t)
+            rate = rates_at(self.streams[eye], t)
+            phi = u["pan_scale"] * ang[:, 0] + u["pan_offset"]
+            tau = u["tilt_scale"] * ang[:, 1] + u["tilt_offset"]
+            a = np.array([u["tilt_axis_x"], u["tilt_axis_y"], 1.0])
+            a /= np.linalg.norm(a)
+            qt = np.array([u["tilt_point_x"], u["tilt_point_y"], u["tilt_point_z"]])
+            M = np.eye(4) if eye == "left" else T_pRpL
+            # the board point in this unit's ptu frame
+            q = np.einsum("nij,kj->nki", ch["Rb"][idx], self.P) + ch["tb"][idx][:, None]
+            y = q @ M[:3, :3].T + M[:3, 3]
+            R_pan = _axis_rotation(np.array([1.0, 0.0, 0.0]), -phi)
+            R_tilt = _axis_rotation(a, tau)
+            v = np.einsum("nij,nkj->nki", R_pan, y)
+            dg_dphi = -np.einsum("nij,nkj->nki", R_tilt,
+                                 np.cross(np.array([1.0, 0.0, 0.0]), v))
+            dg_dtau = np.cross(a, np.einsum("nij,nkj->nki", R_tilt, v - qt))
+            dg = (dg_dphi * (u["pan_scale"] * rate[:, 0])[:, None, None]
+                  + dg_dtau * (u["tilt_scale"] * rate[:, 1])[:, None, None])
+            out[idx] = dg @ s[eye]["T_cam_from_gaze"][:3, :3].T
+        return out
 
     def _project(self, x: np.ndarray, sel: np.ndarray, ch: dict[str, Any],
                  derivatives: bool = False, board: bool = True):
@@ -358,6 +442,8 @@ class _Problem(_JacobianMixin):
             cols += [all_e] * c["n_intr"]
             cols += [self.pose_images[ei]] * (c["stop"] - c["start"] - c["n_intr"])
         cols += [self.pose_images[1]] * 6
+        if self.time_col is not None:
+            cols += [np.concatenate([self.pose_images[0], self.pose_images[1]])]
         for i in range(self.n_poses):
             cols += [np.flatnonzero(self.img_pose == i)] * 6
         return cols

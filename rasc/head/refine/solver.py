@@ -26,6 +26,7 @@ from rasc.head.refine.model import (
     unit_from_parameters,
 )
 from rasc.head.refine.problem import _Problem
+from rasc.head.refine.timing import MAX_TIME_OFFSET_S
 
 #: Reject corners farther than this many robust standard deviations (either coordinate)
 #: and farther than REJECT_FLOOR_PX: below a tenth of a pixel a residual is the
@@ -113,7 +114,8 @@ SCALES = ("pan_scale", "tilt_scale")
 def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
                 reject_k: float = REJECT_K, max_iter: int = 100,
                 estimate_scales: bool = True,
-                start: RefinementResult | None = None) -> RefinementResult:
+                start: RefinementResult | None = None,
+                time_offset: bool = False) -> RefinementResult:
     """Refine the whole head from its corners (see the module docstring).
 
     Parameters
@@ -130,6 +132,12 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
     start : RefinementResult, optional
         A refinement of the same observations to start from (its identifiability test,
         parameter values and kept corners are re-used).
+    time_offset : bool
+        A continuous capture (``obs.has_stream``): estimate the camera-to-encoder time
+        offset δ from 0 (:mod:`rasc.head.refine.timing`); held at 0 (the dataset's
+        readings) when the corners cannot determine it (``time_offset`` of the result
+        says so). Pose images that fit as outliers (:func:`rasc.vision.camera.outlier_threshold`
+        of their RMS: blurred frames) are dropped and named (``frames_rejected``).
 
     Returns
     -------
@@ -147,24 +155,31 @@ def refine_head(obs: HeadObservations, *, sigma0: float | None = None,
     # (against 1 ms on one thread).
     with threadpool_limits(1, user_api="blas"):
         return _refine_head(obs, sigma0=sigma0, reject_k=reject_k, max_iter=max_iter,
-                            hold=() if estimate_scales else SCALES, start=start)
+                            hold=() if estimate_scales else SCALES, start=start,
+                            time_offset=time_offset)
 
 
 def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
-                 hold: tuple[str, ...], start: RefinementResult | None = None
-                 ) -> RefinementResult:
+                 hold: tuple[str, ...], start: RefinementResult | None = None,
+                 time_offset: bool = False) -> RefinementResult:
     t_start = time.perf_counter()
     if obs.dist_model not in DIST_PARAMS:
         raise InputError(f"refinement: unknown dist_model {obs.dist_model!r}")
-    if start is not None and start.identifiability is not None:
+    if time_offset and not obs.has_stream:
+        raise InputError("refinement: the time offset needs every pose image's time and "
+                         "a joint stream")
+    tested = time_offset
+    if start is not None and start.identifiability is not None \
+            and start.time_offset.get("tested", False) == time_offset:
         # the same data: the null directions are the same; only the held ones differ
         free_all, dropped = start.identifiability
     else:
-        free_all, dropped = _identifiable(obs, ())
+        free_all, dropped = _identifiable(obs, (), time_offset=time_offset)
+    time_offset = time_offset and not any(dd["parameter"] == "time_offset" for dd in dropped)
     free = {eye: [n for n in names if n not in hold] for eye, names in free_all.items()}
     dist_held = tuple(dict.fromkeys(dd["parameter"] for dd in dropped
                                     if dd["parameter"] in DIST_NAMES))
-    prob = _Problem(obs, free, dist_held)
+    prob = _Problem(obs, free, dist_held, time_offset=time_offset)
     x0 = np.zeros(len(prob.names))
     r0 = prob.all_residuals(x0)
     if prob.seen.all():
@@ -187,6 +202,8 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
                 x[j] = (known[name] - prob.p0[j]) / prob.scale[j]
         if start.kept is not None:
             prob.mask &= start.kept
+    # (a refinement started from another keeps its corners, and so its dropped frames)
+    frames_rejected: list[dict[str, Any]] = [] if start is None else list(start.frames_rejected)
     for _ in range(2):   # fit; reject; refit once without the rejected corners
         x, nit = _levenberg_marquardt(prob, x, f_scale=3.0 * sigma0, max_iter=max_iter)
         iterations += nit
@@ -194,6 +211,16 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         kept_r = r[prob.mask]
         sig = 1.4826 * float(np.median(np.abs(kept_r - np.median(kept_r, axis=0))))
         bad = np.any(np.abs(r) > max(reject_k * sig, REJECT_FLOOR_PX), axis=-1) & prob.mask
+        if obs.has_stream and np.isfinite(reject_k):
+            # a continuous capture: whole pose frames that fit as outliers (blur, a frame
+            # whose time is not its own) go, by the one per-view rule of the intrinsics
+            # judged on all the corners they showed, the ones just rejected included
+            frames = _outlier_frames(prob, r, prob.mask)
+            for i, rms, threshold in frames:
+                bad[i] = prob.mask[i]
+                frames_rejected.append({"eye": EYES[prob.img_eye[i]],
+                                        "file": prob.img_name[i], "rms_px": rms,
+                                        "threshold_px": threshold})
         if not bad.any():
             break
         prob.mask &= ~bad
@@ -210,6 +237,17 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
     cov = cov_x * np.outer(prob.scale, prob.scale)
     std = np.sqrt(np.diag(cov))
     p = prob.p0 + prob.scale * x
+    delta = {}
+    if tested or obs.has_stream:
+        delta = {"tested": tested, "estimated": prob.time_col is not None,
+                 "value_s": prob.time_offset(x),
+                 "std_s": None if prob.time_col is None else float(std[prob.time_col])}
+        if prob.time_col is not None and abs(delta["value_s"]) > MAX_TIME_OFFSET_S:
+            raise InputError(
+                f"refinement: the camera-to-encoder time offset came out at "
+                f"{delta['value_s']:.3g} s, beyond the prior bound ±{MAX_TIME_OFFSET_S:g} s: "
+                "the image times and the joint stream are not on clocks this close; check "
+                "their units and that the stream is this capture's")
     s = prob.unpack(x)
     # parameters, by eye, in natural units
     params: dict[str, dict[str, dict[str, Any]]] = {eye: {} for eye in EYES}
@@ -251,6 +289,11 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         for n in hold:
             params[eye][f"unit.{n}"] = {"value": UNIT_DEFAULTS[n], "std": None, "unit": "1",
                                         "held": "nominal, not estimated (--scales)"}
+    if delta and prob.time_col is None:
+        why = [dd["reason"] for dd in dropped if dd["parameter"] == "time_offset"]
+        params["head"]["time_offset"] = {
+            "value": 0.0, "std": None, "unit": "s",
+            "held": why[0] if why else "held at 0, not estimated (--time-offset hold)"}
     # per-image residuals
     images = []
     residuals: dict[str, list[np.ndarray]] = {eye: [] for eye in EYES}
@@ -291,4 +334,24 @@ def _refine_head(obs: HeadObservations, *, sigma0, reject_k, max_iter,
         residuals={eye: np.concatenate(v) if v else np.zeros((0, 2))
                    for eye, v in residuals.items()},
         covariance=cov, names=list(prob.names), values=p.copy(),
-        identifiability=(free_all, dropped))
+        identifiability=(free_all, dropped), time_offset=delta,
+        frames_rejected=frames_rejected)
+
+
+def _outlier_frames(prob: _Problem, r: np.ndarray, keep: np.ndarray
+                    ) -> list[tuple[int, float, float]]:
+    """The pose images whose RMS over their kept corners ``keep`` is an outlier among
+    their eye's pose images by :func:`rasc.vision.camera.outlier_threshold` (the rule
+    the intrinsics views are judged by): (image index, RMS px, threshold px) each."""
+    from rasc.vision.camera import outlier_threshold
+
+    out = []
+    for ei in range(len(EYES)):
+        imgs = [i for i in prob.pose_images[ei] if keep[i].any()]
+        if len(imgs) < 4:
+            continue
+        rms = np.array([np.sqrt(np.mean(np.sum(r[i][keep[i]] ** 2, axis=-1))) for i in imgs])
+        threshold = outlier_threshold(rms)
+        out += [(int(i), float(v), float(threshold))
+                for i, v in zip(imgs, rms, strict=True) if v > threshold]
+    return out
