@@ -73,7 +73,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--lens", default="pinhole", choices=("pinhole", "fisheye"),
                    help="the cameras' lens model: pinhole (radial-tangential distortion, "
                         "default) or fisheye (OpenCV's equidistant cv2.fisheye model); "
-                        "docs/topics/degradations.md")
+                        "docs/topics/lenses.md")
     p.add_argument("--fov", type=float, default=0.0, metavar="DEG",
                    help="the lens's horizontal field of view across the image width, "
                         "degrees (up to 180 for a fisheye; default 0: the model cameras' "

@@ -94,7 +94,7 @@ MAX_FOCAL_LENGTH_MM = 1000.0
 MAX_FOCUS_DISTANCE = 1000.0
 #: the widest --fov (degrees across the image's width): a pinhole sees less than 180°;
 #: a fisheye (OpenCV's equidistant model) is rendered up to 180° (rays to 90° off its
-#: axis at the image's left and right edges; docs/topics/degradations.md)
+#: axis at the image's left and right edges; docs/topics/lenses.md)
 MAX_FOV_DEG = 180.0
 #: bounds of continuous motion (docs/topics/continuous.md): the peak joint speed (deg/s),
 #: a dwell (s), the camera's frame rate and the joint stream's rate (Hz), the sub-frames
@@ -148,7 +148,7 @@ class RenderOptions:
     f_number: float = 2.8           # the lens's f-number (with focus_distance)
     focal_length_mm: float = 8.0    # the lens's focal length, mm (with focus_distance)
     jpeg_quality: int = 0           # JPEG compression quality 1-100; 0 = none
-    # the lens (docs/topics/degradations.md): its model (rasc.geometry.lens.LENS_MODELS; the
+    # the lens (docs/topics/lenses.md): its model (rasc.geometry.lens.LENS_MODELS; the
     # ``distortion`` coefficients are that model's) and its horizontal field of view
     # (degrees across the image's width; 0 = the model camera's own focal length); at
     # their defaults left out of the ground truth's render_options and of the cache key
@@ -348,7 +348,7 @@ def continuous_of(options) -> dict:
     return _changed(options, CONTINUOUS)
 
 
-#: the lens fields of RenderOptions (docs/topics/degradations.md; each at its default left
+#: the lens fields of RenderOptions (docs/topics/lenses.md; each at its default left
 #: out of the ground truth's render_options and of the cache key)
 LENS_FIELDS = ("lens", "fov")
 
