@@ -213,3 +213,14 @@ def test_wide_pinhole_with_distortion_renders_at_its_truth():
             found = detect_corners(view.render(sim, "left"), board, "saddle")
             assert found is not None
             assert _rms(np.linalg.norm(found - truth, axis=1)) < RMS_TOL_PX
+
+
+def test_rasc_render_lens_flags_default_to_the_options_defaults():
+    import argparse
+
+    from rasc.commands import render as cmd
+
+    args = cmd.add_parser(argparse.ArgumentParser().add_subparsers()).parse_args([])
+    for field in ("lens", "fov"):
+        assert cmd.FLAGS[field] == f"--{field}"
+        assert getattr(args, field) == getattr(RenderOptions(), field), field
