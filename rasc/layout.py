@@ -31,7 +31,8 @@ ROOMS = (
          "this table"),
     Room("rasc/geometry/", 1, "`transforms` (rigid transforms, exp/log through scipy, the one "
          "transform check), `kinematics` (eq. 3 and the general unit), `frames` (the frame "
-         "tables), `lens` (the lens models in numpy: OpenCV's pinhole with radial-tangential or rational distortion, and its fisheye), `triangulation` (eq. 15–19)"),
+         "tables), `lens` (the lens models in numpy: OpenCV's pinhole with radial-tangential "
+         "or rational distortion, and its fisheye), `triangulation` (eq. 15–19)"),
     Room("rasc/handeye/", 2, "`paper` (RASC's eq. 6–10 written plainly: the reference), "
          "`solver` (the entry points: `solve_rasc`, the batched form, `diagnose`), "
          "`_kernels`, `_checks`, `_linalg` (the speed work and the input and degeneracy "

@@ -69,7 +69,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="Gaussian blur, pixels (default 0)")
     p.add_argument("--distortion", default="", metavar="K1,K2,P1,P2,K3",
                    help="lens distortion applied by warping the renders (OpenCV model), "
-                        "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-')")
+                        "e.g. --distortion=-0.2,0.05 (with '=' when it starts with '-'); "
+                        "with --lens fisheye its K1,K2,K3,K4; 8 numbers: the rational model")
+    p.add_argument("--lens", default="pinhole", choices=("pinhole", "fisheye"),
+                   help="the cameras' lens model: pinhole (radial-tangential distortion, "
+                        "default) or fisheye (OpenCV's equidistant cv2.fisheye model); "
+                        "docs/topics/lenses.md")
+    p.add_argument("--fov", type=float, default=0.0, metavar="DEG",
+                   help="the lens's horizontal field of view across the image width, "
+                        "degrees (up to 180 for a fisheye; default 0: the model cameras' "
+                        "own focal length); a wide lens is rendered from several views")
     p.add_argument("--supersample", type=int, default=DEFAULT_SUPERSAMPLE, metavar="S",
                    help="render each image at S times the width and height and average "
                         "each S x S block into one pixel: corners closer to the truth, "
@@ -161,7 +170,8 @@ FLAGS = {"poses_deg": "--poses", "intrinsics_views": "--intrinsics-views",
          "dwell": "--dwell", "frame_rate": "--frame-rate", "exposure": "--exposure",
          "subframes": "--subframes", "rolling_shutter": "--rolling-shutter",
          "joint_rate": "--joint-rate", "clock_offset": "--clock-offset",
-         "clock_jitter": "--clock-jitter", "max_frames": "--max-frames"}
+         "clock_jitter": "--clock-jitter", "max_frames": "--max-frames",
+         "lens": "--lens", "fov": "--fov"}
 
 
 def _urdf_head(args: argparse.Namespace, out: Path):
@@ -216,6 +226,7 @@ def run(args: argparse.Namespace) -> int:
         rolling_shutter=args.rolling_shutter, joint_rate=args.joint_rate,
         clock_offset=args.clock_offset, clock_jitter=args.clock_jitter,
         max_frames=args.max_frames,
+        lens=args.lens, fov=args.fov,
     ).validate(FLAGS)
     units = units_from_args(args)
     board = None if args.target is None else parse_target(args.target, "--target")

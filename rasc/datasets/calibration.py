@@ -82,7 +82,7 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
     """What re-rendering a dataset's scene needs and checks, from its ground truth: the
     render options, the board's pose (at the first pose view) and each head as built;
     None for a dataset whose ground truth does not record them (not rendered by rasc)."""
-    from rasc.sim.render import DEGRADATIONS
+    from rasc.sim.render import DEGRADATIONS, LENS_FIELDS
 
     opts = truth.get("render_options")
     views = truth.get("views", {})
@@ -92,8 +92,8 @@ def _scene_record(truth: dict, pose_files) -> dict | None:
         return None
     return {"render_options": {k: opts.get(k) for k in (
                 "seed", "target_distance", "noise_sigma", "blur_sigma", "dist",
-                "supersample", *DEGRADATIONS) if k in opts or k not in (
-                    "supersample", *DEGRADATIONS)},
+                "supersample", *DEGRADATIONS, *LENS_FIELDS) if k in opts or k not in (
+                    "supersample", *DEGRADATIONS, *LENS_FIELDS)},
             "model_file": truth.get("model_file"),
             "generated_scene": truth.get("generated_scene", False),
             "T_base_from_world": first["T_base_from_world"],

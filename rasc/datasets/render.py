@@ -24,21 +24,28 @@ def render_what(options: Any, model_path: str | os.PathLike | None = None,
     :class:`rasc.sim.urdf.UrdfHead` that of the URDF with its names and intrinsics), for
     an imperfect head its units (``{eye: rasc.sim.units.UnitBuild}``) and for a target
     drawn from its description (``rasc render --target``) the target's manifest object
-    (None, the ideal units, the model's board, ``supersample`` 1, a camera degradation
-    or a continuous-motion field at its default (:data:`rasc.sim.render.DEGRADATIONS`,
-    :data:`~rasc.sim.render.CONTINUOUS`) adds nothing, so the
-    keys of the stock head and board are those of before). ``supersample`` is left out
-    at 1, the plain render (the keys of before the option), not at its default (2): the
+    (None, the ideal units, the model's board, ``supersample`` 1, a camera degradation,
+    a continuous-motion field or the lens at its default (:data:`rasc.sim.render.DEGRADATIONS`,
+    :data:`~rasc.sim.render.CONTINUOUS`, :data:`~rasc.sim.render.LENS_FIELDS`) adds nothing,
+    so the keys of the stock head and board are those of before). ``supersample`` is left
+    out at 1, the plain render (the keys of before the option), not at its default (2): the
     default's renders have a key of their own, and a plain render is never served for a
     supersampled one."""
     opts = dict(options) if isinstance(options, dict) else asdict(options)
     if opts.get("supersample", 1) == 1:     # the plain render adds nothing: keys of before
         opts.pop("supersample", None)
-    from rasc.sim.render import CONTINUOUS, DEGRADATIONS, continuous_of, degradations_of
+    from rasc.sim.render import (
+        CONTINUOUS,
+        DEGRADATIONS,
+        LENS_FIELDS,
+        continuous_of,
+        degradations_of,
+        lens_fields_of,
+    )
 
-    # a camera degradation or a continuous-motion field at its default adds nothing
-    kept = {**degradations_of(opts), **continuous_of(opts)}
-    for k in (*DEGRADATIONS, *CONTINUOUS):
+    # a camera degradation, a continuous-motion field or the lens at its default adds nothing
+    kept = {**degradations_of(opts), **continuous_of(opts), **lens_fields_of(opts)}
+    for k in (*DEGRADATIONS, *CONTINUOUS, *LENS_FIELDS):
         if k not in kept:
             opts.pop(k, None)
     model = None if model_path is None else hashlib.sha256(

@@ -93,6 +93,10 @@ MAX_MOTION_BLUR_PX = 50.0
 F_NUMBER_RANGE = (0.5, 64.0)
 MAX_FOCAL_LENGTH_MM = 1000.0
 MAX_FOCUS_DISTANCE = 1000.0
+#: the widest --fov (degrees across the image's width): a pinhole sees less than 180°;
+#: a fisheye (OpenCV's equidistant model) is rendered up to 180° (rays to 90° off its
+#: axis at the image's left and right edges; docs/topics/lenses.md)
+MAX_FOV_DEG = 180.0
 #: bounds of continuous motion (docs/topics/continuous.md): the peak joint speed (deg/s),
 #: a dwell (s), the camera's frame rate and the joint stream's rate (Hz), the sub-frames
 #: an exposure averages, a rolling shutter's line time (s), the camera-to-encoder clock
@@ -147,6 +151,12 @@ class RenderOptions:
     f_number: float = 2.8           # the lens's f-number (with focus_distance)
     focal_length_mm: float = 8.0    # the lens's focal length, mm (with focus_distance)
     jpeg_quality: int = 0           # JPEG compression quality 1-100; 0 = none
+    # the lens (docs/topics/lenses.md): its model (rasc.geometry.lens.LENS_MODELS; the
+    # ``distortion`` coefficients are that model's) and its horizontal field of view
+    # (degrees across the image's width; 0 = the model camera's own focal length); at
+    # their defaults left out of the ground truth's render_options and of the cache key
+    lens: str = "pinhole"
+    fov: float = 0.0
     # continuous motion (docs/topics/continuous.md): a head that never stops, filmed by
     # cameras on their own clock. motion_speed_deg_s 0 is stop-and-go (the renders of
     # before); the other fields need it > 0, and each is left out of the ground truth's
@@ -192,17 +202,49 @@ class RenderOptions:
             if not 0 <= finite_number(value, name(field)) <= top:
                 raise InputError(f"{name(field)} must be a number from 0 to {top:g} ({unit}), "
                                  f"got {value:g}")
-        if len(self.distortion) > MAX_DIST_COEFFS:
-            raise InputError(f"{name('distortion')}: at most {MAX_DIST_COEFFS} coefficients "
-                             f"(k1,k2,p1,p2,k3), got {len(self.distortion)}")
-        finite_numbers(self.distortion, name("distortion"), what="k1,k2,p1,p2,k3")
+        self._validate_lens(name)
         if not _integer(self.supersample) or not 1 <= self.supersample <= MAX_SUPERSAMPLE:
             raise InputError(f"{name('supersample')} must be an integer from 1 to "
                              f"{MAX_SUPERSAMPLE}, got {self.supersample!r}")
         self._validate_degradations(name)
         self._validate_continuous(name)
+        if lensed(self) and self.motion_speed_deg_s:
+            raise InputError(f"{name('motion_speed_deg_s')}: continuous motion is not "
+                             f"rendered through {name('lens')} {self.lens} or {name('fov')} "
+                             "(only through the model camera's own pinhole); set it to 0")
         return self
 
+    def _validate_lens(self, name) -> None:
+        from rasc.geometry.lens import LENS_MODELS
+
+        if not isinstance(self.lens, str) or self.lens not in LENS_MODELS:
+            raise InputError(f"{name('lens')} must be one of {', '.join(LENS_MODELS)}, got "
+                             f"{self.lens!r}")
+        n = len(self.distortion)
+        if self.lens == "fisheye" and n > 4:
+            raise InputError(f"{name('distortion')}: a fisheye lens has at most 4 "
+                             f"coefficients (k1,k2,k3,k4), got {n}")
+        if self.lens == "pinhole" and n > MAX_DIST_COEFFS and n != 8:
+            raise InputError(f"{name('distortion')}: at most {MAX_DIST_COEFFS} coefficients "
+                             f"(k1,k2,p1,p2,k3), or 8 (the rational model's k1,k2,p1,p2,k3,"
+                             f"k4,k5,k6), got {n}")
+        finite_numbers(self.distortion, name("distortion"), what="k1,k2,k3,k4"
+                       if self.lens == "fisheye" else "k1,k2,p1,p2,k3" if n <= 5 else
+                       "k1,k2,p1,p2,k3,k4,k5,k6")
+        fov = finite_number(self.fov, name("fov"))
+        top = MAX_FOV_DEG
+        if fov != 0 and not (0 < fov < top or (self.lens == "fisheye" and fov == top)):
+            raise InputError(f"{name('fov')} must be a field of view in degrees, above 0 and "
+                             f"{'at most' if self.lens == 'fisheye' else 'below'} {top:g} "
+                             f"for a {self.lens} lens (0: the camera's own), got {fov:g}")
+        if fov:
+            from rasc.sim.lens_render import focal_for_fov
+
+            focal_for_fov(fov, 1, distortion_of(self)[0], self.lens, name("fov"))
+        if lensed(self) and self.focus_distance:
+            raise InputError(f"{name('focus_distance')}: defocus is not rendered through "
+                             f"{name('lens')} {self.lens} or {name('fov')} (only through the "
+                             "model camera's own pinhole); set it to 0")
     def _validate_continuous(self, name) -> None:
         for field, lo, top, unit in (
                 ("motion_speed_deg_s", 0.0, MAX_MOTION_SPEED, "deg/s; 0 = stop-and-go"),
@@ -307,6 +349,17 @@ def continuous_of(options) -> dict:
     """The continuous-motion fields of ``options`` (:data:`CONTINUOUS`) that differ from
     their defaults, as :func:`degradations_of` (empty for stop-and-go)."""
     return _changed(options, CONTINUOUS)
+
+
+#: the lens fields of RenderOptions (docs/topics/lenses.md; each at its default left
+#: out of the ground truth's render_options and of the cache key)
+LENS_FIELDS = ("lens", "fov")
+
+
+def lens_fields_of(options) -> dict:
+    """The lens fields of ``options`` (:data:`LENS_FIELDS`) that differ from their
+    defaults, as :func:`degradations_of` (empty for the model camera's own pinhole)."""
+    return _changed(options, LENS_FIELDS)
 
 
 def _renamed_init(init):
@@ -424,33 +477,43 @@ def _outline(board: Board, per_side: int = 16) -> np.ndarray:
 
 
 def _visible(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray,
-             size: tuple[int, int], dist=None, P_world: np.ndarray | None = None) -> bool:
+             size: tuple[int, int], dist=None, P_world: np.ndarray | None = None,
+             model: str = "pinhole") -> bool:
     """Points ``P_world`` (N, 3) (default: the board's border with its quiet zone) at
-    least MARGIN_PX inside the (distorted) image."""
+    least MARGIN_PX inside the (distorted) image (through the lens ``model``)."""
     from rasc.geometry.lens import project_points
 
     P_world = _outline(board) if P_world is None else P_world
     p = P_world @ T_cam_from_world[:3, :3].T + T_cam_from_world[:3, 3]
     if np.any(p[:, 2] <= 0.05):
         return False
-    uv = project_points(p, K, dist)
+    uv = project_points(p, K, dist, model=model)
     w, h = size
     return bool(np.all((uv >= MARGIN_PX) & (uv <= [w - 1 - MARGIN_PX, h - 1 - MARGIN_PX])))
 
 
-def _square_px(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray) -> float:
-    """Smallest distance (px) between neighbouring corners of the board's image."""
+def _square_px(T_cam_from_world: np.ndarray, board: Board, K: np.ndarray, dist=None,
+               model: str | None = None) -> float:
+    """Smallest distance (px) between neighbouring corners of the board's image (of the
+    ideal pinhole image; through the lens when ``model`` is given)."""
     nx, ny = board.inner_corners
     p = board.object_points() @ T_cam_from_world[:3, :3].T + T_cam_from_world[:3, 3]
-    uv = ((p[:, :2] / p[:, 2:]) * [K[0, 0], K[1, 1]]).reshape(ny, nx, 2)
+    if model is None:
+        uv = ((p[:, :2] / p[:, 2:]) * [K[0, 0], K[1, 1]]).reshape(ny, nx, 2)
+    else:
+        from rasc.geometry.lens import project_points
+
+        uv = project_points(p, K, dist, model=model).reshape(ny, nx, 2)
     return float(min(np.linalg.norm(np.diff(uv, axis=0), axis=2).min(),
                      np.linalg.norm(np.diff(uv, axis=1), axis=2).min()))
 
 
 def visible_corners(T_cam_from_world: np.ndarray, board, K: np.ndarray,
-                    size: tuple[int, int], dist=None) -> tuple[np.ndarray, np.ndarray]:
+                    size: tuple[int, int], dist=None, model: str = "pinhole"
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """The board's corners inside the (distorted) image, in front of the camera: their ids
-    (M,) and true pixels (M, 2) (the ground truth of a partial view)."""
+    (M,) and true pixels (M, 2) (the ground truth of a partial view; through the lens
+    ``model``)."""
     from rasc.geometry.lens import project_points
 
     P = board.object_points()
@@ -458,7 +521,7 @@ def visible_corners(T_cam_from_world: np.ndarray, board, K: np.ndarray,
     front = p[:, 2] > 0.05
     uv = np.full((len(P), 2), np.nan)
     if front.any():
-        uv[front] = project_points(p[front], K, dist)
+        uv[front] = project_points(p[front], K, dist, model=model)
     w, h = size
     inside = front & np.all(np.isfinite(uv), axis=1) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) \
         & (uv[:, 0] <= w - 1) & (uv[:, 1] <= h - 1)
@@ -467,13 +530,16 @@ def visible_corners(T_cam_from_world: np.ndarray, board, K: np.ndarray,
 
 
 def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
-                     log=None, names: dict[str, str] | None = None) -> float:
+                     log=None, names: dict[str, str] | None = None,
+                     cameras: dict[str, np.ndarray] | None = None) -> float:
     """Before rendering: every position inside both units' joint ranges and every inner
     corner of the board at least MARGIN_PX inside both images at each (the board's outer
     squares and quiet zone may be cut: at the default 1 m and (8, 8) deg they are, and the
     board is still found), and the ground truth agreeing with MuJoCo's camera frames at
     each (:meth:`rasc.sim.scene.StereoHeadSim.check_ground_truth`). Returns the smallest
-    square (px).
+    square (px). ``cameras`` ({eye: K}) are the cameras of a lens of
+    :func:`lensed` options (:func:`lens_K`): the corners are then projected through
+    ``options.lens`` and the squares measured in its image.
 
     Raises
     ------
@@ -487,6 +553,15 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
 
     board, size = sim.board, sim.image_size
     d = options.distance
+    model = options.lens if cameras else "pinhole"
+
+    def K_of(eye):
+        return cameras[eye] if cameras else sim.K(eye)
+
+    def square_px(T, eye):
+        return _square_px(T, board, K_of(eye), dist, model) if cameras else \
+            _square_px(T, board, sim.K(eye))
+
     smallest = math.inf
     for eye in EYES:  # the intrinsics views are taken at home
         sim.set_angles(eye, 0.0, 0.0)
@@ -504,17 +579,17 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
             sim.check_ground_truth(eye, f"{name('poses_deg')} item {k}")
             T = sim.T_cam_from_world(eye)
             if partial:     # a target seen in part: any share of it may leave the image
-                ids, _ = visible_corners(T, board, sim.K(eye), size, dist)
+                ids, _ = visible_corners(T, board, K_of(eye), size, dist, model)
                 if len(ids) >= MIN_VIEW_CORNERS:
-                    smallest = min(smallest, _square_px(T, board, sim.K(eye)))
+                    smallest = min(smallest, square_px(T, eye))
                 elif log is not None:
                     log(f"{name('poses_deg')} item {k} ({pan:g}, {tilt:g}) deg: the {eye} eye sees "
                         f"{len(ids)} corner(s) of the target, fewer than {MIN_VIEW_CORNERS}: "
                         "rendered, and skipped when calibrating")
                 continue
-            if not _visible(T, board, sim.K(eye), size, dist, board.object_points()):
-                if dist is not None and _visible(T, board, sim.K(eye), size, None,
-                                                 board.object_points()):
+            if not _visible(T, board, K_of(eye), size, dist, board.object_points(), model):
+                if dist is not None and model == "pinhole" and _visible(
+                        T, board, K_of(eye), size, None, board.object_points()):
                     raise InputError(
                         f"{name('distortion')} {','.join(f'{v:g}' for v in dist)}: at pan, tilt = "
                         f"({pan:g}, {tilt:g}) deg the distortion moves corners of the board "
@@ -526,12 +601,13 @@ def check_pose_views(sim, options: RenderOptions, dist: np.ndarray | None,
                     f"{eye} image ({size[0]}x{size[1]}, {MARGIN_PX:g} px margin); put the "
                     f"board farther away ({name('distance')}) or use smaller pan-tilt angles "
                     f"({name('poses_deg')})")
-            smallest = min(smallest, _square_px(T, board, sim.K(eye)))
+            smallest = min(smallest, square_px(T, eye))
     return smallest
 
 
 def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray,
-                           size: tuple[int, int], n: int, dist=None) -> list[np.ndarray]:
+                           size: tuple[int, int], n: int, dist=None,
+                           model: str | None = None) -> list[np.ndarray]:
     """``n`` well-spread board poses ``T_cam_from_world`` fully inside the image (a target
     seen in part larger than 1.5 m: showing at least PARTIAL_INTRINSICS_CORNERS corners).
 
@@ -539,6 +615,13 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     axis in its plane and turned in-plane by up to ±30°; its centre lies on the ray of a
     random pixel at a random distance. Rejection sampling keeps whole, margined boards
     (inside the distorted image when ``dist`` (k,) is given).
+
+    ``model`` (a lens of :func:`lensed` options, :data:`rasc.geometry.lens.LENS_MODELS`)
+    places them for a wide lens: the pixel over the central :data:`WIDE_PIXEL_SPAN` of
+    the image, its ray through the lens, the board turned to face the camera along it
+    before its tilt (a wide lens must be seen to its edges), at the distances above
+    scaled by the lens's focal length against :data:`INTRINSICS_REFERENCE_FOCAL_PX`
+    (at most 1: the squares keep their size in the image); the same draws.
     """
     nx, ny = board.inner_corners
     centre_w = board.centre()
@@ -555,6 +638,11 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     partial = getattr(board, "partial_views", False) and far > PARTIAL_INTRINSICS_FAR
     if partial:
         far = PARTIAL_INTRINSICS_FAR
+    span = (0.2, 0.8) if model is None else \
+        ((1 - WIDE_PIXEL_SPAN) / 2, (1 + WIDE_PIXEL_SPAN) / 2)
+    if model is not None:
+        far *= min(1.0, K[0, 0] / INTRINSICS_REFERENCE_FOCAL_PX)
+    lens = model or "pinhole"
     poses = []
     for _ in range(200 * n):
         if len(poses) == n:
@@ -563,19 +651,44 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
         psi = rng.uniform(0, 2 * np.pi)
         tilt = np.radians(rng.uniform(*INTRINSICS_TILT_DEG))
         turn = np.radians(rng.uniform(-INTRINSICS_TURN_DEG, INTRINSICS_TURN_DEG))
-        pixel = np.array([rng.uniform(0.2 * w, 0.8 * w), rng.uniform(0.2 * h, 0.8 * h), 1.0])
-        ray = K_inv @ pixel
+        pixel = np.array([rng.uniform(span[0] * w, span[1] * w),
+                          rng.uniform(span[0] * h, span[1] * h), 1.0])
         R = matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) @ \
             matrix_from_rotvec([0.0, 0.0, turn])
+        if model is None:
+            ray = K_inv @ pixel
+        else:
+            from rasc.sim.lens_render import pixel_rays
+
+            ray = pixel_rays(K, dist, (1, 1), model, uv=pixel[:2])
+            if ray is None or ray[2] < 0.2:     # no ray, or one too far off the axis
+                continue
+            R = _facing(ray) @ R
         T = make_transform(R, d * ray / np.linalg.norm(ray) - R @ centre_w)
-        if (len(visible_corners(T, board, K, size, dist)[0]) >= PARTIAL_INTRINSICS_CORNERS
-                if partial else _visible(T, board, K, size, dist)):
+        if (len(visible_corners(T, board, K, size, dist, lens)[0])
+                >= PARTIAL_INTRINSICS_CORNERS
+                if partial else _visible(T, board, K, size, dist, model=lens)):
             poses.append(T)
     if len(poses) < n:
         raise InputError(f"cannot place {n} whole boards of {nx}x{ny} corners, "
                          f"{board.square_size} m squares, in the {w}x{h} image: the board is "
                          f"too large for the camera; use a smaller board")
     return poses
+
+
+#: intrinsics views through a wide lens (:func:`intrinsics_board_poses`): the board's
+#: centre on the ray of a pixel over this central fraction of the image; distances scaled
+#: by the lens's focal length against the stock camera's (1152 px)
+WIDE_PIXEL_SPAN = 0.9
+INTRINSICS_REFERENCE_FOCAL_PX = 1152.0
+
+
+def _facing(ray: np.ndarray) -> np.ndarray:
+    """The rotation turning the camera's z axis onto ``ray`` (3,) by the shortest turn."""
+    ray = ray / np.linalg.norm(ray)
+    axis = np.cross([0.0, 0.0, 1.0], ray)
+    s = np.linalg.norm(axis)
+    return np.eye(3) if s < 1e-12 else matrix_from_rotvec(axis / s * np.arctan2(s, ray[2]))
 
 
 def unit_summary(sim) -> list[str]:
@@ -596,15 +709,40 @@ def unit_summary(sim) -> list[str]:
 
 
 def distortion_of(options: RenderOptions) -> tuple[np.ndarray, bool]:
-    """The five distortion coefficients (k1 k2 p1 p2 k3) of ``options.distortion`` (zeros
-    beyond those given) and whether any is non-zero."""
-    dist = np.zeros(5)
+    """The distortion coefficients of ``options.distortion`` for its lens (zeros beyond
+    those given): five (k1 k2 p1 p2 k3) or the rational model's eight for a pinhole, four
+    (k1 k2 k3 k4) for a fisheye; and whether any is non-zero."""
+    lens = getattr(options, "lens", "pinhole")
+    n = 4 if lens == "fisheye" else 8 if len(options.distortion) > MAX_DIST_COEFFS else 5
+    dist = np.zeros(n)
     dist[:len(options.distortion)] = options.distortion
     return dist, bool(np.any(dist != 0))
 
 
+def lensed(options: RenderOptions) -> bool:
+    """Whether ``options`` render through :mod:`rasc.sim.lens_render` (a lens other than
+    the model camera's pinhole, or another field of view) rather than by distorting the
+    model camera's one render (:func:`rasc.sim.scene.distortion_warp`)."""
+    return getattr(options, "lens", "pinhole") != "pinhole" or bool(getattr(options, "fov", 0))
+
+
+def lens_K(K: np.ndarray, options: RenderOptions, width: int) -> np.ndarray:
+    """The camera matrix of the lens of ``options`` on a camera of matrix ``K``: ``K``
+    itself, or with ``options.fov`` its focal lengths fx = fy set so that rays
+    ``fov / 2`` off the axis reach the image's left and right edges
+    (:func:`rasc.sim.lens_render.focal_for_fov`); the principal point is ``K``'s."""
+    K = np.array(K, dtype=float)
+    if getattr(options, "fov", 0):
+        from rasc.sim.lens_render import focal_for_fov
+
+        K[0, 0] = K[1, 1] = focal_for_fov(options.fov, width, distortion_of(options)[0],
+                                          options.lens)
+    return K
+
+
 def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
-               options: RenderOptions, grey: np.ndarray | None = None) -> np.ndarray:
+               options: RenderOptions, grey: np.ndarray | None = None,
+               lens_views: dict | None = None) -> np.ndarray:
     """The ``eye``'s current view as ``rasc render`` writes it: rendered grey (at
     ``options.supersample`` times the size and averaged down,
     :meth:`rasc.sim.scene.StereoHeadSim.render_camera`), distorted (``warp[eye]``,
@@ -617,10 +755,18 @@ def view_image(sim, eye: str, warp: dict, rng: np.random.Generator,
     read noise, Gaussian pixel noise, JPEG compression; at their defaults they draw
     nothing from ``rng`` and change no byte. ``grey``: the rendered grey image to use
     instead of rendering now (a continuous exposure, :func:`continuous_grey`); the
-    defocus's depth is still rendered at the current state."""
+    defocus's depth is still rendered at the current state. ``lens_views`` ({eye:
+    :class:`rasc.sim.lens_render.LensView`}, for :func:`lensed` options): the image is
+    made through the lens from several pinhole views in place of the one render and its
+    warp."""
     import rasc.sim.degrade as dg
 
-    image = sim.render_grey(eye, supersample=options.supersample) if grey is None else grey
+    if grey is not None:
+        image = grey
+    elif lens_views:
+        image = lens_views[eye].render(sim, eye)
+    else:
+        image = sim.render_grey(eye, supersample=options.supersample)
     if options.focus_distance:
         depth = sim.render_depth(eye, supersample=options.supersample)
         image = dg.defocus(image, dg.circle_of_confusion_px(
@@ -727,14 +873,22 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
         size = sim.image_size
         gt = sim.ground_truth()
         dist, distorted = distortion_of(options)
+        wide = lensed(options)      # through rasc.sim.lens_render (a fisheye, a --fov)
+        model = options.lens if wide else "pinhole"
+        K_eye = {eye: lens_K(sim.K(eye), options, size[0]) for eye in EYES}
+        cam_dist = dist if distorted or wide else None
         for eye in EYES:
             gt[eye]["dist"] = dist.tolist()
+            if wide:
+                gt[eye]["K"] = K_eye[eye].tolist()
+            if model != "pinhole":          # absent: pinhole (the files of before)
+                gt[eye]["lens"] = model
         # fail on bad positions or distances before rendering anything
         sim.set_target(sim.facing_target(options.distance))
         square_px = check_pose_views(
-            sim, options, dist if distorted else None,
+            sim, options, cam_dist,
             log=None if quiet else (lambda line: print(f"render: {line}", file=sys.stderr)),
-            names=names)
+            names=names, cameras=K_eye if wide else None)
         if square_px < MIN_DETECTABLE_SQUARE_PX:
             raise InputError(f"{distance} {options.distance:g}: board squares would be "
                              f"only {square_px:.1f} px in the pose views, where corner "
@@ -748,7 +902,13 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
             for line in unit_summary(sim):
                 print(f"render: {line}", file=sys.stderr)
         warp = {eye: distortion_warp(sim.K(eye), dist, size) for eye in EYES} \
-            if distorted else {}
+            if distorted and not wide else {}
+        lens_views = None
+        if wide:
+            from rasc.sim.lens_render import LensView
+
+            lens_views = {eye: LensView(K_eye[eye], dist, size, model, options.supersample)
+                          for eye in EYES}
         views: dict[str, dict] = {}
         images: list[dict] = []
         capture = None
@@ -761,15 +921,15 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
 
         def shoot(eye: str, name: str, entry: dict, grey=None, truth=None) -> None:
             sim.check_ground_truth(eye, name)
-            put(name, view_image(sim, eye, warp, rng, options, grey))
+            put(name, view_image(sim, eye, warp, rng, options, grey, lens_views))
             images.append({"file": name, "eye": eye, **entry})
             views[name] = {"eye": eye, "T_cam_from_world": sim.T_cam_from_world(eye).tolist(),
                            "T_base_from_world": sim.T_base_from_world.tolist(),
                            **{k: v for k, v in entry.items() if k in ("pan", "tilt")},
                            **(truth or {})}
             if getattr(board, "partial_views", False):
-                ids, uv = visible_corners(sim.T_cam_from_world(eye), board, sim.K(eye), size,
-                                          dist if distorted else None)
+                ids, uv = visible_corners(sim.T_cam_from_world(eye), board, K_eye[eye], size,
+                                          cam_dist, model)
                 views[name]["corners"] = {"ids": ids.tolist(), "uv": uv.tolist()}
             bar.set_postfix_str(name, refresh=False)
             bar.update(1)
@@ -779,8 +939,8 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
             sim.set_angles("right", 0.0, 0.0)
             T_base_from_cam = invert_transform(sim.T_cam_from_base(eye))
             for k, T_cw in enumerate(intrinsics_board_poses(
-                    rng, board, sim.K(eye), size, options.intrinsics_views,
-                    dist if distorted else None)):
+                    rng, board, K_eye[eye], size, options.intrinsics_views, cam_dist,
+                    model if wide else None)):
                 sim.set_target(T_base_from_cam @ T_cw)
                 shoot(eye, f"intrinsics/{eye}_{k:03d}.png", {"role": "intrinsics"})
         sim.set_target(sim.facing_target(options.distance))
@@ -805,6 +965,7 @@ def _render(options: RenderOptions, model_path, quiet: bool, units, board, put,
             gt["render_options"]["supersample"] = options.supersample
         gt["render_options"].update(degradations_of(options))  # each absent at its default
         gt["render_options"].update(continuous_of(options))    # each absent at its default
+        gt["render_options"].update(lens_fields_of(options))   # each absent at its default
         gt["model_file"] = Path(gt["model_file"]).name
     return board, images, gt, stream
 

@@ -291,6 +291,7 @@ class StereoHeadSim:
                  units: dict[str, UnitBuild] | None = None) -> None:
         mujoco = import_mujoco()
         self._renderer = None
+        self._view_renderers: dict = {}       # render_view's, by size
         self._board = board
         #: the URDF head this simulator renders (:mod:`rasc.sim.urdf`), or None
         self.urdf = None
@@ -886,11 +887,64 @@ class StereoHeadSim:
         w, h = self.image_size
         return cv2.resize(depth, (w, h), interpolation=cv2.INTER_AREA)
 
+    def render_view(self, eye: str, R_cam_from_view: np.ndarray, K_view: np.ndarray,
+                    size: tuple[int, int]) -> np.ndarray:
+        """Render a virtual pinhole camera at ``eye``'s camera centre: RGB uint8 (h, w, 3).
+
+        Its axes are ``eye``'s camera axes turned by ``R_cam_from_view`` (3, 3; OpenCV
+        axes, columns the view's x, y, z in the camera frame), its camera matrix is
+        ``K_view`` (OpenCV convention, no skew) at ``size`` (w, h). The pieces
+        :mod:`rasc.sim.lens_render` resamples into the image of a wide lens. MuJoCo's
+        camera is set for the one render (its sensor, intrinsics and frame) and restored;
+        the headlight keeps ``eye``'s direction, so every view of one image is lit alike.
+        """
+        mujoco = import_mujoco()
+        name = f"{self._eye(eye)}_camera"
+        cam = self._ids[name]
+        w, h = (int(v) for v in size)
+        R = np.asarray(R_cam_from_view, dtype=float)
+        K_view = np.asarray(K_view, dtype=float)
+        renderer = self._view_renderers.get((w, h))
+        if renderer is None:
+            g = self.model.vis.global_
+            g.offwidth, g.offheight = max(g.offwidth, w), max(g.offheight, h)
+            try:
+                renderer = mujoco.Renderer(self.model, height=h, width=w)
+            except Exception as exc:
+                first = str(exc).strip().splitlines()[0] if str(exc).strip() else \
+                    type(exc).__name__
+                raise RascError(f"cannot render a lens view offscreen at {w}x{h} "
+                                f"({first}); use a smaller supersample") from None
+            self._view_renderers[(w, h)] = renderer
+        self.forward()
+        m, d = self.model, self.data
+        saved = (m.cam_sensorsize[cam].copy(), m.cam_intrinsic[cam].copy(),
+                 d.cam_xmat[cam].copy())
+        R_scene_from_mj = saved[2].reshape(3, 3)
+        try:
+            # sensor and intrinsics in pixels (MuJoCo needs only their ratios):
+            # fx = focal·w/sensor_w, cx = w/2 − principal·w/sensor_w − 0.5 (:meth:`K`)
+            m.cam_sensorsize[cam] = (w, h)
+            m.cam_intrinsic[cam] = (K_view[0, 0], K_view[1, 1], w / 2 - 0.5 - K_view[0, 2],
+                                    h / 2 - 0.5 - K_view[1, 2])
+            d.cam_xmat[cam] = (R_scene_from_mj @ _CV_FROM_MJ @ R @ _CV_FROM_MJ).ravel()
+            renderer.update_scene(d, camera=name)
+            scene = renderer.scene
+            for light in scene.lights[:scene.nlight]:
+                if light.headlight:        # along the eye's own axis, as in its render
+                    light.dir = -R_scene_from_mj[:, 2]
+            return renderer.render().copy()
+        finally:
+            m.cam_sensorsize[cam], m.cam_intrinsic[cam], d.cam_xmat[cam] = saved
+
     def close(self) -> None:
-        """Release the offscreen renderer (its GL context); rendering again opens a new one."""
+        """Release the offscreen renderers (their GL contexts); rendering again opens new ones."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        for renderer in getattr(self, "_view_renderers", {}).values():
+            renderer.close()
+        self._view_renderers = {}
 
     def __enter__(self) -> StereoHeadSim:
         return self

@@ -682,6 +682,16 @@ RENDER_CASES = {
                             "--distortion: at most 5 coefficients"),
     "distortion not finite": (["--distortion", "nan"],
                               '--distortion[0]: must be finite, got "nan"'),
+    "fisheye with five coefficients": (
+        ["--lens", "fisheye", "--distortion", "0.1,0,0,0,0"],
+        "--distortion: a fisheye lens has at most 4 coefficients (k1,k2,k3,k4), got 5"),
+    "pinhole of 180 degrees": (["--fov", "180"], "--fov must be a field of view in degrees, "
+                               "above 0 and below 180 for a pinhole lens"),
+    "fisheye past its fold": (["--lens", "fisheye", "--fov", "170", "--distortion=-0.5,0,0,0"],
+                              "--fov 170 deg lies past the lens model's fold"),
+    "defocus through a fisheye": (["--lens", "fisheye", "--focus-distance", "1"],
+                                  "--focus-distance: defocus is not rendered through --lens "
+                                  "fisheye"),
     "distortion pushes the board out": (
         ["--distortion", "0.3"],
         "--distortion 0.3,0,0,0,0: at pan, tilt = (8, 8) deg the distortion moves corners "

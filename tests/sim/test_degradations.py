@@ -17,7 +17,7 @@ import pytest  # noqa: E402
 
 import rasc.sim.degrade as dg  # noqa: E402
 from rasc.errors import InputError  # noqa: E402
-from rasc.sim.render import CONTINUOUS, DEGRADATIONS, RenderOptions  # noqa: E402
+from rasc.sim.render import CONTINUOUS, DEGRADATIONS, LENS_FIELDS, RenderOptions  # noqa: E402
 from rasc.vision.board import Board  # noqa: E402
 
 from running import run_rasc  # noqa: E402
@@ -221,7 +221,7 @@ def test_defaults_change_no_byte_no_truth_and_no_key(tmp_path):
     options = RenderOptions(seed=3, intrinsics_views=5, image_noise=2.0, blur=0.7,
                             supersample=1)
     before = asdict(options)
-    for k in (*DEGRADATIONS, *CONTINUOUS):     # the fields added since, at their defaults
+    for k in (*DEGRADATIONS, *CONTINUOUS, *LENS_FIELDS):   # fields added since, at defaults
         del before[k]
     before.pop("supersample")
     assert render_what(options)["options"] == render_what(before)["options"]
