@@ -51,8 +51,9 @@ ROOMS = (
     Room("rasc/sim/", 3, "`scene` (the MuJoCo head: the only mujoco importer, lazily), "
          "`mjcf` (the scene's MJCF and target texture), `degrade` (noise, blur, "
          "distortion), `render` (dataset rendering), `motion` (continuous motion: trajectory, "
-         "exposures, the cameras' and encoders' clocks), `units` (imperfect pan-tilt "
-         "units), `synthetic`"),
+         "exposures, the cameras' and encoders' clocks), `lens_render` (a wide lens's image "
+         "from several pinhole views), `units` (imperfect pan-tilt units), `urdf` (heads "
+         "from a URDF), `synthetic`"),
     Room("sim/models/", None, "the MJCF models of the head and scene, shipped in the wheel as "
          "`rasc/sim/models/` (setup.py)"),
     Room("rasc/head/", 3, "`model` (the calibrated head), `base_to_ptu` (eq. 11–12), "
