@@ -530,9 +530,8 @@ class Information:
         from rasc.geometry.kinematics import canonical_gauge
         from rasc.geometry.transforms import invert_transform
         from rasc.head.refine import EyeObservations, HeadObservations, _Problem
-        from rasc.sim.render import intrinsics_board_poses
+        from rasc.sim.render import intrinsics_board_poses, wide_lens
         from rasc.sim.scene import T_base_from_world_facing
-        from rasc.sim.synthetic import _wide_intrinsics_poses as wide_intrinsics_poses
 
         head, board = setup.head, setup.board
         check_planned_lens(head)
@@ -563,12 +562,10 @@ class Information:
         for eye in EYES:
             unit, T_cg, T_pb = gauge[eye]
             intr, T_intr = {}, {}
-            if lens_model(head, eye) == "pinhole":
-                placed = intrinsics_board_poses(rng, board, head.K[eye], setup.image_size,
-                                                setup.n_intrinsics, head.dist[eye])
-            else:                   # a wide lens is seen to its edges (rasc.sim.synthetic)
-                placed = wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
-                                               lens_model(head, eye), setup.n_intrinsics)
+            # (a wide lens is seen to its edges: the views rasc.sim.synthetic places)
+            placed = intrinsics_board_poses(rng, board, head.K[eye], setup.image_size,
+                                            setup.n_intrinsics, head.dist[eye],
+                                            wide_lens(lens_model(head, eye)))
             for k, T_cw in enumerate(placed):
                 intr[f"i{k:03d}"] = _project(head, eye, T_cw, P, setup.image_size)
                 T_intr[f"i{k:03d}"] = T_cw

@@ -228,11 +228,11 @@ def verdict(doc: dict[str, Any], coverage: dict[str, float] | None = None,
         lc = e.get("lens_check") if isinstance(e, dict) else None
         if isinstance(lc, dict) and _num(lc.get("alternative_rms_px")) is not None \
                 and _num(lc.get("rms_px")) is not None:
-            from rasc.vision.camera import is_wrong_lens, lens_check_rms
+            from rasc.vision.camera import is_wrong_lens, lens_check_F, lens_check_rms
 
             rms_lc, alt_lc = lens_check_rms(lc), _num(lc.get("alternative_rms_px"))
             checks.append(Check(f"{eye}.lens", rms_lc, alt_lc, "check",
-                                not is_wrong_lens(rms_lc, alt_lc),
+                                not is_wrong_lens(rms_lc, alt_lc, lens_check_F(lc, rms_lc)),
                                 f"the {eye} lens model {lc.get('dist_model')!r} fits the "
                                 f"intrinsics views to {rms_lc:.3g} px where "
                                 f"{lc.get('alternative')!r} fits them to {alt_lc:.3g} px: "

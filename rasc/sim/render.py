@@ -676,6 +676,15 @@ def intrinsics_board_poses(rng: np.random.Generator, board: Board, K: np.ndarray
     return poses
 
 
+def wide_lens(model: str) -> str | None:
+    """The ``model`` argument of :func:`intrinsics_board_poses` for a camera of lens
+    ``model`` (:data:`rasc.geometry.lens.LENS_MODELS`): None (the views of the model
+    camera) for a pinhole, else the lens (the views reach the image's edges). The one
+    choice of :mod:`rasc.sim.synthetic` and :mod:`rasc.plan`; ``rasc render`` also places
+    a pinhole of another field of view (``RenderOptions.fov``) as a wide lens."""
+    return None if model == "pinhole" else model
+
+
 #: intrinsics views through a wide lens (:func:`intrinsics_board_poses`): the board's
 #: centre on the ray of a pixel over this central fraction of the image; distances scaled
 #: by the lens's focal length against the stock camera's (1152 px)

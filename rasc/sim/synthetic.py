@@ -28,7 +28,7 @@ from rasc.geometry import lens
 from rasc.geometry.frames import EYES
 from rasc.geometry.kinematics import IDEAL, PAPER_POSES_DEG, PanTiltUnit
 from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
-from rasc.sim.render import intrinsics_board_poses
+from rasc.sim.render import intrinsics_board_poses, wide_lens
 from rasc.sim.scene import T_base_from_world_facing
 from rasc.vision.board import MIN_VIEW_CORNERS, Board
 from rasc.vision.dataset import Dataset, ImageEntry
@@ -124,61 +124,6 @@ def rational_head(unit: PanTiltUnit | dict[str, PanTiltUnit] = IDEAL,
     return head
 
 
-#: Intrinsics views through a lens other than the pinhole (:func:`_wide_intrinsics_poses`):
-#: the board's centre on the ray of a pixel drawn over this central fraction of the image
-#: (a wide lens must be seen to its edges), 0.25-0.6 m away, facing the camera's centre
-#: tilted by 20-45°, kept whole with a 10 px margin.
-WIDE_PIXEL_SPAN = 0.9
-WIDE_DISTANCE_M = (0.25, 0.6)
-WIDE_TILT_DEG = (20.0, 45.0)
-WIDE_MARGIN_PX = 10.0
-
-
-def _wide_intrinsics_poses(rng, board: Board, K, dist, model: str, n: int) -> list[np.ndarray]:
-    """``n`` intrinsics views for a wide lens (:data:`WIDE_PIXEL_SPAN`): the centre's pixel
-    uniform over the image (so that the views cover the field to its edges), the board
-    turned to face the camera along that ray, then tilted 20-45° about a random axis in
-    its plane and turned in-plane by up to ±30°; whole, in front, inside the image."""
-    w, h = IMAGE_SIZE
-    lo, hi = (1 - WIDE_PIXEL_SPAN) / 2, (1 + WIDE_PIXEL_SPAN) / 2
-    centre = board.centre()
-    P = board.object_points()
-    poses = []
-    for _ in range(400 * n):
-        if len(poses) == n:
-            break
-        uv = np.array([[rng.uniform(lo * w, hi * w), rng.uniform(lo * h, hi * h)]])
-        d = rng.uniform(*WIDE_DISTANCE_M)
-        psi = rng.uniform(0, 2 * np.pi)
-        tilt = np.radians(rng.uniform(*WIDE_TILT_DEG))
-        turn = np.radians(rng.uniform(-30.0, 30.0))
-        try:
-            ray = lens.undistort_pixels(uv, K, dist, model=model)[0]
-        except Exception:                     # noqa: BLE001 (outside the lens's model)
-            continue
-        ray = np.linalg.solve(K, np.r_[ray, 1.0])
-        ray /= np.linalg.norm(ray)
-        # face the camera along the ray: the board's z (into the board) along the ray
-        axis = np.cross([0.0, 0.0, 1.0], ray)
-        s_ = np.linalg.norm(axis)
-        R_face = np.eye(3) if s_ < 1e-12 else \
-            matrix_from_rotvec(axis / s_ * np.arctan2(s_, ray[2]))
-        R = R_face @ matrix_from_rotvec(tilt * np.array([np.cos(psi), np.sin(psi), 0.0])) \
-            @ matrix_from_rotvec([0.0, 0.0, turn])
-        T = make_transform(R, d * ray - R @ centre)
-        p_cam = P @ T[:3, :3].T + T[:3, 3]
-        if np.any(p_cam[:, 2] <= 0.05):
-            continue
-        c = lens.project_points(p_cam, K, dist, model=model)
-        m = WIDE_MARGIN_PX
-        if np.all((c[:, 0] >= m) & (c[:, 0] <= w - 1 - m) & (c[:, 1] >= m)
-                  & (c[:, 1] <= h - 1 - m)):
-            poses.append(T)
-    if len(poses) < n:
-        raise RuntimeError(f"cannot place {n} whole boards in the {w}x{h} image")
-    return poses
-
-
 def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                    noise_px: float = 0.03, n_intrinsics: int = 20,
                    poses_deg=PAPER_POSES_DEG, target_distance: float = 1.0,
@@ -232,12 +177,8 @@ def corner_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
                                   role=role, **reading))
 
     for eye in EYES:
-        if head.lens_model(eye) == "pinhole":
-            placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
-                                            head.dist[eye])
-        else:
-            placed = _wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
-                                            head.lens_model(eye), n_intrinsics)
+        placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
+                                        head.dist[eye], wide_lens(head.lens_model(eye)))
         for k, T_cw in enumerate(placed):
             add(f"intrinsics/{eye}_{k:03d}.png", project(eye, T_cw), eye, "intrinsics")
     for eye in EYES:
@@ -420,12 +361,8 @@ def image_dataset(head: SyntheticHead | None = None, *, seed: int = 0,
     T_bw = T_base_from_world_facing(board, distance=target_distance)
     poses: dict[str, np.ndarray] = {}
     for eye in EYES:
-        if head.lens_model(eye) == "pinhole":
-            placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
-                                            head.dist[eye])
-        else:
-            placed = _wide_intrinsics_poses(rng, board, head.K[eye], head.dist[eye],
-                                            head.lens_model(eye), n_intrinsics)
+        placed = intrinsics_board_poses(rng, board, head.K[eye], IMAGE_SIZE, n_intrinsics,
+                                        head.dist[eye], wide_lens(head.lens_model(eye)))
         for k, T_cw in enumerate(placed):
             poses[f"intrinsics/{eye}_{k:03d}.png"] = T_cw
     images, pixels = [], {}

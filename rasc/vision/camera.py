@@ -346,21 +346,19 @@ def _calibrate_fisheye(names, obj, img, image_size):
 def _lens_check(names, corners, board, image_size, dist_model, rms):
     """The wrong-lens check's numbers (:func:`is_wrong_lens`): the chosen model's RMS
     over ``names`` against that of :data:`LENS_CHECK_ALTERNATIVE` fitted to the same
-    views; None for a model not checked ("none"). An RMS at or below
-    :data:`WRONG_LENS_EXCESS_PX` cannot be warned, whatever the other model gives: the
-    other model is then not fitted (``alternative_rms_px`` None, saving its time)."""
+    views, with the corners and views counted for the F test (:func:`lens_check_F`);
+    None for a model not checked ("none")."""
     alt = LENS_CHECK_ALTERNATIVE.get(dist_model)
     if alt is None:
         return None
-    if not rms > WRONG_LENS_EXCESS_PX:
-        return {"dist_model": dist_model, "rms_px": rms, "alternative": alt,
-                "alternative_rms_px": None}
     try:
         alt_rms = _calibrate_once(names, corners, board, image_size, alt)[0]
     except (DegenerateDataError, InputError):
         alt_rms = None            # the other model cannot be fitted: no evidence against
     return {"dist_model": dist_model, "rms_px": rms, "alternative": alt,
-            "alternative_rms_px": alt_rms}
+            "alternative_rms_px": alt_rms,
+            "corners": int(sum(int(seen_mask(c).sum()) for c in corners)),
+            "views": len(names)}
 
 
 @_opencv_threads(1)
@@ -439,30 +437,71 @@ def calibrate_intrinsics(views: dict[str, np.ndarray], board: Board,
 
 # ------------------------------------------------------------------ the lens check
 
-#: The wrong-lens check: the intrinsics of every eye are fitted with the chosen
-#: ``dist_model`` and with another lens model
-#: (:data:`LENS_CHECK_ALTERNATIVE`: a pinhole model against the
-#: fisheye, the fisheye against OpenCV's five coefficients) on the same views. The
-#: chosen model is wrong when its RMS is above this many times the other's and above it
-#: by :data:`WRONG_LENS_EXCESS_PX` (see :func:`is_wrong_lens` for the measurements).
-WRONG_LENS_RMS_RATIO = 2.0
-#: ... and the chosen model's RMS exceeds the other's by at least this much (px, in
-#: quadrature: sqrt(rms² − rms_other²)): a difference of a few hundredths of a pixel
-#: between two good fits of a noise-free image is not a wrong lens.
-WRONG_LENS_EXCESS_PX = 0.1
+#: The wrong-lens check: the intrinsics views of every eye are fitted with the chosen
+#: ``dist_model`` and with another lens model (:data:`LENS_CHECK_ALTERNATIVE`: a pinhole
+#: model against the fisheye, the fisheye against OpenCV's five coefficients). The chosen
+#: model is wrong when the other explains the views better than the corners' noise can
+#: (the F test of :func:`lens_check_F` above this) AND by a practical amount
+#: (:data:`WRONG_LENS_EXCESS`). Measured on projected corners (E11's heads: a pinhole of
+#: 60-120° and a fisheye of 60-150°, 20 intrinsics views of 54 corners, noise 0.03, 0.05,
+#: 0.1, 0.2 and 0.3 px; docs/topics/lenses.md, "Choosing a model"): fitted with the right
+#: model (pinhole data by ``k1k2`` and ``opencv5``, fisheye data by ``fisheye``) F was at
+#: most 3.7 (F ≤ 0 where the other model cannot follow the lens); a 60° or 90° pinhole
+#: fitted as a fisheye fits to the noise (F ≤ 1.6). A 90° fisheye fitted with ``k1k2``
+#: (hand-eye 13× the right model's error in E11) gave F of 1e3-3e4 on OpenCV's fit and
+#: above 100 after the refinement at 0.05 px; a 60° fisheye, whose ``k1k2`` fit costs
+#: nothing measurable, 37-370 at 0.03-0.05 px. 10 leaves room above the right models.
+WRONG_LENS_F_WARN = 10.0
+#: ... and only when the chosen model leaves at least this share of the other's RMS
+#: unexplained: rms² − rms_other² > (WRONG_LENS_EXCESS · rms_other)². F alone grows with
+#: the number of corners: with thousands of corners an excess of a few per cent of the
+#: noise passes F = 10 and costs nothing (the right models left at most 8.5 % measured,
+#: with F ≤ 3.7); the 90° fisheye fitted with ``k1k2`` left 150 % after the refinement
+#: at 0.05 px.
+WRONG_LENS_EXCESS = 0.1
 
 WRONG_LENS_REMEDY = "calibrate with --dist-model"
 
 
-def is_wrong_lens(rms: float | None, alternative_rms: float | None) -> bool:
+def lens_check_F(check: dict, rms: float | None = None) -> float | None:
+    """The F statistic of a lens check: the chosen model's extra residual per coefficient
+    of the other model, over the other model's residual variance ::
+
+        F = [(RSS − RSS_other) / q] / [RSS_other / (2N − 4 − q − 6V)]
+
+    with N corners over V views, RSS = N·rms² (OpenCV's RMS is per corner over both
+    coordinates) and q the other model's coefficients. ≲ 1 when both models explain the
+    views to the noise (the other's extra freedom fits at most q noise dimensions), ≫ 1
+    when only the other does. ``rms``: the chosen model's RMS (default
+    :func:`lens_check_rms`). None when a number is missing (a check written before it
+    counted its corners)."""
+    rms = lens_check_rms(check) if rms is None else rms
+    alt = check.get("alternative_rms_px")
+    n, v = check.get("corners"), check.get("views")
+    if rms is None or not isinstance(alt, int | float) or not isinstance(n, int) \
+            or not isinstance(v, int) or check.get("alternative") not in DIST_MODELS:
+        return None
+    q = len(DIST_MODELS[check["alternative"]][1])
+    df = 2 * n - 4 - q - 6 * v
+    if not (np.isfinite(rms) and np.isfinite(alt)) or df <= 0:
+        return None
+    if alt <= 0:
+        return float("inf") if rms > 0 else 0.0
+    return float((n * (rms ** 2 - alt ** 2) / q) / (n * alt ** 2 / df))
+
+
+def is_wrong_lens(rms: float | None, alternative_rms: float | None,
+                  F: float | None = None) -> bool:
     """The chosen lens model does not fit the intrinsics views that another one does:
-    its RMS above :data:`WRONG_LENS_RMS_RATIO` times the other's and above it by
-    :data:`WRONG_LENS_EXCESS_PX` in quadrature (False when either is unknown)."""
+    the F test (:func:`lens_check_F`) above :data:`WRONG_LENS_F_WARN` (when known) and
+    the chosen model's RMS above the other's by :data:`WRONG_LENS_EXCESS` of it in
+    quadrature (False when either RMS is unknown)."""
     if rms is None or alternative_rms is None or not np.isfinite(rms) \
             or not np.isfinite(alternative_rms):
         return False
-    return bool(rms > WRONG_LENS_RMS_RATIO * alternative_rms
-                and rms ** 2 - alternative_rms ** 2 > WRONG_LENS_EXCESS_PX ** 2)
+    if F is not None and not F > WRONG_LENS_F_WARN:
+        return False
+    return bool(rms ** 2 - alternative_rms ** 2 > (WRONG_LENS_EXCESS * alternative_rms) ** 2)
 
 
 def lens_check_rms(check: dict) -> float | None:
@@ -476,16 +515,20 @@ def lens_check_rms(check: dict) -> float | None:
 def wrong_lens_warning(check: dict | None) -> str | None:
     """One line for the user when an eye's lens check (the intrinsics result's
     ``lens_check``) finds the chosen model wrong (:func:`is_wrong_lens` of
-    :func:`lens_check_rms` against the other model's RMS), else None."""
+    :func:`lens_check_rms` against the other model's RMS, with :func:`lens_check_F`),
+    else None."""
     if not check:
         return None
     rms = lens_check_rms(check)
-    if not is_wrong_lens(rms, check.get("alternative_rms_px")):
+    if not is_wrong_lens(rms, check.get("alternative_rms_px"), lens_check_F(check, rms)):
         return None
     chosen, alt = check["dist_model"], check["alternative"]
+    F = lens_check_F(check, rms)
     return (f"the lens model {chosen!r} leaves the intrinsics views at "
             f"{rms:.3g} px RMS where the {alt!r} model fits them to "
-            f"{check['alternative_rms_px']:.3g} px: the lens is probably "
+            f"{check['alternative_rms_px']:.3g} px"
+            + (f" (F = {F:.3g} > {WRONG_LENS_F_WARN:g})" if F is not None else "")
+            + ": the lens is probably "
             f"{'a fisheye' if alt == 'fisheye' else 'not a fisheye'}; "
             f"{WRONG_LENS_REMEDY} {alt}")
 

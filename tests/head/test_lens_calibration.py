@@ -6,6 +6,7 @@ door on painted fisheye images. Truth: projected corners (rasc.sim.synthetic).""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -18,8 +19,15 @@ from rasc.head import refine as rf
 from rasc.head.model import HeadCalibration
 from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, transform_error
 from rasc.report.verdict import verdict
-from rasc.sim.synthetic import corner_dataset, fisheye_head, rational_head
-from rasc.vision.camera import calibrate_intrinsics, estimate_extrinsics, is_wrong_lens
+from rasc.sim.lens_render import focal_for_fov
+from rasc.sim.synthetic import corner_dataset, default_head, fisheye_head, rational_head
+from rasc.vision.camera import (
+    calibrate_intrinsics,
+    estimate_extrinsics,
+    is_wrong_lens,
+    lens_check_F,
+    wrong_lens_warning,
+)
 
 
 def _intrinsics_views(ds, eye="left"):
@@ -84,7 +92,7 @@ def test_fisheye_head_calibrates_to_its_truth(fisheye_cal):
 
 
 def test_the_wrong_model_on_a_fisheye_is_warned_and_checked(fisheye_cal):
-    head, ds, _ = fisheye_cal
+    head, ds, right = fisheye_cal
     cal = calibrate_dataset(ds, CalibrationOptions(dist_model="k1k2"))
     lens_warnings = [w for w in cal.warnings if "--dist-model fisheye" in w]
     assert {w.split()[0] for w in lens_warnings} == {"left", "right"}, cal.warnings
@@ -93,8 +101,10 @@ def test_the_wrong_model_on_a_fisheye_is_warned_and_checked(fisheye_cal):
     v = verdict(doc)
     failed = {c.name for c in v.checks if not c.passed}
     assert {"left.lens", "right.lens"} <= failed and v.level != "usable"
-    # ... and its hand-eye is far off (what the warning is for)
-    assert max(e["rotation_deg"] for e in _handeye_errors(cal, head).values()) > 1.0
+    # ... and its hand-eye is far off (what the warning is for): several times the right
+    # model's error
+    worst = max(e["rotation_deg"] for e in _handeye_errors(cal, head).values())
+    assert worst > 4 * max(e["rotation_deg"] for e in _handeye_errors(right, head).values())
 
 
 def test_a_lens_check_alone_sends_the_verdict_to_check():
@@ -103,25 +113,88 @@ def test_a_lens_check_alone_sends_the_verdict_to_check():
            "eyes": {eye: {"intrinsics_rms": 0.2,
                           "lens_check": {"dist_model": "k1k2", "rms_px": 0.2,
                                          "alternative": "fisheye",
-                                         "alternative_rms_px": 0.05}}
+                                         "alternative_rms_px": 0.05,
+                                         "corners": 1080, "views": 20}}
                     for eye in ("left", "right")}}
     v = verdict(doc)
     assert v.level == "check" and "--dist-model fisheye" in v.reason
     for eye in ("left", "right"):
-        doc["eyes"][eye]["lens_check"]["alternative_rms_px"] = 0.15
+        # within the noise: F = 1080 (0.2² - 0.1995²) / 4 / (1080 · 0.1995² / 2032) ≈ 2.6
+        doc["eyes"][eye]["lens_check"]["alternative_rms_px"] = 0.1995
     assert verdict(doc).level == "usable", verdict(doc).line()
 
 
-@pytest.mark.parametrize(("rms", "alt", "warned"), [
-    (4.3, 0.14, True),      # k1k2 on a 170° fisheye (measured)
-    (0.137, 0.137, False),  # a pinhole lens either way (measured)
-    (0.3, 0.14, True),      # twice as bad, 0.27 px unexplained
-    (0.25, 0.14, False),    # less than twice
-    (0.09, 0.03, False),    # three times, but 0.085 px: below the floor
-    (0.5, None, False),     # the other model could not be fitted
+@pytest.mark.parametrize(("rms", "alt", "F", "warned"), [
+    (4.3, 0.14, 1e5, True),        # k1k2 on a 170° fisheye
+    (0.1, 0.0686, 600.0, True),    # k1k2 on a 90° fisheye at 0.05 px: 46 % of the RMS more
+    (0.0691, 0.0691, 0.5, False),  # a pinhole lens either way
+    (0.0415, 0.0413, 3.7, False),  # the right model: within the noise (F below 10)
+    (0.0700, 0.0697, 12.0, False),  # F above 10, but 9 % of the RMS: a negligible excess
+    (0.3, 0.1, None, True),        # F not known (an older file): the excess alone
+    (0.5, None, None, False),      # the other model could not be fitted
 ])
-def test_is_wrong_lens(rms, alt, warned):
-    assert is_wrong_lens(rms, alt) is warned
+def test_is_wrong_lens(rms, alt, F, warned):
+    assert is_wrong_lens(rms, alt, F) is warned
+
+
+def test_the_lens_check_F_counts_corners_views_and_coefficients():
+    check = {"dist_model": "k1k2", "rms_px": 0.2, "alternative": "fisheye",
+             "alternative_rms_px": 0.1, "corners": 1000, "views": 20}
+    # q = 4 (fisheye k1-k4), df = 2000 - 4 - 4 - 120
+    want = (1000 * (0.2 ** 2 - 0.1 ** 2) / 4) / (1000 * 0.1 ** 2 / 1872)
+    assert lens_check_F(check) == pytest.approx(want)
+    # the refinement's RMS, when better, is the chosen model's
+    assert lens_check_F({**check, "refined_rms_px": 0.1}) == pytest.approx(0.0)
+    # a check without its counts (written before them) has no F: the excess decides
+    assert lens_check_F({k: v for k, v in check.items() if k != "corners"}) is None
+
+
+def _lens_head(model, fov, dist):
+    head = default_head()
+    f = focal_for_fov(fov, 1280, dist, model)
+    for K in head.K.values():
+        K[0, 0] = K[1, 1] = f
+    return dataclasses.replace(head, dist={e: np.asarray(dist, float) for e in head.K},
+                               lens={e: model for e in head.K})
+
+
+FISHEYE = (0.02, -0.01, 0.003, -0.0005)
+PINHOLE = (-0.05, 0.01, 0.0, 0.0, 0.0)
+
+
+def test_the_right_model_is_not_warned_over_noise_and_fields_of_view():
+    # 24 intrinsics calibrations (4 cases x noise 0.03 and 0.3 px x seeds 0-2), none
+    # warned: a fisheye of 90° and 150° fitted as a fisheye, a 60° pinhole fitted with
+    # k1k2 and (the fisheye fits it to the noise) as a fisheye
+    cases = [("fisheye", 90, FISHEYE, "fisheye"), ("fisheye", 150, FISHEYE, "fisheye"),
+             ("pinhole", 60, PINHOLE, "k1k2"), ("pinhole", 60, PINHOLE, "fisheye")]
+    checks = []
+    for model, fov, dist, fit in cases:
+        head = _lens_head(model, fov, dist)
+        for noise in (0.03, 0.3):
+            for seed in range(3):
+                ds = corner_dataset(head, seed=seed, noise_px=noise, poses_deg=())
+                intr = calibrate_intrinsics(_intrinsics_views(ds), ds.board, (1280, 960),
+                                            dist_model=fit)
+                checks.append(((model, fov, fit, noise, seed), intr.lens_check))
+    assert len(checks) == 24
+    warned = [(case, c) for case, c in checks if wrong_lens_warning(c)]
+    assert not warned, warned
+    assert all(c["corners"] == 20 * 54 and c["views"] == 20 for _, c in checks)
+
+
+def test_a_90_degree_fisheye_fitted_as_a_pinhole_is_warned():
+    # E11's 90° fisheye, where k1k2 costs 13x the right model's hand-eye error: warned
+    # for every eye and seed, from the intrinsics alone
+    head = _lens_head("fisheye", 90, FISHEYE)
+    for seed in range(3):
+        ds = corner_dataset(head, seed=seed, noise_px=0.05, poses_deg=())
+        for eye in ("left", "right"):
+            intr = calibrate_intrinsics(_intrinsics_views(ds, eye), ds.board, (1280, 960),
+                                        dist_model="k1k2")
+            w = wrong_lens_warning(intr.lens_check)
+            assert w is not None and "--dist-model fisheye" in w and "F = " in w, \
+                (seed, eye, intr.lens_check)
 
 
 def test_rational_lens_calibrates_with_k1_to_k6():
