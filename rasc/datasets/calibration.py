@@ -23,14 +23,17 @@ from rasc.geometry.frames import EYES
 FORMAT = formats.DATASET_CALIBRATION
 
 
-def calibrate(dataset, **extra: Any) -> dict:
+def calibrate(dataset, *, dist_model: str | None = None, **extra: Any) -> dict:
     """Calibrate ``dataset`` (a :class:`rasc.vision.dataset.Dataset`: files or images in
     memory) with the real pipeline, the paper's model, and return its calibration
     document (:func:`calibration_document`; its truth, when it has one, is the
-    reference; ``extra`` fields are added)."""
+    reference; ``extra`` fields are added). ``dist_model``: the lens model
+    (``CalibrationOptions.dist_model``; None: its default)."""
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
 
-    cal = calibrate_dataset(dataset, CalibrationOptions(model="paper"))
+    options = CalibrationOptions(model="paper", **({"dist_model": dist_model}
+                                                   if dist_model is not None else {}))
+    cal = calibrate_dataset(dataset, options)
     truth = None if dataset.ground_truth is None else dataset.load_ground_truth()
     return calibration_document(cal, dataset.board, truth, **extra)
 
@@ -67,6 +70,8 @@ def calibration_document(cal, board, truth: dict | None, **extra: Any) -> dict:
             "corners": [_nulls(res.corners["pose"][f]) for f in res.pose_files],
             "K": np.asarray(res.intrinsics.K, float).tolist(),
             "dist": np.asarray(res.intrinsics.dist, float).ravel().tolist(),
+            # the lens model of K and dist, when not the pinhole (absent: pinhole)
+            **({"lens": res.intrinsics.lens} if res.intrinsics.lens != "pinhole" else {}),
             "T_cam_from_gaze_true": ref, **extra_eye}
     scene = _scene_record(truth, cal.eyes[next(iter(cal.eyes))].pose_files) \
         if truth is not None else None

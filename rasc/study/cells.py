@@ -232,6 +232,7 @@ def noisy_pose_sets(task: CellTask) -> np.ndarray:
         board = Board(tuple(data["board"]["inner_corners"]), data["board"]["square_size"])
         corners = [np.asarray(c, float) for c in eye["corners"]]
         K, dist = np.asarray(eye["K"], float), np.asarray(eye["dist"], float)
+        lens = eye.get("lens", "pinhole")
     sets = []
     for s in range(task.samples if _noisy(p) else 1):
         rng = sample_rng(task.seed, cell, s)
@@ -239,7 +240,7 @@ def noisy_pose_sets(task: CellTask) -> np.ndarray:
         if p["corner_noise_px"] > 0:
             T_cw = np.array([estimate_extrinsics(c + p["corner_noise_px"]
                                                  * rng.standard_normal(c.shape),
-                                                 board, K, dist)[0] for c in corners])
+                                                 board, K, dist, lens)[0] for c in corners])
         if pose_noise:                                                # mm -> metres
             if home is None:
                 T_cw = perturb_T_cam_from_world(T_cw, p["sigma_r"], p["sigma_t_mm"] / 1000.0,

@@ -156,7 +156,13 @@ def render_task(task: RenderTask) -> dict | tuple:
     """
     worker_environment()
     from rasc.datasets.calibration import calibrate
-    from rasc.sim.render import CONTINUOUS, DEGRADATIONS, RenderOptions, render_in_memory
+    from rasc.sim.render import (
+        CONTINUOUS,
+        DEGRADATIONS,
+        LENS_FIELDS,
+        RenderOptions,
+        render_in_memory,
+    )
 
     r = task.render
     full = {k: r.get(k, p.default) for k, p in PARAMS.items() if p.kind == "render"}
@@ -166,12 +172,13 @@ def render_task(task: RenderTask) -> dict | tuple:
             intrinsics_views=full["intrinsics_views"], distance=full["distance"],
             seed=task.seed, image_noise=full["image_noise"], blur=full["blur"],
             distortion=tuple(full["distortion"]), supersample=full["supersample"],
-            **{k: full[k] for k in (*DEGRADATIONS, *CONTINUOUS)})
+            **{k: full[k] for k in (*DEGRADATIONS, *CONTINUOUS, *LENS_FIELDS)})
         names = ({"poses_deg": f"positions_file {task.positions_from}"}
                  if task.positions_from else RENDER_NAMES)
         ds = render_in_memory(options, model_path=head_of(r, task.model_path), quiet=True,
                               units=unit_builds(r), board=target_of(full), names=names)
-        doc = calibrate(ds, key=task.key, render=r, seed=task.seed)
+        doc = calibrate(ds, key=task.key, render=r, seed=task.seed,
+                        dist_model=dist_model_of(full))
         return (doc, ds) if task.keep else doc
     except RascError as exc:     # name the cell's render parameters, not a CLI flag
         shown = r     # a positions file replaces the grid: named, the grid's keys left out
@@ -183,6 +190,15 @@ def render_task(task: RenderTask) -> dict | tuple:
                          if k not in ("model", "urdf"))
         raise type(exc)(f"{task.where}: the dataset for {what}: "
                         f"{' '.join(str(exc).split())}") from None
+
+
+def dist_model_of(full: dict) -> str | None:
+    """The ``dist_model`` a cell's dataset is calibrated with: the spec's, or for ''
+    the lens's own (None, ``CalibrationOptions``' default, for a pinhole; "fisheye" for
+    a fisheye)."""
+    if full["dist_model"]:
+        return full["dist_model"]
+    return "fisheye" if full["lens"] == "fisheye" else None
 
 
 #: RenderOptions' fields have the spec's names; the positions are the spec's layout
@@ -326,6 +342,10 @@ def _pose_scene(task: PoseTask) -> tuple[dict, Any, Any, dict | None]:
             raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset was "
                              "rendered from a generated scene, which cannot be rendered again")
         scene = record["render_options"]
+        if scene.get("lens", "pinhole") != "pinhole" or scene.get("fov"):
+            raise InputError(f"{where}: intrinsics_from = 'dataset': the dataset was "
+                             "rendered through a lens (lens, fov), whose pose views are "
+                             "not rendered again; give intrinsics_from = 'calibrate'")
         model_path, units = None, None
     return scene, model_path, units, record
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from rasc.errors import InputError
 from rasc.geometry.frames import EYES
+from rasc.geometry.lens import DIST_MODELS, LENS_MODELS
 from rasc.io import finite_number
 from rasc.sim import DEFAULT_SUPERSAMPLE
 from rasc.sim.motion import (
@@ -323,6 +324,18 @@ PARAMS: dict[str, Param] = {
                              "the lens's focal length, mm (with focus_distance)"),
     "jpeg_quality": Param(_jpeg_quality, 0, "render",
                           "JPEG compression quality 1-100 (0 = none)"),
+    # the lens (rasc.sim.render.LENS_FIELDS; docs/topics/lenses.md) and the model the
+    # cell's dataset is calibrated with
+    "lens": Param(_choice(tuple(LENS_MODELS)), "pinhole", "render",
+                  "the cameras' lens model: pinhole or fisheye (distortion holds its "
+                  "coefficients; RenderOptions.lens)"),
+    "fov": Param(_render_bound("MAX_FOV_DEG", "degrees"), 0.0, "render",
+                 "horizontal field of view, deg (0 = the model camera's own focal length; "
+                 "RenderOptions.fov)"),
+    "dist_model": Param(_choice(("", *DIST_MODELS)), "", "render",
+                        "the lens model the dataset is calibrated with "
+                        "(CalibrationOptions.dist_model; '' = the lens's own: k1k2 for a "
+                        "pinhole, fisheye for a fisheye)"),
     # continuous motion (rasc.sim.render.CONTINUOUS; docs/topics/continuous.md): 0 is
     # stop-and-go, the others need motion_speed_deg_s > 0 (RenderOptions.validate)
     "motion_speed_deg_s": Param(_render_bound("MAX_MOTION_SPEED", "deg/s"), 0.0, "render",
@@ -376,7 +389,8 @@ IDENTITY_OPTIONAL = ("noise_on", *UNIT_PARAMS, "units_eye", "dataset", "intrinsi
                      "f_number", "focal_length_mm", "jpeg_quality", "urdf", "urdf_joints",
                      "urdf_cameras", *("motion_speed_deg_s", "dwell", "frame_rate", "exposure",
                                        "subframes", "rolling_shutter", "joint_rate",
-                                       "clock_offset", "clock_jitter", "max_frames"))
+                                       "clock_offset", "clock_jitter", "max_frames"),
+                     "lens", "fov", "dist_model")
 #: the URDF parameters (a head from a URDF: rasc.sim.urdf.UrdfHead)
 URDF_PARAMS = ("urdf", "urdf_joints", "urdf_cameras")
 

@@ -76,6 +76,13 @@ Later keys (at their defaults they leave a cell's identity, seeds and bytes unch
   lost at the image corners), ``motion_blur`` (px) and ``motion_angle`` (deg),
   ``focus_distance`` (m; thin-lens defocus changing with depth) with ``f_number`` and
   ``focal_length_mm``, ``jpeg_quality`` (1-100; 0 = none);
+- the lens (render; :data:`rasc.sim.render.LENS_FIELDS`, docs/topics/lenses.md):
+  ``lens`` (``pinhole`` or ``fisheye``; ``distortion`` holds that model's coefficients)
+  and ``fov`` (horizontal field of view, degrees; 0 = the model camera's focal length),
+  with ``dist_model``, the model the cell's dataset is calibrated with (''
+  = the lens's own: ``k1k2`` for a pinhole, ``fisheye`` for a fisheye); not with
+  ``intrinsics_from = "dataset"`` (:func:`_check_lens`). A cell's closed form and its
+  corner-noise samples go through the calibrated lens;
 - continuous motion (render; :data:`rasc.sim.render.CONTINUOUS`, each off at its
   default; docs/topics/continuous.md): ``motion_speed_deg_s`` (0 = stop-and-go; the
   others need it > 0 in every cell, :func:`_check_continuous`), ``dwell``,
@@ -412,6 +419,7 @@ def load_spec(path: str | os.PathLike, quick: bool = False) -> Spec:
     positions_files = _positions_files(path, fixed, axes, fail)
     _check_target(fixed, axes, fail)
     _check_continuous(fixed, axes, fail)
+    _check_lens(fixed, axes, fail)
     dataset_digests = _dataset_digests(path, fixed, axes, fail)
     paired = _paired(doc, axes, fail)
     if positions_files:
@@ -645,6 +653,20 @@ def _check_continuous(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail)
         if key != "motion_speed_deg_s" and any(v != PARAMS[key].default for v in values):
             fail(f"{'axes' if key in axes else 'fixed'}.{key}", "is for continuous motion: "
                  "give motion_speed_deg_s > 0 in every cell (0 is stop-and-go)")
+
+
+def _check_lens(fixed: dict[str, Any], axes: dict[str, tuple], fail: Fail) -> None:
+    """A lens (``lens``, ``fov``; docs/topics/lenses.md) and its ``dist_model`` belong to
+    a dataset rendered and calibrated whole: not with ``intrinsics_from = "dataset"``,
+    which renders pose views through the base's pinhole and keeps its intrinsics."""
+    reuse = axes.get("intrinsics_from", (fixed.get("intrinsics_from", "calibrate"),))
+    if "dataset" not in reuse:
+        return
+    for key in ("lens", "fov", "dist_model"):
+        values = axes.get(key, (fixed[key],) if key in fixed else ())
+        if any(v != PARAMS[key].default for v in values):
+            fail(f"{'axes' if key in axes else 'fixed'}.{key}", "is the lens of a dataset "
+                 "rendered and calibrated whole; not with intrinsics_from = 'dataset'")
 
 
 def _dataset_digests(path: Path, fixed: dict[str, Any], axes: dict[str, tuple],
