@@ -20,9 +20,9 @@ other failed checks' messages). The thresholds:
   F above 5 and the one-board fit's excess RMS above half the per-view RMS; the general
   model answers that misfit, so there it is shown, not judged).
 * the lens model (:func:`rasc.vision.camera.is_wrong_lens`): an eye whose intrinsics
-  views the chosen ``dist_model`` fits more than twice as badly as another lens model
-  (the fisheye against a pinhole model, or the reverse) — a fisheye calibrated as a
-  pinhole, or a pinhole as a fisheye.
+  views another lens model (the fisheye against a pinhole model, or the reverse) fits
+  better than the corners' noise explains (an F test above 10) by a practical amount
+  (10 % of its RMS) — a fisheye calibrated as a pinhole, or a pinhole as a fisheye.
 * :data:`CHECK_REJECTED_FRACTION` (5 %): corners the refinement rejected as outliers; a
   few are glints, many mean bad detections or a moving board.
 * :data:`CHECK_FOCAL_REL_STD` (1 %): the relative standard deviation of a focal length;
