@@ -294,11 +294,12 @@ def _calibrate_once(names, corners, board, image_size, dist_model):
 def _calibrate_rational(obj, img, image_size):
     """cv2.calibrateCamera with the rational model from two starts, the better (lower
     RMS) kept: OpenCV's own start, and the ``k1k2`` calibration's K and k1 k2
-    (``CALIB_USE_INTRINSIC_GUESS``). From OpenCV's start alone the fit stopped in a local
-    minimum on 5 of 6 eyes of a 150° fisheye (E11's, seeds 0-2, 0.05 px noise: 1.0-17 px
-    RMS, where the start from ``k1k2`` reached 0.068-0.070 px on all six), and the
-    refinement then held the coefficients it could not determine at those values (seed
-    0's right eye: hand-eye 1.09°, 108 mm)."""
+    (``CALIB_USE_INTRINSIC_GUESS``). From OpenCV's start alone the fit stopped in local
+    minima on a 150° fisheye (E11's, seeds 0-2, 0.05 px noise: 4 of 6 eyes at 1.0-2.3 px
+    RMS; with the views 0.25-0.6 m away, 5 of 6 at 1.0-17 px), where the start from
+    ``k1k2`` reached 0.068-0.070 px on all six; the refinement, which holds the
+    coefficients it cannot determine at the intrinsics' value, could not always leave
+    them (seed 0's right eye: hand-eye 1.09°, 108 mm; 0.021°, 0.49 mm from here)."""
     size = tuple(int(v) for v in image_size)
     best = cv2.calibrateCamera(obj, img, size, None, None, flags=CALIB_FLAGS["rational"])
     _, K0, d0, _, _ = cv2.calibrateCamera(obj, img, size, None, None,
