@@ -24,13 +24,32 @@ def _opencv_threads(n: int = 1) -> Iterator[None]:
     duration of the call is affected, not the rest of the user's program (the setting is
     process-wide while the block runs: do not run rasc's OpenCV work beside multi-threaded
     OpenCV work of your own that relies on its thread count).
+
+    The OpenBLAS that OpenCV's wheel bundles (its LAPACK: ``cv2.fisheye.calibrate``'s
+    solves) is held to ``n`` threads too: with two threads the fisheye intrinsics of the
+    same corners differ in their last bits from one thread's (measured), so the reproduction's
+    serial path and its single-threaded pool workers gave different bytes.
     """
     before = cv2.getNumThreads()
     cv2.setNumThreads(int(n))
     try:
-        yield
+        with _blas_controller().limit(limits=int(n)):
+            yield
     finally:
         cv2.setNumThreads(before)
+
+
+_BLAS = []
+
+
+def _blas_controller():
+    """threadpoolctl's controller of the BLAS libraries loaded (OpenCV's among them),
+    made once: a controller's limit is cheaper than a fresh scan per call."""
+    if not _BLAS:
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0]
 
 
 #: cornerSubPix stop rule. (EPS + COUNT, 30, 0.001) reproduces the independent figures of
