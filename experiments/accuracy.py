@@ -321,6 +321,10 @@ def truth_values(truth: dict) -> dict[str, Any]:
             "T_cam_from_gaze": T_cg,
         }
     out["T_ptuL_from_ptuR"] = gauge["T_ptuL_from_ptuR"]
+    # a continuous capture's camera-to-encoder offset δ (s; rasc render's truth "clock")
+    clock = truth.get("clock") or {}
+    if "clock_offset" in clock:
+        out["time_offset"] = float(clock["clock_offset"])
     return out
 
 
@@ -338,6 +342,7 @@ QUANTITIES = {
                         "T_ptuL_from_ptuR.rotz"),
     "mounts translation": ("T_ptuL_from_ptuR.tx", "T_ptuL_from_ptuR.ty",
                            "T_ptuL_from_ptuR.tz"),
+    "time offset": ("time_offset",),
 }
 
 
@@ -362,6 +367,10 @@ def parameter_errors(doc: dict, truth: dict) -> dict[str, float]:
     for name in cov.names:
         group, _, rest = name.partition(".")
         if rest in skip:
+            continue
+        if name == "time_offset":        # δ, s: estimated only with a joint stream
+            errors[name] = float(doc["refinement"]["time_offset"]["value_s"]) \
+                - tv.get("time_offset", 0.0)
             continue
         if group == "T_ptuL_from_ptuR":
             T_est = np.asarray(doc["refinement"]["T_ptuL_from_ptuR"], float)
@@ -412,6 +421,8 @@ def score(doc: dict, truth: dict) -> Score:
     if mounts:
         s.errors["mounts translation (mm)"] = 1e3 * mounts["translation"]
     errors = parameter_errors(doc, truth)
+    if "time_offset" in errors:
+        s.errors["time offset (ms)"] = 1e3 * errors["time_offset"]
     if not errors:
         _score_jackknife(s, doc)
         return s
@@ -431,17 +442,17 @@ def score(doc: dict, truth: dict) -> Score:
     s.max_abs_z = float(np.max(np.abs(z)))
     ok = True
     for q, members in QUANTITIES.items():
-        for group in ("left", "right", "T_ptuL_from_ptuR"):
+        for group in ("left", "right", "head"):
             qn = [n for n in names if n.startswith(group + ".") and n.partition(".")[2]
-                  in members] if group != "T_ptuL_from_ptuR" else \
+                  in members] if group != "head" else \
                 [n for n in names if n in members]
-            if not qn or (group == "T_ptuL_from_ptuR") != q.startswith("mounts"):
+            if not qn:
                 continue
             ii = [names.index(n) for n in qn]
             zq = z[ii]
             d2 = float(zq @ np.linalg.lstsq(corr[np.ix_(ii, ii)], zq, rcond=1e-12)[0])
             bound = float(chi2_dist.isf(BOUND_P, len(ii)))
-            key = q if group == "T_ptuL_from_ptuR" else f"{group} {q}"
+            key = q if group == "head" else f"{group} {q}"
             s.quantities[key] = (d2, bound, len(ii))
             ok &= d2 <= bound
     s.within_bounds = ok
@@ -632,16 +643,18 @@ def lens_head(lens: str):
             "fisheye": fisheye_head}[lens]()
 
 
-def synthetic_truth(head) -> dict:
+def synthetic_truth(head, clock_offset: float | None = None) -> dict:
     """A :class:`rasc.sim.synthetic.SyntheticHead` as a ground-truth document (``rasc
-    render``'s layout, with each eye's ``lens``), for :func:`score`."""
+    render``'s layout, with each eye's ``lens``; with ``clock_offset``, a continuous
+    capture's δ as its ``clock``), for :func:`score`."""
     T_pLpR = head.T_ptuL_from_ptuR()
     return {**{eye: {"K": head.K[eye].tolist(), "dist": np.asarray(head.dist[eye]).tolist(),
                      "lens": head.lens_model(eye),
                      "T_cam_from_gaze": head.T_cam_from_gaze[eye].tolist(),
                      "T_ptu_from_base": head.T_ptu_from_base[eye].tolist(),
                      "unit": head.unit[eye].to_dict()} for eye in ("left", "right")},
-            "T_ptuL_from_ptuR": T_pLpR.tolist(), "views": {}}
+            "T_ptuL_from_ptuR": T_pLpR.tolist(), "views": {},
+            **({} if clock_offset is None else {"clock": {"clock_offset": clock_offset}})}
 
 
 def lens_cell_name(cell: dict[str, str]) -> str:
