@@ -93,7 +93,7 @@ OPTIONS: dict[str, dict[str, str]] = {
     "model_paper": {"model": "paper"},
 }
 #: ... and the same on the command line
-FLAGS = {"scales": "--scales", "model": "--model"}
+FLAGS = {"scales": "--scales", "model": "--model", "dist_model": "--dist-model"}
 
 WIDE_PAN_DEG, WIDE_TILT_DEG = 30.0, 20.0
 PLAN_PAN_RANGE, PLAN_TILT_RANGE = (-40.0, 35.0), (-30.0, 20.0)
@@ -117,6 +117,49 @@ BOUND_P = 1e-4
 
 #: pairs of levels no cell can show: a chessboard is only used when seen whole
 IMPOSSIBLE = {(("target", "chessboard"), ("motion", "wide"))}
+
+
+#: Rendered cells beyond the design (issues 32, 33): a design cell's levels plus ``lens``
+#: (rendered through a 150° fisheye, :data:`FISHEYE_FOV_DEG`, calibrated with
+#: ``dist_model="fisheye"``) or ``capture`` "continuous" (a head that never stops,
+#: :data:`CONTINUOUS_RENDER`, calibrated with the defaults: δ estimated). Their door may
+#: also be ``"import"``: the continuous capture played into a bag
+#: (rasc.recordings.synth.write_continuous_recording), ``rasc import --continuous``,
+#: ``rasc calibrate``. Which combinations the pipeline refuses: rendering continuous
+#: motion through a lens (RenderOptions refuses it in one line).
+EXTRA_KEYS = ("lens", "capture")
+EXTRA_CELLS: list[dict[str, str]] = [
+    {"head": "ideal", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "cli", "lens": "fisheye"},
+    {"head": "offset_skew", "options": "defaults", "target": "charuco", "motion": "paper",
+     "door": "python", "lens": "fisheye"},
+    {"head": "encoder_zeros", "options": "defaults", "target": "chessboard",
+     "motion": "paper", "door": "cli", "capture": "continuous"},
+    {"head": "cameras_moved", "options": "defaults", "target": "charuco", "motion": "paper",
+     "door": "python", "capture": "continuous"},
+    {"head": "offset_skew", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "import", "capture": "continuous"},
+]
+FISHEYE_FOV_DEG = 150.0
+#: the rendered continuous captures (RenderOptions fields): 20 deg/s, 10 frames/s, a
+#: 4 ms exposure of 2 sub-frames, the encoder clock 20 ms ahead (recordings.md's capture)
+CONTINUOUS_RENDER = {"motion_speed_deg_s": 20.0, "frame_rate": 10.0, "max_frames": 16,
+                     "subframes": 2, "exposure": 0.004, "clock_offset": 0.02}
+#: what the import door writes beside the bag (docs/topics/recordings.md's config)
+IMPORT_CONFIG = """[board]
+inner_corners = [9, 6]
+square_size = 0.05
+length_unit = "m"
+
+[topics]
+left = "/left/image_raw"
+right = "/right/image_raw"
+
+[joints]
+angle_unit = "rad"
+left = {topic = "/joint_states", pan = "left_pan", tilt = "left_tilt"}
+right = {topic = "/joint_states", pan = "right_pan", tilt = "right_tilt"}
+"""
 
 
 def _valid(cell: dict[str, str]) -> bool:
@@ -158,12 +201,14 @@ def cell_seed(cell: dict[str, str], seed: int = 0) -> int:
     design = covering_cells()
     if cell in design:
         return seed + design.index(cell)
+    if cell in EXTRA_CELLS:
+        return seed + 1000 + EXTRA_CELLS.index(cell)
     combos = [dict(zip(FACTORS, c, strict=True)) for c in itertools.product(*FACTORS.values())]
     return seed + len(design) + combos.index(cell)
 
 
 def cell_name(cell: dict[str, str]) -> str:
-    return "-".join(cell[f] for f in FACTORS)
+    return "-".join([cell[f] for f in FACTORS] + [cell[k] for k in EXTRA_KEYS if k in cell])
 
 
 # ----------------------------------------------------------------------------- making
@@ -231,19 +276,34 @@ def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
     from rasc.vision.board import parse_target
 
     units = _units(cell)
+    extra: dict[str, Any] = {}
+    if cell.get("lens"):
+        extra = {"lens": cell["lens"], "fov": FISHEYE_FOV_DEG}
+    if cell.get("capture") == "continuous":
+        extra = dict(CONTINUOUS_RENDER)
     options = RenderOptions(poses_deg=positions(cell, seed), intrinsics_views=INTRINSICS_VIEWS,
-                            seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed))
+                            seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed),
+                            **extra)
     render_dataset(folder, options, units=units, board=parse_target(TARGETS[cell["target"]]),
                    quiet=True)
     return folder
 
 
-def calibrate_python(folder: Path, options_level: str) -> dict:
-    """The Python door: what ``rasc calibrate`` writes, from the library."""
+def cell_options(cell: dict[str, str]) -> dict[str, str]:
+    """The CalibrationOptions fields of a cell: its options level's, and a lens's
+    ``dist_model``."""
+    return {**OPTIONS[cell["options"]],
+            **({"dist_model": cell["lens"]} if cell.get("lens") else {})}
+
+
+def calibrate_python(folder: Path, options: str | dict) -> dict:
+    """The Python door: what ``rasc calibrate`` writes, from the library (``options``: a
+    level of :data:`OPTIONS`, or CalibrationOptions fields)."""
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**OPTIONS[options_level]))
+    fields = OPTIONS[options] if isinstance(options, str) else options
+    cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**fields))
     return _document(cal, folder)
 
 
@@ -256,18 +316,57 @@ def _document(cal, folder: Path) -> dict:
     return json.loads(dumps_json(doc))
 
 
-def calibrate_cli(folder: Path, options_level: str, out: Path) -> tuple[dict, str]:
-    """The command-line door: ``rasc calibrate FOLDER --out OUT`` with the level's flags;
-    returns the document written and the command's stderr."""
-    argv = [sys.executable, "-m", "rasc", "calibrate", str(folder), "--out", str(out),
-            "--quiet"]
-    for key, value in OPTIONS[options_level].items():
-        argv += [FLAGS[key], value]
+def _rasc(*args) -> subprocess.CompletedProcess:
+    """``python -m rasc ARGS``; a failure is a RuntimeError with its stderr."""
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    run = subprocess.run(argv, capture_output=True, text=True, env=env, check=False)
+    run = subprocess.run([sys.executable, "-m", "rasc", *map(str, args)],
+                         capture_output=True, text=True, env=env, check=False)
     if run.returncode != 0:
-        raise RuntimeError(f"rasc calibrate exited {run.returncode}: {run.stderr.strip()}")
+        raise RuntimeError(f"rasc {args[0]} exited {run.returncode}: {run.stderr.strip()}")
+    return run
+
+
+def calibrate_cli(folder: Path, options: str | dict, out: Path) -> tuple[dict, str]:
+    """The command-line door: ``rasc calibrate FOLDER --out OUT`` with the level's flags
+    (``options`` as :func:`calibrate_python`'s); returns the document written and the
+    command's stderr."""
+    argv = ["calibrate", folder, "--out", out, "--quiet"]
+    for key, value in (OPTIONS[options] if isinstance(options, str) else options).items():
+        argv += [FLAGS[key], value]
+    run = _rasc(*argv)
     return json.loads(out.read_text()), run.stderr
+
+
+def import_continuous(folder: Path, work: Path) -> Path:
+    """The import door of a continuous capture: the rendered ``folder`` played into a bag
+    (pose images and joint stream) and an intrinsics bag, then ``rasc import BAG
+    --continuous --intrinsics BAG2 --config import.toml``; returns the imported dataset."""
+    from rasc.recordings.synth import write_continuous_recording, write_intrinsics_recording
+    from rasc.vision.dataset import load_dataset
+
+    ds = load_dataset(folder)
+    write_continuous_recording(ds, work / "moving.bag", encoding="png")
+    write_intrinsics_recording(ds, work / "intrinsics.bag", encoding="png")
+    (work / "import.toml").write_text(IMPORT_CONFIG)
+    _rasc("import", work / "moving.bag", "--continuous", "--intrinsics",
+          work / "intrinsics.bag", "--config", work / "import.toml", "--out",
+          work / "imported", "--quiet")
+    return work / "imported"
+
+
+def same_estimates(a: dict, b: dict, within_sigma: float = 0.01) -> bool:
+    """Two calibrations of one capture agree: every parameter of ``a``'s refinement
+    within ``within_sigma`` of its σ of ``b``'s (the import door's bag stamps are whole
+    nanoseconds, so its file cannot be the rendered dataset's to the bit)."""
+    pa, pb = a["refinement"]["parameters"], b["refinement"]["parameters"]
+    for group, params in pa.items():
+        for name, p in params.items():
+            q = (pb.get(group) or {}).get(name)
+            if q is None or not p.get("std") or p.get("value") is None:
+                continue
+            if abs(p["value"] - q["value"]) > within_sigma * p["std"]:
+                return False
+    return True
 
 
 #: what two doors may write differently: how long each stage took, and the dataset path
@@ -522,12 +621,18 @@ def run_cell(cell: dict[str, str], work: Path, seed: int, *, report: bool = True
     t0 = time.perf_counter()
     folder = render(cell, work / "dataset", seed)
     truth = json.loads((folder / "ground_truth.json").read_text())
-    doc = calibrate_python(folder, cell["options"])
+    options = cell_options(cell)
+    doc = calibrate_python(folder, options)
     agree = None
     if cell["door"] == "cli":
-        doc_cli, _ = calibrate_cli(folder, cell["options"], work / "cal.json")
+        doc_cli, _ = calibrate_cli(folder, options, work / "cal.json")
         agree = same_document(doc, doc_cli)
         doc = doc_cli
+    elif cell["door"] == "import":
+        folder = import_continuous(folder, work)
+        doc_imp, _ = calibrate_cli(folder, options, work / "cal.json")
+        agree = same_estimates(doc_imp, doc)
+        doc = doc_imp
     pages, report_error = None, None
     v = verdict(doc)
     if report:
@@ -718,6 +823,148 @@ def lens_markdown_table(results: list[CellResult]) -> str:
                      f" | {r.verdict} | {'yes' if lens_warned(r) else 'no'} | {rot} | {mm} | "
                      f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
                      f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- continuous
+
+#: The continuous-motion cells on projected corners (:func:`run_continuous_cell`,
+#: rasc.sim.synthetic.continuous_corner_dataset: the paper's nine positions joined at
+#: 30 deg/s, 10 frames/s, joints at 200 Hz, :data:`CONTINUOUS_NOISE_PX`), calibrated with
+#: the defaults (δ estimated) but for ``time_offset`` "hold", which holds δ at 0 and must
+#: not be called usable: a head (``unit``: the ideal one, or "imperfect": a tilt axis
+#: 25 mm off and 0.5° skewed and a pan scale of 1.006), a lens, a target and δ (ms).
+CONTINUOUS_CELLS: tuple[dict[str, str], ...] = (
+    {"unit": "ideal", "lens": "pinhole", "target": "chessboard", "delta_ms": "30"},
+    {"unit": "imperfect", "lens": "pinhole", "target": "charuco", "delta_ms": "-20"},
+    {"unit": "imperfect", "lens": "fisheye", "target": "chessboard", "delta_ms": "15"},
+    {"unit": "ideal", "lens": "pinhole", "target": "aprilgrid", "delta_ms": "30",
+     "time_offset": "hold"},
+)
+CONTINUOUS_NOISE_PX = 0.03
+CONTINUOUS_SPEED_DEG_S = 30.0
+
+
+def continuous_unit(level: str):
+    """The continuous cell's pan-tilt unit (rasc.geometry.kinematics.PanTiltUnit)."""
+    from rasc.geometry.kinematics import PanTiltUnit
+
+    if level == "ideal":
+        return PanTiltUnit()
+    skew = np.radians(0.5)
+    return PanTiltUnit(tilt_axis=(np.sin(skew), 0.0, np.cos(skew)),
+                       tilt_point=(0.0, 0.025, 0.0), pan_scale=1.006)
+
+
+def continuous_cell_name(cell: dict[str, str]) -> str:
+    return (f"continuous {cell['unit']} {cell['lens']} {cell['target']} "
+            f"δ {cell['delta_ms']} ms" + (" held" if cell.get("time_offset") else ""))
+
+
+def run_continuous_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
+    """Project the continuous cell's capture, calibrate it with the defaults (the lens's
+    ``dist_model``; ``time_offset`` when the cell holds it), score it against the truth
+    (δ too) with the verdict (no images, so no report)."""
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
+    from rasc.report.verdict import verdict
+    from rasc.sim.synthetic import continuous_corner_dataset
+    from rasc.vision.board import parse_target
+
+    t0 = time.perf_counter()
+    from rasc.sim.synthetic import default_head, fisheye_head
+
+    make = fisheye_head if cell["lens"] == "fisheye" else default_head
+    head = make(continuous_unit(cell["unit"]))
+    delta = float(cell["delta_ms"]) / 1e3
+    truth = synthetic_truth(head, delta)
+    ds = continuous_corner_dataset(head, seed=seed, noise_px=CONTINUOUS_NOISE_PX,
+                                   speed_deg_s=CONTINUOUS_SPEED_DEG_S, clock_offset=delta,
+                                   board=parse_target(TARGETS[cell["target"]]))
+    fields = {"dist_model": "fisheye"} if cell["lens"] == "fisheye" else {}
+    if cell.get("time_offset"):
+        fields["time_offset"] = cell["time_offset"]
+    cal = calibrate_dataset(ds, CalibrationOptions(**fields))
+    cal.errors = errors_against_truth(cal, truth)
+    doc = _document(cal, Path("<projected continuous capture>"))
+    v = verdict(doc)
+    ref = doc.get("refinement") or {}
+    return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,
+                      verdict_line=v.line(), warnings=list(doc.get("warnings", [])),
+                      doors_agree=None, report_pages=None, scales=ref.get("scales"),
+                      seconds=time.perf_counter() - t0)
+
+
+def continuous_cell_passes(r: CellResult) -> tuple[bool, str]:
+    """The matrix's rule (:func:`cell_passes`); a cell that holds δ at 0 on a moving head
+    must not be called usable, one that estimates it must be within its bounds, δ
+    among them."""
+    ok, why = cell_passes(r)
+    if not ok:
+        return ok, why
+    if r.cell.get("time_offset") == "hold":
+        return (r.verdict != "usable",
+                "ok" if r.verdict != "usable" else "δ held at 0 but called usable")
+    if "time offset" not in r.score.quantities:
+        return False, "δ was not estimated"
+    if r.score.within_bounds is not True:
+        return False, f"not within its bounds (verdict {r.verdict_line!r})"
+    return True, "ok"
+
+
+def continuous_markdown_table(results: list[CellResult]) -> str:
+    """The continuous cells' table: the cell, the verdict, δ's error against its σ, the
+    hand-eye errors, χ²/n and the rule."""
+    lines = ["| unit | lens | target | δ (ms) | δ | verdict | δ error (ms) / d² | "
+             "hand-eye L / R (deg) | hand-eye L / R (mm) | χ²/n | rule |",
+             "|" + " --- |" * 11]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = continuous_cell_passes(r)
+        d = s.quantities.get("time offset")
+        de = s.errors.get("time offset (ms)")
+        rot = " / ".join(f"{s.errors.get(f'{e} hand-eye rotation (deg)', float('nan')):.4f}"
+                         for e in ("left", "right"))
+        mm = " / ".join(f"{s.errors.get(f'{e} hand-eye translation (mm)', float('nan')):.3f}"
+                        for e in ("left", "right"))
+        lines.append(
+            f"| {c['unit']} | {c['lens']} | {c['target']} | {c['delta_ms']} | "
+            f"{c.get('time_offset', 'estimated')} | {r.verdict} | "
+            f"{'—' if de is None else f'{de:+.4f}'} / {'—' if d is None else f'{d[0]:.2f}'} | "
+            f"{rot} | {mm} | "
+            f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
+            f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
+
+
+def extra_markdown_table(results: list[CellResult]) -> str:
+    """The rendered cells beyond the design (:data:`EXTRA_CELLS`): the cell, verdict,
+    doors, report pages, δ's error, hand-eye and mounts errors, χ²/n, the worst quantity
+    and the rule."""
+    lines = ["| head | target | lens / capture | door | verdict | doors agree | report pages "
+             "| δ error (ms) | hand-eye L / R (mm) | mounts (mm) | χ²/n | worst (d² / bound) "
+             "| rule |", "|" + " --- |" * 13]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = cell_passes(r)
+        worst = "—"
+        if s.quantities:
+            q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
+            worst = f"{q} ({d2:.3g} / {b:.3g})"
+        he = " / ".join(f"{s.errors[f'{e} hand-eye translation (mm)']:.3f}"
+                        if f"{e} hand-eye translation (mm)" in s.errors else "—"
+                        for e in ("left", "right"))
+        de = s.errors.get("time offset (ms)")
+        mounts = s.errors.get("mounts translation (mm)")
+        kind = (f"fisheye {FISHEYE_FOV_DEG:g}°" if c.get("lens")
+                else f"continuous, δ {1e3 * CONTINUOUS_RENDER['clock_offset']:g} ms")
+        lines.append(
+            f"| {c['head']} | {c['target']} | {kind} | {c['door']} | {r.verdict or '—'} | "
+            f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
+            f"{r.report_pages if r.report_pages is not None else '—'} | "
+            f"{'—' if de is None else f'{de:+.4f}'} | {he} | "
+            f"{'—' if mounts is None else f'{mounts:.3f}'} | "
+            f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | {worst} | "
+            f"{'ok' if ok else 'FAIL: ' + why} |")
     return "\n".join(lines)
 
 
