@@ -520,6 +520,18 @@ def score(doc: dict, truth: dict) -> Score:
     if mounts:
         s.errors["mounts translation (mm)"] = 1e3 * mounts["translation"]
     errors = parameter_errors(doc, truth)
+    for eye in ("left", "right"):
+        # a calibration without its errors against the truth (the import door's dataset
+        # has no truth file): the hand-eye errors from the parameters' own
+        if f"{eye} hand-eye rotation (deg)" not in s.errors and \
+                f"{eye}.T_cam_from_gaze.rotx" in errors:
+            e = [errors[f"{eye}.T_cam_from_gaze.{k}"] for k in
+                 ("rotx", "roty", "rotz", "tx", "ty", "tz")]
+            s.errors[f"{eye} hand-eye rotation (deg)"] = float(np.degrees(np.linalg.norm(e[:3])))
+            s.errors[f"{eye} hand-eye translation (mm)"] = 1e3 * float(np.linalg.norm(e[3:]))
+    if "mounts translation (mm)" not in s.errors and "T_ptuL_from_ptuR.tx" in errors:
+        s.errors["mounts translation (mm)"] = 1e3 * float(np.linalg.norm(
+            [errors[f"T_ptuL_from_ptuR.t{k}"] for k in "xyz"]))
     if "time_offset" in errors:
         s.errors["time offset (ms)"] = 1e3 * errors["time_offset"]
     if not errors:
