@@ -31,8 +31,19 @@ builds the report, and scores the calibration (:func:`score`):
 A sixth factor, the **lens** (issue 32), runs beside the design on projected corners
 (:data:`LENS_CELLS`, :func:`run_lens_cell`): the default pinhole lens, a rational lens and
 a 170° fisheye, each with its right ``dist_model``, and the fisheye calibrated as a pinhole
-(``k1k2``), which must be warned and not called usable. Rendered lens cells wait for
-rendering through any lens.
+(``k1k2``), which must be warned and not called usable.
+
+**Continuous motion** (issue 33) on projected corners (:data:`CONTINUOUS_CELLS`,
+:func:`run_continuous_cell`): an ideal or imperfect unit, a pinhole or fisheye lens, a
+chessboard, ChArUco board or AprilGrid, δ estimated by the defaults and scored against
+its truth (the quantity "time offset"); δ held at 0 on a moving head must not be called
+usable. **Rendered cells beyond the design** (:data:`EXTRA_CELLS`, run as the design's
+by :func:`run_cell`): a 150° fisheye (``rasc render --lens fisheye --fov 150``,
+``dist_model="fisheye"``) through the Python and command-line doors, with an imperfect
+unit and a ChArUco board; a continuous capture with a 20 ms clock offset through the
+Python, command-line and **import** doors (:func:`import_continuous`), with an imperfect
+unit and a ChArUco board. Continuous motion rendered through a lens is refused in one line
+(:func:`refused_combinations`).
 
 ``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
 ``benchmarks/bench_accuracy_matrix.py`` writes its results page); the test suite runs a
@@ -978,6 +989,20 @@ def extra_markdown_table(results: list[CellResult]) -> str:
             f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | {worst} | "
             f"{'ok' if ok else 'FAIL: ' + why} |")
     return "\n".join(lines)
+
+
+def refused_combinations() -> dict[str, str]:
+    """The combinations the pipeline refuses, each with the one line it refuses it in
+    (an :class:`rasc.errors.InputError`): continuous motion rendered through a lens."""
+    from rasc.errors import InputError
+    from rasc.sim.render import RenderOptions
+
+    out = {}
+    try:
+        RenderOptions(lens="fisheye", fov=FISHEYE_FOV_DEG, motion_speed_deg_s=20.0).validate()
+    except InputError as exc:
+        out["continuous motion rendered through a fisheye"] = str(exc)
+    return out
 
 
 # ----------------------------------------------------------------------------- tables
