@@ -775,9 +775,11 @@ def synthetic_truth(head, clock_offset: float | None = None) -> dict:
     """A :class:`rasc.sim.synthetic.SyntheticHead` as a ground-truth document (``rasc
     render``'s layout, with each eye's ``lens``; with ``clock_offset``, a continuous
     capture's δ as its ``clock``), for :func:`score`."""
+    from rasc.sim.synthetic import IMAGE_SIZE
+
     T_pLpR = head.T_ptuL_from_ptuR()
     return {**{eye: {"K": head.K[eye].tolist(), "dist": np.asarray(head.dist[eye]).tolist(),
-                     "lens": head.lens_model(eye),
+                     "lens": head.lens_model(eye), "image_size": list(IMAGE_SIZE),
                      "T_cam_from_gaze": head.T_cam_from_gaze[eye].tolist(),
                      "T_ptu_from_base": head.T_ptu_from_base[eye].tolist(),
                      "unit": head.unit[eye].to_dict()} for eye in ("left", "right")},
