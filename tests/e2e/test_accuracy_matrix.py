@@ -197,3 +197,12 @@ def test_the_report_door_through_a_fisheye_and_a_continuous_capture():
                                     for eye in ("left", "right")})
     wrong = report_data(as_pinhole, images).rms_by_role()
     assert wrong["pose"] > 10 * rms["pose"], (wrong, rms)
+
+
+def test_a_refused_combination_is_refused_in_one_line():
+    """Continuous motion rendered through a lens is refused (RenderOptions), in one line
+    naming the field; the matrix's page prints it."""
+    refused = acc.refused_combinations()
+    assert list(refused) == ["continuous motion rendered through a fisheye"]
+    line = refused["continuous motion rendered through a fisheye"]
+    assert "\n" not in line and line.startswith("motion_speed_deg_s: ")
