@@ -111,7 +111,10 @@ def main(argv=None) -> int:
             f"δ = {1e3 * render['clock_offset']:g} ms) calibrated with the defaults (δ "
             "estimated), through the Python, command-line and import doors (import: "
             "played into a bag, rasc import --continuous, rasc calibrate; 'doors agree' "
-            "there: every parameter within 0.01 σ of the rendered dataset's calibration). "
+            "there: every parameter within 0.01 σ of the rendered dataset's calibration); "
+            f"the last at {acc.CONTINUOUS_FAST_RENDER['motion_speed_deg_s']:g} deg/s with "
+            "rasc render's own exposure (10 ms of 8 sub-frames), "
+            f"{acc.CONTINUOUS_FAST_RENDER['max_frames']} frames per eye. "
             "The same rule as the design's cells.", 90))
         print()
         extra = acc.run_matrix(None, acc.EXTRA_CELLS, args.seed, workers=args.workers,

@@ -42,7 +42,7 @@ by :func:`run_cell`): a 150° fisheye (``rasc render --lens fisheye --fov 150``,
 ``dist_model="fisheye"``) through the Python and command-line doors, with an imperfect
 unit and a ChArUco board; a continuous capture with a 20 ms clock offset through the
 Python, command-line and **import** doors (:func:`import_continuous`), with an imperfect
-unit and a ChArUco board. Continuous motion rendered through a lens is refused in one line
+unit and a ChArUco board, and one at 30 deg/s with rasc render's own 10 ms exposure. Continuous motion rendered through a lens is refused in one line
 (:func:`refused_combinations`).
 
 ``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
@@ -150,12 +150,18 @@ EXTRA_CELLS: list[dict[str, str]] = [
      "door": "python", "capture": "continuous"},
     {"head": "offset_skew", "options": "defaults", "target": "chessboard", "motion": "paper",
      "door": "import", "capture": "continuous"},
+    {"head": "ideal", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "python", "capture": "continuous_fast"},
 ]
 FISHEYE_FOV_DEG = 150.0
 #: the rendered continuous captures (RenderOptions fields): 20 deg/s, 10 frames/s, a
 #: 4 ms exposure of 2 sub-frames, the encoder clock 20 ms ahead (recordings.md's capture)
 CONTINUOUS_RENDER = {"motion_speed_deg_s": 20.0, "frame_rate": 10.0, "max_frames": 16,
                      "subframes": 2, "exposure": 0.004, "clock_offset": 0.02}
+#: ... and ``capture`` "continuous_fast": 30 deg/s at rasc render's own exposure (10 ms of
+#: 8 sub-frames), 12 frames per eye (continuous.md's rendered capture)
+CONTINUOUS_FAST_RENDER = {"motion_speed_deg_s": 30.0, "max_frames": 12, "clock_offset": 0.02}
+CAPTURES = {"continuous": CONTINUOUS_RENDER, "continuous_fast": CONTINUOUS_FAST_RENDER}
 #: what the import door writes beside the bag (docs/topics/recordings.md's config)
 IMPORT_CONFIG = """[board]
 inner_corners = [9, 6]
@@ -290,8 +296,8 @@ def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
     extra: dict[str, Any] = {}
     if cell.get("lens"):
         extra = {"lens": cell["lens"], "fov": FISHEYE_FOV_DEG}
-    if cell.get("capture") == "continuous":
-        extra = dict(CONTINUOUS_RENDER)
+    if cell.get("capture"):
+        extra = dict(CAPTURES[cell["capture"]])
     options = RenderOptions(poses_deg=positions(cell, seed), intrinsics_views=INTRINSICS_VIEWS,
                             seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed),
                             **extra)
@@ -980,8 +986,11 @@ def extra_markdown_table(results: list[CellResult]) -> str:
                         for e in ("left", "right"))
         de = s.errors.get("time offset (ms)")
         mounts = s.errors.get("mounts translation (mm)")
+        cap = CAPTURES.get(c.get("capture", ""), {})
         kind = (f"fisheye {FISHEYE_FOV_DEG:g}°" if c.get("lens")
-                else f"continuous, δ {1e3 * CONTINUOUS_RENDER['clock_offset']:g} ms")
+                else f"continuous {cap['motion_speed_deg_s']:g} deg/s, "
+                     f"{1e3 * cap.get('exposure', 0.01):g} ms, δ "
+                     f"{1e3 * cap['clock_offset']:g} ms")
         lines.append(
             f"| {c['head']} | {c['target']} | {kind} | {c['door']} | {r.verdict or '—'} | "
             f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
