@@ -31,8 +31,19 @@ builds the report, and scores the calibration (:func:`score`):
 A sixth factor, the **lens** (issue 32), runs beside the design on projected corners
 (:data:`LENS_CELLS`, :func:`run_lens_cell`): the default pinhole lens, a rational lens and
 a 170° fisheye, each with its right ``dist_model``, and the fisheye calibrated as a pinhole
-(``k1k2``), which must be warned and not called usable. Rendered lens cells wait for
-rendering through any lens.
+(``k1k2``), which must be warned and not called usable.
+
+**Continuous motion** (issue 33) on projected corners (:data:`CONTINUOUS_CELLS`,
+:func:`run_continuous_cell`): an ideal or imperfect unit, a pinhole or fisheye lens, a
+chessboard, ChArUco board or AprilGrid, δ estimated by the defaults and scored against
+its truth (the quantity "time offset"); δ held at 0 on a moving head must not be called
+usable. **Rendered cells beyond the design** (:data:`EXTRA_CELLS`, run as the design's
+by :func:`run_cell`): a 150° fisheye (``rasc render --lens fisheye --fov 150``,
+``dist_model="fisheye"``) through the Python and command-line doors, with an imperfect
+unit and a ChArUco board; a continuous capture with a 20 ms clock offset through the
+Python, command-line and **import** doors (:func:`import_continuous`), with an imperfect
+unit and a ChArUco board, and one at 30 deg/s with rasc render's own 10 ms exposure. Continuous motion rendered through a lens is refused in one line
+(:func:`refused_combinations`).
 
 ``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
 ``benchmarks/bench_accuracy_matrix.py`` writes its results page); the test suite runs a
@@ -93,7 +104,7 @@ OPTIONS: dict[str, dict[str, str]] = {
     "model_paper": {"model": "paper"},
 }
 #: ... and the same on the command line
-FLAGS = {"scales": "--scales", "model": "--model"}
+FLAGS = {"scales": "--scales", "model": "--model", "dist_model": "--dist-model"}
 
 WIDE_PAN_DEG, WIDE_TILT_DEG = 30.0, 20.0
 PLAN_PAN_RANGE, PLAN_TILT_RANGE = (-40.0, 35.0), (-30.0, 20.0)
@@ -117,6 +128,55 @@ BOUND_P = 1e-4
 
 #: pairs of levels no cell can show: a chessboard is only used when seen whole
 IMPOSSIBLE = {(("target", "chessboard"), ("motion", "wide"))}
+
+
+#: Rendered cells beyond the design (issues 32, 33): a design cell's levels plus ``lens``
+#: (rendered through a 150° fisheye, :data:`FISHEYE_FOV_DEG`, calibrated with
+#: ``dist_model="fisheye"``) or ``capture`` "continuous" (a head that never stops,
+#: :data:`CONTINUOUS_RENDER`, calibrated with the defaults: δ estimated). Their door may
+#: also be ``"import"``: the continuous capture played into a bag
+#: (rasc.recordings.synth.write_continuous_recording), ``rasc import --continuous``,
+#: ``rasc calibrate``. Which combinations the pipeline refuses: rendering continuous
+#: motion through a lens (RenderOptions refuses it in one line).
+EXTRA_KEYS = ("lens", "capture")
+EXTRA_CELLS: list[dict[str, str]] = [
+    {"head": "ideal", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "cli", "lens": "fisheye"},
+    {"head": "offset_skew", "options": "defaults", "target": "charuco", "motion": "paper",
+     "door": "python", "lens": "fisheye"},
+    {"head": "encoder_zeros", "options": "defaults", "target": "chessboard",
+     "motion": "paper", "door": "cli", "capture": "continuous"},
+    {"head": "cameras_moved", "options": "defaults", "target": "charuco", "motion": "paper",
+     "door": "python", "capture": "continuous"},
+    {"head": "offset_skew", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "import", "capture": "continuous"},
+    {"head": "ideal", "options": "defaults", "target": "chessboard", "motion": "paper",
+     "door": "python", "capture": "continuous_fast"},
+]
+FISHEYE_FOV_DEG = 150.0
+#: the rendered continuous captures (RenderOptions fields): 20 deg/s, 10 frames/s, a
+#: 4 ms exposure of 2 sub-frames, the encoder clock 20 ms ahead (recordings.md's capture)
+CONTINUOUS_RENDER = {"motion_speed_deg_s": 20.0, "frame_rate": 10.0, "max_frames": 16,
+                     "subframes": 2, "exposure": 0.004, "clock_offset": 0.02}
+#: ... and ``capture`` "continuous_fast": 30 deg/s at rasc render's own exposure (10 ms of
+#: 8 sub-frames), 12 frames per eye (continuous.md's rendered capture)
+CONTINUOUS_FAST_RENDER = {"motion_speed_deg_s": 30.0, "max_frames": 12, "clock_offset": 0.02}
+CAPTURES = {"continuous": CONTINUOUS_RENDER, "continuous_fast": CONTINUOUS_FAST_RENDER}
+#: what the import door writes beside the bag (docs/topics/recordings.md's config)
+IMPORT_CONFIG = """[board]
+inner_corners = [9, 6]
+square_size = 0.05
+length_unit = "m"
+
+[topics]
+left = "/left/image_raw"
+right = "/right/image_raw"
+
+[joints]
+angle_unit = "rad"
+left = {topic = "/joint_states", pan = "left_pan", tilt = "left_tilt"}
+right = {topic = "/joint_states", pan = "right_pan", tilt = "right_tilt"}
+"""
 
 
 def _valid(cell: dict[str, str]) -> bool:
@@ -158,12 +218,14 @@ def cell_seed(cell: dict[str, str], seed: int = 0) -> int:
     design = covering_cells()
     if cell in design:
         return seed + design.index(cell)
+    if cell in EXTRA_CELLS:
+        return seed + 1000 + EXTRA_CELLS.index(cell)
     combos = [dict(zip(FACTORS, c, strict=True)) for c in itertools.product(*FACTORS.values())]
     return seed + len(design) + combos.index(cell)
 
 
 def cell_name(cell: dict[str, str]) -> str:
-    return "-".join(cell[f] for f in FACTORS)
+    return "-".join([cell[f] for f in FACTORS] + [cell[k] for k in EXTRA_KEYS if k in cell])
 
 
 # ----------------------------------------------------------------------------- making
@@ -231,19 +293,34 @@ def render(cell: dict[str, str], folder: Path, seed: int) -> Path:
     from rasc.vision.board import parse_target
 
     units = _units(cell)
+    extra: dict[str, Any] = {}
+    if cell.get("lens"):
+        extra = {"lens": cell["lens"], "fov": FISHEYE_FOV_DEG}
+    if cell.get("capture"):
+        extra = dict(CAPTURES[cell["capture"]])
     options = RenderOptions(poses_deg=positions(cell, seed), intrinsics_views=INTRINSICS_VIEWS,
-                            seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed))
+                            seed=seed, image_noise=IMAGE_NOISE, distance=distance(seed),
+                            **extra)
     render_dataset(folder, options, units=units, board=parse_target(TARGETS[cell["target"]]),
                    quiet=True)
     return folder
 
 
-def calibrate_python(folder: Path, options_level: str) -> dict:
-    """The Python door: what ``rasc calibrate`` writes, from the library."""
+def cell_options(cell: dict[str, str]) -> dict[str, str]:
+    """The CalibrationOptions fields of a cell: its options level's, and a lens's
+    ``dist_model``."""
+    return {**OPTIONS[cell["options"]],
+            **({"dist_model": cell["lens"]} if cell.get("lens") else {})}
+
+
+def calibrate_python(folder: Path, options: str | dict) -> dict:
+    """The Python door: what ``rasc calibrate`` writes, from the library (``options``: a
+    level of :data:`OPTIONS`, or CalibrationOptions fields)."""
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.vision.dataset import load_dataset
 
-    cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**OPTIONS[options_level]))
+    fields = OPTIONS[options] if isinstance(options, str) else options
+    cal = calibrate_dataset(load_dataset(folder), CalibrationOptions(**fields))
     return _document(cal, folder)
 
 
@@ -256,18 +333,57 @@ def _document(cal, folder: Path) -> dict:
     return json.loads(dumps_json(doc))
 
 
-def calibrate_cli(folder: Path, options_level: str, out: Path) -> tuple[dict, str]:
-    """The command-line door: ``rasc calibrate FOLDER --out OUT`` with the level's flags;
-    returns the document written and the command's stderr."""
-    argv = [sys.executable, "-m", "rasc", "calibrate", str(folder), "--out", str(out),
-            "--quiet"]
-    for key, value in OPTIONS[options_level].items():
-        argv += [FLAGS[key], value]
+def _rasc(*args) -> subprocess.CompletedProcess:
+    """``python -m rasc ARGS``; a failure is a RuntimeError with its stderr."""
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    run = subprocess.run(argv, capture_output=True, text=True, env=env, check=False)
+    run = subprocess.run([sys.executable, "-m", "rasc", *map(str, args)],
+                         capture_output=True, text=True, env=env, check=False)
     if run.returncode != 0:
-        raise RuntimeError(f"rasc calibrate exited {run.returncode}: {run.stderr.strip()}")
+        raise RuntimeError(f"rasc {args[0]} exited {run.returncode}: {run.stderr.strip()}")
+    return run
+
+
+def calibrate_cli(folder: Path, options: str | dict, out: Path) -> tuple[dict, str]:
+    """The command-line door: ``rasc calibrate FOLDER --out OUT`` with the level's flags
+    (``options`` as :func:`calibrate_python`'s); returns the document written and the
+    command's stderr."""
+    argv = ["calibrate", folder, "--out", out, "--quiet"]
+    for key, value in (OPTIONS[options] if isinstance(options, str) else options).items():
+        argv += [FLAGS[key], value]
+    run = _rasc(*argv)
     return json.loads(out.read_text()), run.stderr
+
+
+def import_continuous(folder: Path, work: Path) -> Path:
+    """The import door of a continuous capture: the rendered ``folder`` played into a bag
+    (pose images and joint stream) and an intrinsics bag, then ``rasc import BAG
+    --continuous --intrinsics BAG2 --config import.toml``; returns the imported dataset."""
+    from rasc.recordings.synth import write_continuous_recording, write_intrinsics_recording
+    from rasc.vision.dataset import load_dataset
+
+    ds = load_dataset(folder)
+    write_continuous_recording(ds, work / "moving.bag", encoding="png")
+    write_intrinsics_recording(ds, work / "intrinsics.bag", encoding="png")
+    (work / "import.toml").write_text(IMPORT_CONFIG)
+    _rasc("import", work / "moving.bag", "--continuous", "--intrinsics",
+          work / "intrinsics.bag", "--config", work / "import.toml", "--out",
+          work / "imported", "--quiet")
+    return work / "imported"
+
+
+def same_estimates(a: dict, b: dict, within_sigma: float = 0.01) -> bool:
+    """Two calibrations of one capture agree: every parameter of ``a``'s refinement
+    within ``within_sigma`` of its σ of ``b``'s (the import door's bag stamps are whole
+    nanoseconds, so its file cannot be the rendered dataset's to the bit)."""
+    pa, pb = a["refinement"]["parameters"], b["refinement"]["parameters"]
+    for group, params in pa.items():
+        for name, p in params.items():
+            q = (pb.get(group) or {}).get(name)
+            if q is None or not p.get("std") or p.get("value") is None:
+                continue
+            if abs(p["value"] - q["value"]) > within_sigma * p["std"]:
+                return False
+    return True
 
 
 #: what two doors may write differently: how long each stage took, and the dataset path
@@ -321,6 +437,10 @@ def truth_values(truth: dict) -> dict[str, Any]:
             "T_cam_from_gaze": T_cg,
         }
     out["T_ptuL_from_ptuR"] = gauge["T_ptuL_from_ptuR"]
+    # a continuous capture's camera-to-encoder offset δ (s; rasc render's truth "clock")
+    clock = truth.get("clock") or {}
+    if "clock_offset" in clock:
+        out["time_offset"] = float(clock["clock_offset"])
     return out
 
 
@@ -338,6 +458,7 @@ QUANTITIES = {
                         "T_ptuL_from_ptuR.rotz"),
     "mounts translation": ("T_ptuL_from_ptuR.tx", "T_ptuL_from_ptuR.ty",
                            "T_ptuL_from_ptuR.tz"),
+    "time offset": ("time_offset",),
 }
 
 
@@ -362,6 +483,10 @@ def parameter_errors(doc: dict, truth: dict) -> dict[str, float]:
     for name in cov.names:
         group, _, rest = name.partition(".")
         if rest in skip:
+            continue
+        if name == "time_offset":        # δ, s: estimated only with a joint stream
+            errors[name] = float(doc["refinement"]["time_offset"]["value_s"]) \
+                - tv.get("time_offset", 0.0)
             continue
         if group == "T_ptuL_from_ptuR":
             T_est = np.asarray(doc["refinement"]["T_ptuL_from_ptuR"], float)
@@ -412,6 +537,20 @@ def score(doc: dict, truth: dict) -> Score:
     if mounts:
         s.errors["mounts translation (mm)"] = 1e3 * mounts["translation"]
     errors = parameter_errors(doc, truth)
+    for eye in ("left", "right"):
+        # a calibration without its errors against the truth (the import door's dataset
+        # has no truth file): the hand-eye errors from the parameters' own
+        if f"{eye} hand-eye rotation (deg)" not in s.errors and \
+                f"{eye}.T_cam_from_gaze.rotx" in errors:
+            e = [errors[f"{eye}.T_cam_from_gaze.{k}"] for k in
+                 ("rotx", "roty", "rotz", "tx", "ty", "tz")]
+            s.errors[f"{eye} hand-eye rotation (deg)"] = float(np.degrees(np.linalg.norm(e[:3])))
+            s.errors[f"{eye} hand-eye translation (mm)"] = 1e3 * float(np.linalg.norm(e[3:]))
+    if "mounts translation (mm)" not in s.errors and "T_ptuL_from_ptuR.tx" in errors:
+        s.errors["mounts translation (mm)"] = 1e3 * float(np.linalg.norm(
+            [errors[f"T_ptuL_from_ptuR.t{k}"] for k in "xyz"]))
+    if "time_offset" in errors:
+        s.errors["time offset (ms)"] = 1e3 * errors["time_offset"]
     if not errors:
         _score_jackknife(s, doc)
         return s
@@ -431,17 +570,17 @@ def score(doc: dict, truth: dict) -> Score:
     s.max_abs_z = float(np.max(np.abs(z)))
     ok = True
     for q, members in QUANTITIES.items():
-        for group in ("left", "right", "T_ptuL_from_ptuR"):
+        for group in ("left", "right", "head"):
             qn = [n for n in names if n.startswith(group + ".") and n.partition(".")[2]
-                  in members] if group != "T_ptuL_from_ptuR" else \
+                  in members] if group != "head" else \
                 [n for n in names if n in members]
-            if not qn or (group == "T_ptuL_from_ptuR") != q.startswith("mounts"):
+            if not qn:
                 continue
             ii = [names.index(n) for n in qn]
             zq = z[ii]
             d2 = float(zq @ np.linalg.lstsq(corr[np.ix_(ii, ii)], zq, rcond=1e-12)[0])
             bound = float(chi2_dist.isf(BOUND_P, len(ii)))
-            key = q if group == "T_ptuL_from_ptuR" else f"{group} {q}"
+            key = q if group == "head" else f"{group} {q}"
             s.quantities[key] = (d2, bound, len(ii))
             ok &= d2 <= bound
     s.within_bounds = ok
@@ -511,12 +650,18 @@ def run_cell(cell: dict[str, str], work: Path, seed: int, *, report: bool = True
     t0 = time.perf_counter()
     folder = render(cell, work / "dataset", seed)
     truth = json.loads((folder / "ground_truth.json").read_text())
-    doc = calibrate_python(folder, cell["options"])
+    options = cell_options(cell)
+    doc = calibrate_python(folder, options)
     agree = None
     if cell["door"] == "cli":
-        doc_cli, _ = calibrate_cli(folder, cell["options"], work / "cal.json")
+        doc_cli, _ = calibrate_cli(folder, options, work / "cal.json")
         agree = same_document(doc, doc_cli)
         doc = doc_cli
+    elif cell["door"] == "import":
+        folder = import_continuous(folder, work)
+        doc_imp, _ = calibrate_cli(folder, options, work / "cal.json")
+        agree = same_estimates(doc_imp, doc)
+        doc = doc_imp
     pages, report_error = None, None
     v = verdict(doc)
     if report:
@@ -632,16 +777,20 @@ def lens_head(lens: str):
             "fisheye": fisheye_head}[lens]()
 
 
-def synthetic_truth(head) -> dict:
+def synthetic_truth(head, clock_offset: float | None = None) -> dict:
     """A :class:`rasc.sim.synthetic.SyntheticHead` as a ground-truth document (``rasc
-    render``'s layout, with each eye's ``lens``), for :func:`score`."""
+    render``'s layout, with each eye's ``lens``; with ``clock_offset``, a continuous
+    capture's δ as its ``clock``), for :func:`score`."""
+    from rasc.sim.synthetic import IMAGE_SIZE
+
     T_pLpR = head.T_ptuL_from_ptuR()
     return {**{eye: {"K": head.K[eye].tolist(), "dist": np.asarray(head.dist[eye]).tolist(),
-                     "lens": head.lens_model(eye),
+                     "lens": head.lens_model(eye), "image_size": list(IMAGE_SIZE),
                      "T_cam_from_gaze": head.T_cam_from_gaze[eye].tolist(),
                      "T_ptu_from_base": head.T_ptu_from_base[eye].tolist(),
                      "unit": head.unit[eye].to_dict()} for eye in ("left", "right")},
-            "T_ptuL_from_ptuR": T_pLpR.tolist(), "views": {}}
+            "T_ptuL_from_ptuR": T_pLpR.tolist(), "views": {},
+            **({} if clock_offset is None else {"clock": {"clock_offset": clock_offset}})}
 
 
 def lens_cell_name(cell: dict[str, str]) -> str:
@@ -706,6 +855,165 @@ def lens_markdown_table(results: list[CellResult]) -> str:
                      f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
                      f"{'ok' if ok else 'FAIL: ' + why} |")
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- continuous
+
+#: The continuous-motion cells on projected corners (:func:`run_continuous_cell`,
+#: rasc.sim.synthetic.continuous_corner_dataset: the paper's nine positions joined at
+#: 30 deg/s, 10 frames/s, joints at 200 Hz, :data:`CONTINUOUS_NOISE_PX`), calibrated with
+#: the defaults (δ estimated) but for ``time_offset`` "hold", which holds δ at 0 and must
+#: not be called usable: a head (``unit``: the ideal one, or "imperfect": a tilt axis
+#: 25 mm off and 0.5° skewed and a pan scale of 1.006), a lens, a target and δ (ms).
+CONTINUOUS_CELLS: tuple[dict[str, str], ...] = (
+    {"unit": "ideal", "lens": "pinhole", "target": "chessboard", "delta_ms": "30"},
+    {"unit": "imperfect", "lens": "pinhole", "target": "charuco", "delta_ms": "-20"},
+    {"unit": "imperfect", "lens": "fisheye", "target": "chessboard", "delta_ms": "15"},
+    {"unit": "ideal", "lens": "pinhole", "target": "aprilgrid", "delta_ms": "30",
+     "time_offset": "hold"},
+)
+CONTINUOUS_NOISE_PX = 0.03
+CONTINUOUS_SPEED_DEG_S = 30.0
+
+
+def continuous_unit(level: str):
+    """The continuous cell's pan-tilt unit (rasc.geometry.kinematics.PanTiltUnit)."""
+    from rasc.geometry.kinematics import PanTiltUnit
+
+    if level == "ideal":
+        return PanTiltUnit()
+    skew = np.radians(0.5)
+    return PanTiltUnit(tilt_axis=(np.sin(skew), 0.0, np.cos(skew)),
+                       tilt_point=(0.0, 0.025, 0.0), pan_scale=1.006)
+
+
+def continuous_cell_name(cell: dict[str, str]) -> str:
+    return (f"continuous {cell['unit']} {cell['lens']} {cell['target']} "
+            f"δ {cell['delta_ms']} ms" + (" held" if cell.get("time_offset") else ""))
+
+
+def run_continuous_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
+    """Project the continuous cell's capture, calibrate it with the defaults (the lens's
+    ``dist_model``; ``time_offset`` when the cell holds it), score it against the truth
+    (δ too) with the verdict (no images, so no report)."""
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
+    from rasc.report.verdict import verdict
+    from rasc.sim.synthetic import continuous_corner_dataset
+    from rasc.vision.board import parse_target
+
+    t0 = time.perf_counter()
+    from rasc.sim.synthetic import default_head, fisheye_head
+
+    make = fisheye_head if cell["lens"] == "fisheye" else default_head
+    head = make(continuous_unit(cell["unit"]))
+    delta = float(cell["delta_ms"]) / 1e3
+    truth = synthetic_truth(head, delta)
+    ds = continuous_corner_dataset(head, seed=seed, noise_px=CONTINUOUS_NOISE_PX,
+                                   speed_deg_s=CONTINUOUS_SPEED_DEG_S, clock_offset=delta,
+                                   board=parse_target(TARGETS[cell["target"]]))
+    fields = {"dist_model": "fisheye"} if cell["lens"] == "fisheye" else {}
+    if cell.get("time_offset"):
+        fields["time_offset"] = cell["time_offset"]
+    cal = calibrate_dataset(ds, CalibrationOptions(**fields))
+    cal.errors = errors_against_truth(cal, truth)
+    doc = _document(cal, Path("<projected continuous capture>"))
+    v = verdict(doc)
+    ref = doc.get("refinement") or {}
+    return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,
+                      verdict_line=v.line(), warnings=list(doc.get("warnings", [])),
+                      doors_agree=None, report_pages=None, scales=ref.get("scales"),
+                      seconds=time.perf_counter() - t0)
+
+
+def continuous_cell_passes(r: CellResult) -> tuple[bool, str]:
+    """The matrix's rule (:func:`cell_passes`); a cell that holds δ at 0 on a moving head
+    must not be called usable, one that estimates it must be within its bounds, δ
+    among them."""
+    ok, why = cell_passes(r)
+    if not ok:
+        return ok, why
+    if r.cell.get("time_offset") == "hold":
+        return (r.verdict != "usable",
+                "ok" if r.verdict != "usable" else "δ held at 0 but called usable")
+    if "time offset" not in r.score.quantities:
+        return False, "δ was not estimated"
+    if r.score.within_bounds is not True:
+        return False, f"not within its bounds (verdict {r.verdict_line!r})"
+    return True, "ok"
+
+
+def continuous_markdown_table(results: list[CellResult]) -> str:
+    """The continuous cells' table: the cell, the verdict, δ's error against its σ, the
+    hand-eye errors, χ²/n and the rule."""
+    lines = ["| unit | lens | target | δ (ms) | δ | verdict | δ error (ms) / d² | "
+             "hand-eye L / R (deg) | hand-eye L / R (mm) | χ²/n | rule |",
+             "|" + " --- |" * 11]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = continuous_cell_passes(r)
+        d = s.quantities.get("time offset")
+        de = s.errors.get("time offset (ms)")
+        rot = " / ".join(f"{s.errors.get(f'{e} hand-eye rotation (deg)', float('nan')):.4f}"
+                         for e in ("left", "right"))
+        mm = " / ".join(f"{s.errors.get(f'{e} hand-eye translation (mm)', float('nan')):.3f}"
+                        for e in ("left", "right"))
+        lines.append(
+            f"| {c['unit']} | {c['lens']} | {c['target']} | {c['delta_ms']} | "
+            f"{c.get('time_offset', 'estimated')} | {r.verdict} | "
+            f"{'—' if de is None else f'{de:+.4f}'} / {'—' if d is None else f'{d[0]:.2f}'} | "
+            f"{rot} | {mm} | "
+            f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
+            f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
+
+
+def extra_markdown_table(results: list[CellResult]) -> str:
+    """The rendered cells beyond the design (:data:`EXTRA_CELLS`): the cell, verdict,
+    doors, report pages, δ's error, hand-eye and mounts errors, χ²/n, the worst quantity
+    and the rule."""
+    lines = ["| head | target | lens / capture | door | verdict | doors agree | report pages "
+             "| δ error (ms) | hand-eye L / R (mm) | mounts (mm) | χ²/n | worst (d² / bound) "
+             "| rule |", "|" + " --- |" * 13]
+    for r in results:
+        s, c = r.score, r.cell
+        ok, why = cell_passes(r)
+        worst = "—"
+        if s.quantities:
+            q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
+            worst = f"{q} ({d2:.3g} / {b:.3g})"
+        he = " / ".join(f"{s.errors[f'{e} hand-eye translation (mm)']:.3f}"
+                        if f"{e} hand-eye translation (mm)" in s.errors else "—"
+                        for e in ("left", "right"))
+        de = s.errors.get("time offset (ms)")
+        mounts = s.errors.get("mounts translation (mm)")
+        cap = CAPTURES.get(c.get("capture", ""), {})
+        kind = (f"fisheye {FISHEYE_FOV_DEG:g}°" if c.get("lens")
+                else f"continuous {cap['motion_speed_deg_s']:g} deg/s, "
+                     f"{1e3 * cap.get('exposure', 0.01):g} ms, δ "
+                     f"{1e3 * cap['clock_offset']:g} ms")
+        lines.append(
+            f"| {c['head']} | {c['target']} | {kind} | {c['door']} | {r.verdict or '—'} | "
+            f"{'—' if r.doors_agree is None else ('yes' if r.doors_agree else 'NO')} | "
+            f"{r.report_pages if r.report_pages is not None else '—'} | "
+            f"{'—' if de is None else f'{de:+.4f}'} | {he} | "
+            f"{'—' if mounts is None else f'{mounts:.3f}'} | "
+            f"{'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | {worst} | "
+            f"{'ok' if ok else 'FAIL: ' + why} |")
+    return "\n".join(lines)
+
+
+def refused_combinations() -> dict[str, str]:
+    """The combinations the pipeline refuses, each with the one line it refuses it in
+    (an :class:`rasc.errors.InputError`): continuous motion rendered through a lens."""
+    from rasc.errors import InputError
+    from rasc.sim.render import RenderOptions
+
+    out = {}
+    try:
+        RenderOptions(lens="fisheye", fov=FISHEYE_FOV_DEG, motion_speed_deg_s=20.0).validate()
+    except InputError as exc:
+        out["continuous motion rendered through a fisheye"] = str(exc)
+    return out
 
 
 # ----------------------------------------------------------------------------- tables

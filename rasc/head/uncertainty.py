@@ -103,12 +103,19 @@ class HeadCovariance:
         return cls(tuple(names), 0.5 * (m + m.T), None if s is None else float(s))
 
 
+#: a continuous capture's camera-to-encoder offset δ (s), estimated with the head
+#: (rasc.head.refine.timing): in the covariance for its correlations with the head's
+#: parameters; a property of the capture, so it moves no point measured with the head
+TIME_OFFSET = "time_offset"
+
+
 def _check_name(name: str, where: str) -> None:
     group, _, rest = name.partition(".")
     ok = (group in EYES and (rest in ("fx", "fy", "cx", "cy") or rest in DIST_NAMES
                              or rest.startswith(("T_cam_from_gaze.rot", "T_cam_from_gaze.t"))
                              or rest.removeprefix("unit.") in UNIT_NAMES)) \
-        or (group == "T_ptuL_from_ptuR" and rest in ("rotx", "roty", "rotz", "tx", "ty", "tz"))
+        or (group == "T_ptuL_from_ptuR" and rest in ("rotx", "roty", "rotz", "tx", "ty", "tz")) \
+        or name == TIME_OFFSET
     if not ok:
         raise InputError(f"{where}.names: unknown parameter {name!r}")
 
@@ -181,6 +188,8 @@ def perturbed_head(head: HeadCalibration, names, delta) -> HeadCalibration:
         if d == 0.0:
             continue
         group, _, rest = name.partition(".")
+        if name == TIME_OFFSET:       # the capture's clock, not the head: moves no point
+            continue
         if group == "T_ptuL_from_ptuR":
             mounts_changed = True
             k = "xyz".index(rest[-1])

@@ -309,11 +309,28 @@ def _no_images(fig, what: str) -> None:
              "calibration was made from).", ha="center", va="center", fontsize=12)
 
 
-def _residuals(fig, data) -> None:
+def _residuals_how(doc: dict) -> str:
+    """How the residuals were computed beyond the plain case, one line ("" for none):
+    each eye's lens when one is not a pinhole, and a continuous capture's δ."""
+    parts = []
+    lenses = {eye: ((doc.get("head") or {}).get(eye) or {}).get("lens", "pinhole")
+              for eye in EYES}
+    if set(lenses.values()) != {"pinhole"}:
+        parts.append("projected through each eye's lens ("
+                     + ", ".join(f"{eye} {lens}" for eye, lens in lenses.items()) + ")")
+    d = _time_offset(doc)
+    if d is not None:
+        parts.append(f"pose readings at each image's time + δ = {1e3 * d:.3f} ms")
+    return "; ".join(parts)
+
+
+def _residuals(fig, data, doc: dict | None = None) -> None:
     from matplotlib.ticker import MaxNLocator
 
+    how = _residuals_how(doc or {})
     fig.suptitle("Reprojection residuals per eye (intrinsics views: own board pose; pose "
-                 "views: one board through the whole head)", fontsize=11)
+                 "views: one board through the whole head)" + (f"\n{how}" if how else ""),
+                 fontsize=11)
     for k, eye in enumerate(EYES):
         ax_s = fig.add_subplot(2, 2, 2 * k + 1)
         ax_h = fig.add_subplot(2, 2, 2 * k + 2)
@@ -527,7 +544,7 @@ def write_report(doc: dict[str, Any], out: str | os.PathLike, *, dataset=None,
                                     None if dataset is None else str(dataset.root)),
                  lambda f: _head(f, head, doc.get("length_unit")),
                  lambda f: _parameters(f, doc),
-                 (lambda f: _residuals(f, data)) if data is not None
+                 (lambda f: _residuals(f, data, doc)) if data is not None
                  else (lambda f: _no_images(f, "Reprojection residuals")),
                  (lambda f: _coverage(f, data)) if data is not None
                  else (lambda f: _no_images(f, "Corner coverage")),

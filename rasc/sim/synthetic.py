@@ -230,7 +230,8 @@ def continuous_corner_dataset(head: SyntheticHead | None = None, *, seed: int = 
         for k, t in enumerate(times):
             T_cw = head.T_cam_from_base(eye, *true[k]) @ T_bw
             p_cam = P @ T_cw[:3, :3].T + T_cw[:3, 3]
-            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye])
+            uv = lens.project_points(p_cam, head.K[eye], head.dist[eye],
+                                     model=head.lens_model(eye))
             file = f"poses/{eye}_{k:04d}.png"
             corners[file] = uv + rng.normal(0.0, noise_px, uv.shape)
             entries.append(ImageEntry(index=len(entries), file=file, path=Path(file),

@@ -100,3 +100,109 @@ def test_the_lens_cells():
             assert not acc.lens_warned(r)
     table = acc.lens_markdown_table(results)
     assert table.count("| ok |") == len(acc.LENS_CELLS), table
+
+
+def test_the_continuous_cells():
+    """Continuous motion on projected corners (experiments.accuracy.CONTINUOUS_CELLS),
+    calibrated with the defaults: δ estimated within its bounds, with an imperfect unit,
+    a ChArUco board and a fisheye lens; δ held at 0 on a moving head not called usable.
+    (The fisheye cell failed before the synthetic capture projected through the head's
+    lens: it was projected as a pinhole, 61 mm of hand-eye error.)"""
+    results = [acc.run_continuous_cell(cell, seed=5) for cell in acc.CONTINUOUS_CELLS]
+    for r in results:
+        ok, why = acc.continuous_cell_passes(r)
+        assert ok, (acc.continuous_cell_name(r.cell), why)
+        if r.cell.get("time_offset") == "hold":
+            assert r.verdict != "usable" and "time offset (ms)" not in r.score.errors
+            continue
+        assert r.verdict == "usable" and r.score.within_bounds is True, r.verdict_line
+        # δ to a few µs of its truth (the issue's target: 1 ms), within its own bound
+        assert abs(r.score.errors["time offset (ms)"]) < 0.02
+        d2, bound, _ = r.score.quantities["time offset"]
+        assert d2 <= bound
+        assert max(r.score.errors[f"{e} hand-eye translation (mm)"]
+                   for e in ("left", "right")) < 1.0
+    table = acc.continuous_markdown_table(results)
+    assert table.count("| ok |") == len(acc.CONTINUOUS_CELLS), table
+
+
+def test_a_continuous_calibration_gives_point_sigmas(tmp_path):
+    """A continuous calibration's covariance holds δ (time_offset): rasc triangulate's
+    point sigmas read it (before: 'refinement.covariance.names: unknown parameter
+    'time_offset''), and δ moves no point: the sigmas are those of the head's block."""
+    from rasc.head.model import HeadCalibration
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.head.uncertainty import (HeadCovariance, covariance_of_document,
+                                       point_uncertainty)
+    from rasc.head.use import point_covariances
+    from rasc.sim.synthetic import continuous_corner_dataset, default_head
+
+    cal = calibrate_dataset(continuous_corner_dataset(default_head(), seed=2,
+                                                      clock_offset=0.02),
+                            CalibrationOptions())
+    doc = acc._document(cal, tmp_path)
+    path = tmp_path / "cal.json"
+    path.write_text(__import__("json").dumps(doc))
+    cov = covariance_of_document(doc)
+    assert "time_offset" in cov.names
+    head = HeadCalibration.from_dict(doc["head"])
+    uv = np.array([[600.0, 450.0], [700.0, 520.0]])
+    args = (head, uv, uv - [40.0, 0.0], np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2))
+    unc, note = point_covariances(path, *args)
+    assert note["calibration_covariance"] is True
+    keep = [i for i, n in enumerate(cov.names) if n != "time_offset"]
+    block = HeadCovariance(tuple(cov.names[i] for i in keep),
+                           cov.matrix[np.ix_(keep, keep)], cov.sigma_px)
+    alone = point_uncertainty(*args, pixel_sigma=note["pixel_sigma_px"], covariance=block)
+    np.testing.assert_allclose(unc.sigma, alone.sigma, rtol=1e-9)
+    assert unc.with_calibration and np.all(unc.calibration.diagonal(axis1=1, axis2=2) > 0)
+
+
+def test_the_report_door_through_a_fisheye_and_a_continuous_capture():
+    """The report of a fisheye calibration and of a continuous one: the parameter table
+    names the lens (fisheye, dist_model fisheye) and δ ± σ (s); the residual page says it
+    projected through the fisheye and read the pose images at time + δ; and the residuals
+    are those of the lens: a fisheye head's own images (rasc.sim.synthetic.image_dataset,
+    painted, the detector's error on them ~0.1 px) reproject within 0.3 px through it, and
+    many times worse through the same K taken as a pinhole."""
+    import dataclasses
+
+    from rasc.head.model import HeadCalibration
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
+    from rasc.report.data import report_data
+    from rasc.report.pdf import _parameter_rows, _residuals_how
+    from rasc.sim.synthetic import continuous_corner_dataset, fisheye_head, image_dataset
+
+    head = fisheye_head()
+    cal = calibrate_dataset(continuous_corner_dataset(head, seed=4, clock_offset=0.015),
+                            CalibrationOptions(dist_model="fisheye"))
+    doc = acc._document(cal, "<projected>")
+    rows, _ = _parameter_rows(doc)
+    assert rows["left"][0] == rows["right"][0] == "lens fisheye (dist_model fisheye)"
+    delta = [r for r in rows["head"] if r.startswith("time_offset")]
+    assert len(delta) == 1 and " ± " in delta[0] and delta[0].endswith(" s"), rows["head"]
+    value = float(delta[0].split()[1])
+    assert abs(value - 0.015) < 1e-5
+    how = _residuals_how(doc)
+    assert "left fisheye, right fisheye" in how
+    assert f"time + δ = {1e3 * value:.3f} ms" in how
+    assert _residuals_how({"head": {"left": {}, "right": {}}}) == ""
+
+    images = image_dataset(head, seed=1, n_intrinsics=3, poses_deg=((0, 0), (8, 8), (-8, 0)))
+    true = HeadCalibration.from_truth(acc.synthetic_truth(head))
+    rms = report_data(true, images).rms_by_role()
+    assert rms["intrinsics"] < 0.3 and rms["pose"] < 0.3, rms
+    as_pinhole = HeadCalibration(**{eye: dataclasses.replace(getattr(true, eye), lens="pinhole",
+                                                             dist=np.zeros(5))
+                                    for eye in ("left", "right")})
+    wrong = report_data(as_pinhole, images).rms_by_role()
+    assert wrong["pose"] > 10 * rms["pose"], (wrong, rms)
+
+
+def test_a_refused_combination_is_refused_in_one_line():
+    """Continuous motion rendered through a lens is refused (RenderOptions), in one line
+    naming the field; the matrix's page prints it."""
+    refused = acc.refused_combinations()
+    assert list(refused) == ["continuous motion rendered through a fisheye"]
+    line = refused["continuous motion rendered through a fisheye"]
+    assert "\n" not in line and line.startswith("motion_speed_deg_s: ")
