@@ -16,14 +16,14 @@ clock read t + δ.
 
 Motions (``motion``):
 
-``"sines"``   pan and tilt each a sum of three sines of random frequency (0.1–0.6 Hz),
-              phase and weight, scaled to ``amplitude_deg``: smooth, with a rotation speed
-              that keeps changing (what the offset estimate needs);
-``"circle"``  the gaze going round a cone (pan = A cos ωt, tilt = A sin ωt): a rotation
-              speed that hardly changes, whose magnitude cannot time the streams;
-``"periodic"`` a Lissajous figure (pan at 0.5 Hz, tilt at 1 Hz): a speed that changes
-              but repeats every 2 s, so offsets 2 s apart look alike;
-``"still"``   the unit at rest.
+- ``"sines"``: pan and tilt each a sum of three sines of random frequency (0.1–0.6 Hz),
+  phase and weight, scaled to ``amplitude_deg``: smooth, with a rotation speed that keeps
+  changing (what the offset estimate needs);
+- ``"circle"``: the gaze going round a cone (pan = A cos ωt, tilt = A sin ωt): a rotation
+  speed that hardly changes, whose magnitude cannot time the streams;
+- ``"periodic"``: a Lissajous figure (pan at 0.5 Hz, tilt at 1 Hz): a speed that changes
+  but repeats every 2 s, so offsets 2 s apart look alike;
+- ``"still"``: the unit at rest.
 
 Every draw comes from ``numpy.random.default_rng(seed)``.
 """
