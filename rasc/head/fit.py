@@ -78,12 +78,19 @@ class EyeFit:
     rms_model: float
     rms_free: float
     views: int
+    #: a continuous capture whose time offset δ was estimated: the δ (s) at which the pose
+    #: images' readings were read (the joint stream at each image's time + δ); None: the
+    #: readings as given
+    time_offset_s: float | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict: the misfit F, the model's and the free fit's RMS (px), the views and
-        the F above which a warning is given."""
+        the F above which a warning is given (and the time offset the readings were read
+        at, when one was estimated)."""
         return {"F": self.F, "rms_model_px": self.rms_model, "rms_free_px": self.rms_free,
-                "views": self.views, "threshold_F": MISFIT_F_WARN}
+                "views": self.views, "threshold_F": MISFIT_F_WARN,
+                **({"time_offset_s": self.time_offset_s}
+                   if self.time_offset_s is not None else {})}
 
 
 def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
@@ -145,14 +152,27 @@ def eye_fit(corners: np.ndarray, board_points: np.ndarray, pan_tilt: np.ndarray,
                   rms_free=float(np.sqrt(rss_free / m_seen)), views=n)
 
 
-def calibration_fit(cal, board_points: np.ndarray) -> dict[str, EyeFit]:
-    """:func:`eye_fit` for both eyes of a closed-form :class:`rasc.head.pipeline.Calibration`."""
+def calibration_fit(cal, board_points: np.ndarray,
+                    time_offset: float | None = None) -> dict[str, EyeFit]:
+    """:func:`eye_fit` for both eyes of a closed-form :class:`rasc.head.pipeline.Calibration`.
+    ``time_offset``: a continuous capture's estimated δ (s): the pose images' readings are
+    then the joint stream at each image's time + δ
+    (:func:`rasc.head.refine.timing.readings_at_offset`), not the readings at δ = 0."""
+    from rasc.head.refine.timing import readings_at_offset
+
+    stream = getattr(cal, "joint_stream", None)
+    if stream is None:
+        time_offset = None
     out = {}
     for eye, r in cal.eyes.items():
         corners = np.array([r.corners["pose"][f] for f in r.pose_files])
-        out[eye] = eye_fit(corners, board_points, r.pan_tilt, r.intrinsics.K, r.intrinsics.dist,
-                           r.handeye.T_cam_from_gaze, r.T_cam_from_world,
-                           lens_model=r.intrinsics.lens)
+        pan_tilt = readings_at_offset(None if stream is None else stream[eye], r.times,
+                                      r.pan_tilt, time_offset)
+        fit = eye_fit(corners, board_points, pan_tilt, r.intrinsics.K, r.intrinsics.dist,
+                      r.handeye.T_cam_from_gaze, r.T_cam_from_world,
+                      lens_model=r.intrinsics.lens)
+        fit.time_offset_s = None if time_offset is None else float(time_offset)
+        out[eye] = fit
     return out
 
 

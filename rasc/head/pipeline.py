@@ -495,6 +495,13 @@ def _check_and_refine(cal: Calibration, dataset, options: CalibrationOptions, ti
                          "quality": float(cal.eyes[eye].handeye.quality),
                          "vs_refined": transform_error(closed, res.T_cam_from_gaze[eye])}
     _time_offset_outcome(cal, res, options, dataset, log)
+    if res.time_offset and res.time_offset["estimated"]:
+        # the fit check above read the pose readings at δ = 0, off by speed × δ on a
+        # continuous capture: made again at the estimated δ, as the refinement read them
+        t0 = time.perf_counter()
+        cal.model_fit = calibration_fit(cal, dataset.board.object_points(),
+                                        time_offset=res.time_offset["value_s"])
+        timer.add("model-fit check", time.perf_counter() - t0)
     log(f"hand-eye method {options.method}: its closed form seeded the refinement ("
         + ", ".join(f"{eye} {cal.seed[eye]['vs_refined']['rotation_deg']:.3g} deg, "
                     f"{format_length(cal.seed[eye]['vs_refined']['translation'], cal.length_unit)}"

@@ -114,6 +114,7 @@ def report_data(head, dataset, detector: str = "saddle",
 
     from rasc.errors import RascError
     from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
+    from rasc.head.refine.timing import readings_at_offset
     from rasc.vision.camera import estimate_extrinsics, project_board
 
     board = dataset.board
@@ -145,13 +146,9 @@ def report_data(head, dataset, detector: str = "saddle",
         for f, c in det.corners.items():
             entry = det.entries[f]
             seen = seen_mask(c)
-            pan, tilt = entry.pan, entry.tilt
-            if time_offset is not None and dataset.joint_stream is not None \
-                    and entry.time is not None:
-                from rasc.head.refine.timing import angles_at
-
-                pan, tilt = angles_at(dataset.joint_stream[eye],
-                                      np.array([entry.time + time_offset]))[0]
+            pan, tilt = readings_at_offset(
+                None if dataset.joint_stream is None else dataset.joint_stream[eye],
+                [entry.time], np.array([entry.pan, entry.tilt]), time_offset)[0]
             pose_obs.append((eye, f, np.flatnonzero(seen), c[seen], pan, tilt))
     if not pose_obs:
         return data

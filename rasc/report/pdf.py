@@ -97,16 +97,25 @@ def _summary(fig, doc: dict, v: Verdict, source: str, dataset: str | None) -> No
         lines.append((f"    intrinsics views {_fmt(rr.get('intrinsics'))} px, pose views "
                       f"{_fmt(rr.get('pose'))} px; corner noise sigma "
                       f"{_fmt(ref.get('sigma_px'))} px per coordinate", {}))
+    delta = _time_offset(doc)
     for eye in EYES:
         e = (doc.get("eyes") or {}).get(eye) or {}
         hu = e.get("handeye_uncertainty") or {}
         lines.append((f"{eye}: intrinsics RMS {_fmt(e.get('intrinsics_rms'))} px; hand-eye "
                       f"quality (eq. 10) {_fmt(e.get('quality'))}; jackknife "
                       f"{_fmt(hu.get('rotation_deg'))} deg, "
-                      f"{_length(hu.get('translation'), doc.get('length_unit'))}", {}))
+                      f"{_length(hu.get('translation'), doc.get('length_unit'))}"
+                      # the closed form that seeded the refinement read the angles at the
+                      # images' stamps; the refinement replaced them
+                      + ("" if delta is None else " (closed form, readings at δ = 0)"), {}))
     lines.append(("", {}))
+    at = {(fit or {}).get("time_offset_s") for fit in (doc.get("paper_model_fit") or {}).values()}
+    at = next(iter(at)) if len(at) == 1 else None
     lines.append(("Model-fit test (does the paper's unit, eq. 3, explain the pose views? "
                   "F ~ 1 yes, F >> 1 no):", {"weight": "bold"}))
+    if isinstance(at, float):
+        lines.append((f"  the pose images' readings at each image's time + δ = "
+                      f"{1000 * at:.3f} ms (the refinement's estimate)", {}))
     for eye, fit in (doc.get("paper_model_fit") or {}).items():
         lines.append((f"  {eye}: F = {_fmt(fit.get('F'))} (threshold "
                       f"{_fmt(fit.get('threshold_F'))}; pose-view RMS one board "
