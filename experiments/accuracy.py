@@ -42,7 +42,8 @@ by :func:`run_cell`): a 150° fisheye (``rasc render --lens fisheye --fov 150``,
 ``dist_model="fisheye"``) through the Python and command-line doors, with an imperfect
 unit and a ChArUco board; a continuous capture with a 20 ms clock offset through the
 Python, command-line and **import** doors (:func:`import_continuous`), with an imperfect
-unit and a ChArUco board, and one at 30 deg/s with rasc render's own 10 ms exposure. Continuous motion rendered through a lens is refused in one line
+unit and a ChArUco board, and one at 30 deg/s with rasc render's own 10 ms exposure.
+Continuous motion rendered through a lens is refused in one line
 (:func:`refused_combinations`).
 
 ``python -m experiments.accuracy --out DIR`` runs the whole matrix (a benchmark:
@@ -801,8 +802,7 @@ def run_lens_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
     """Project the lens cell's head (seeded :data:`LENS_NOISE_PX`), calibrate it with its
     ``dist_model`` (the defaults otherwise), score it against the truth as a rendered cell
     is, with the verdict (no images, so no report)."""
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
-    from rasc.report.verdict import verdict
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.synthetic import corner_dataset
 
     t0 = time.perf_counter()
@@ -810,14 +810,7 @@ def run_lens_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
     truth = synthetic_truth(head)
     ds = corner_dataset(head, seed=seed, noise_px=LENS_NOISE_PX)
     cal = calibrate_dataset(ds, CalibrationOptions(dist_model=cell["dist_model"]))
-    cal.errors = errors_against_truth(cal, truth)
-    doc = _document(cal, Path("<projected corners>"))
-    v = verdict(doc)
-    ref = doc.get("refinement") or {}
-    return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,
-                      verdict_line=v.line(), warnings=list(doc.get("warnings", [])),
-                      doors_agree=None, report_pages=None, scales=ref.get("scales"),
-                      seconds=time.perf_counter() - t0)
+    return _projected_result(cell, seed, cal, truth, "<projected corners>", t0)
 
 
 def lens_warned(r: CellResult) -> bool:
@@ -896,8 +889,7 @@ def run_continuous_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
     """Project the continuous cell's capture, calibrate it with the defaults (the lens's
     ``dist_model``; ``time_offset`` when the cell holds it), score it against the truth
     (δ too) with the verdict (no images, so no report)."""
-    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset, errors_against_truth
-    from rasc.report.verdict import verdict
+    from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
     from rasc.sim.synthetic import continuous_corner_dataset
     from rasc.vision.board import parse_target
 
@@ -915,8 +907,18 @@ def run_continuous_cell(cell: dict[str, str], seed: int = 0) -> CellResult:
     if cell.get("time_offset"):
         fields["time_offset"] = cell["time_offset"]
     cal = calibrate_dataset(ds, CalibrationOptions(**fields))
+    return _projected_result(cell, seed, cal, truth, "<projected continuous capture>", t0)
+
+
+def _projected_result(cell: dict, seed: int, cal, truth, where: str,
+                      t0: float) -> CellResult:
+    """A cell of projected corners (no images, one door): its calibration scored against
+    the truth, its document's verdict and warnings."""
+    from rasc.head.pipeline import errors_against_truth
+    from rasc.report.verdict import verdict
+
     cal.errors = errors_against_truth(cal, truth)
-    doc = _document(cal, Path("<projected continuous capture>"))
+    doc = _document(cal, Path(where))
     v = verdict(doc)
     ref = doc.get("refinement") or {}
     return CellResult(cell=dict(cell), seed=seed, score=score(doc, truth), verdict=v.level,

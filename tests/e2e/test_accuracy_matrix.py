@@ -132,8 +132,7 @@ def test_a_continuous_calibration_gives_point_sigmas(tmp_path):
     'time_offset''), and δ moves no point: the sigmas are those of the head's block."""
     from rasc.head.model import HeadCalibration
     from rasc.head.pipeline import CalibrationOptions, calibrate_dataset
-    from rasc.head.uncertainty import (HeadCovariance, covariance_of_document,
-                                       point_uncertainty)
+    from rasc.head.uncertainty import HeadCovariance, covariance_of_document, point_uncertainty
     from rasc.head.use import point_covariances
     from rasc.sim.synthetic import continuous_corner_dataset, default_head
 
