@@ -157,8 +157,8 @@ def calibration_fit(cal, board_points: np.ndarray,
     """:func:`eye_fit` for both eyes of a closed-form :class:`rasc.head.pipeline.Calibration`.
     ``time_offset``: a continuous capture's estimated δ (s): the pose images' readings are
     then the joint stream at each image's time + δ
-    (:func:`rasc.head.refine.timing.readings_at_offset`), not the readings at δ = 0."""
-    from rasc.head.refine.timing import readings_at_offset
+    (:func:`rasc.vision.joint_stream.readings_at_offset`), not the readings at δ = 0."""
+    from rasc.vision.joint_stream import readings_at_offset
 
     stream = getattr(cal, "joint_stream", None)
     if stream is None:

@@ -114,8 +114,8 @@ def report_data(head, dataset, detector: str = "saddle",
 
     from rasc.errors import RascError
     from rasc.geometry.transforms import invert_transform, make_transform, matrix_from_rotvec
-    from rasc.head.refine.timing import readings_at_offset
     from rasc.vision.camera import estimate_extrinsics, project_board
+    from rasc.vision.joint_stream import readings_at_offset
 
     board = dataset.board
     P = board.object_points().astype(float)

@@ -269,6 +269,32 @@ class JointStream:
                     for eye in EYES if eye in arrays}, source)
 
 
+def angles_at(stream, t: np.ndarray) -> np.ndarray:
+    """(pan, tilt) (n, 2) of one eye's stream (:class:`rasc.vision.joint_stream.EyeStream`)
+    at encoder times ``t``, held at its ends outside it: the refinement's trial offsets
+    may step past the first or last sample."""
+    return stream.angles(np.clip(t, stream.time[0], stream.time[-1]))
+
+
+def readings_at_offset(stream, times, pan_tilt: np.ndarray,
+                       time_offset: float | None) -> np.ndarray:
+    """The pose images' readings (pan, tilt) (n, 2), radians, as the refinement had them:
+    one eye's joint stream at each image's time + δ (``time_offset``, the estimated
+    offset) for a continuous capture; the readings as given (``pan_tilt``) where there is
+    no estimate (None), no stream or no time. Every check after the refinement that
+    judges the pose readings (the paper model's fit check, the report's residuals) reads
+    them here, not at δ = 0 (also :mod:`rasc.head.refine.timing`'s)."""
+    pan_tilt = np.asarray(pan_tilt, float).reshape(-1, 2)
+    if time_offset is None or stream is None:
+        return pan_tilt
+    out = pan_tilt.copy()
+    has = np.array([t is not None for t in times], bool)
+    if has.any():
+        t = np.array([t for t in times if t is not None], float)
+        out[has] = angles_at(stream, t + time_offset)
+    return out
+
+
 def read_joint_stream(path: str | os.PathLike) -> JointStream:
     """Read ``joints.csv`` (the module docstring's format). Every problem is one
     :class:`InputError` line naming the file and line: a missing file, a wrong header,
