@@ -969,6 +969,19 @@ def continuous_markdown_table(results: list[CellResult]) -> str:
     return "\n".join(lines)
 
 
+def _worst_and_hand_eye(s) -> tuple[str, str]:
+    """A score's table cells: its worst quantity (the largest d² against its bound, as
+    ``name (d² / bound)``) and both eyes' hand-eye translation errors (``L / R`` mm)."""
+    worst = "—"
+    if s.quantities:
+        q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
+        worst = f"{q} ({d2:.3g} / {b:.3g})"
+    he = " / ".join(f"{s.errors[f'{eye} hand-eye translation (mm)']:.3f}"
+                    if f"{eye} hand-eye translation (mm)" in s.errors else "—"
+                    for eye in ("left", "right"))
+    return worst, he
+
+
 def extra_markdown_table(results: list[CellResult]) -> str:
     """The rendered cells beyond the design (:data:`EXTRA_CELLS`): the cell, verdict,
     doors, report pages, δ's error, hand-eye and mounts errors, χ²/n, the worst quantity
@@ -979,13 +992,7 @@ def extra_markdown_table(results: list[CellResult]) -> str:
     for r in results:
         s, c = r.score, r.cell
         ok, why = cell_passes(r)
-        worst = "—"
-        if s.quantities:
-            q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
-            worst = f"{q} ({d2:.3g} / {b:.3g})"
-        he = " / ".join(f"{s.errors[f'{e} hand-eye translation (mm)']:.3f}"
-                        if f"{e} hand-eye translation (mm)" in s.errors else "—"
-                        for e in ("left", "right"))
+        worst, he = _worst_and_hand_eye(s)
         de = s.errors.get("time offset (ms)")
         mounts = s.errors.get("mounts translation (mm)")
         cap = CAPTURES.get(c.get("capture", ""), {})
@@ -1057,13 +1064,7 @@ def markdown_tables(results: list[CellResult]) -> str:
               "| mounts (mm) |", "|" + " --- |" * 6]
     for k, r in enumerate(results):
         s = r.score
-        worst = "—"
-        if s.quantities:
-            q, (d2, b, _) = max(s.quantities.items(), key=lambda kv: kv[1][0] / kv[1][1])
-            worst = f"{q} ({d2:.3g} / {b:.3g})"
-        he = " / ".join(f"{s.errors[f'{eye} hand-eye translation (mm)']:.3f}"
-                        if f"{eye} hand-eye translation (mm)" in s.errors else "—"
-                        for eye in ("left", "right"))
+        worst, he = _worst_and_hand_eye(s)
         mounts = s.errors.get("mounts translation (mm)")
         lines.append(
             f"| {k} | {'—' if s.chi2 is None else f'{s.chi2 / s.n_parameters:.2f}'} | "
